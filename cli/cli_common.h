@@ -1,0 +1,65 @@
+// Shared pieces of the `furrow` command: the error/exit-code contract, camera flags, output helpers.
+#pragma once
+
+#include <CLI/CLI.hpp>
+#include <furrow/mesh.h>
+
+#include <array>
+#include <optional>
+#include <stdexcept>
+#include <string>
+
+namespace furrow::cli {
+
+// Exit codes (documented in README.md):
+enum ExitCode : int {
+    exit_ok = 0,
+    exit_bad_input = 1, // bad input, unwritable output or failed --require: one "Error: <file>: <what>" line
+    exit_usage = 2,     // bad command line (CLI11 prints the usage problem)
+    exit_internal = 3,  // a bug: an unexpected exception (please report)
+};
+
+// Thrown inside commands; main() prints "Error: <file>: <what>" and returns exit_bad_input.
+struct InputError : std::runtime_error {
+    std::string file;
+    InputError(std::string file_, const std::string& what) : std::runtime_error(what), file(std::move(file_)) {}
+};
+
+// Throws InputError(file, status.message) if status is not ok.
+void require_ok(const Status& status, const std::string& file);
+
+struct GlobalFlags {
+    bool quiet = false;
+    int threads = 0; // 0 = all cores
+};
+
+// Camera flags shared by every command that needs a view.
+struct CameraFlags {
+    std::optional<std::array<double, 3>> eye;    // --camera x,y,z
+    std::optional<std::array<double, 3>> target; // --target x,y,z
+    std::array<double, 3> up{0, 1, 0};           // --up x,y,z
+    double fov_degrees = 45.0;                   // --fov (vertical)
+    int width = 1024, height = 768;              // --size WxH
+};
+void add_camera_flags(CLI::App& cmd, CameraFlags& flags);
+
+// Loads a scene or throws InputError naming the file.
+Scene load_or_throw(const std::string& path, const LoadOptions& options = {});
+// Saves or throws InputError naming the output; refuses output == input.
+void save_or_throw(const Scene& scene, const std::string& out_path, const std::string& in_path = {});
+bool same_file(const std::string& a, const std::string& b);
+
+// Prints to stderr unless quiet.
+void info(const GlobalFlags& g, const std::string& line);
+
+// Registration of the commands, one file each (cli/cmd_<name>.cpp).
+void register_check(CLI::App& app, GlobalFlags& g);
+void register_convert(CLI::App& app, GlobalFlags& g);
+void register_render(CLI::App& app, GlobalFlags& g);
+void register_shells(CLI::App& app, GlobalFlags& g);
+void register_tessellate(CLI::App& app, GlobalFlags& g);
+void register_stamp(CLI::App& app, GlobalFlags& g);
+void register_demo(CLI::App& app, GlobalFlags& g);
+void register_bench(CLI::App& app, GlobalFlags& g);
+
+} // namespace furrow::cli

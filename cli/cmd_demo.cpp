@@ -1,0 +1,4 @@
+#include "cli_common.h"
+namespace furrow::cli {
+void register_demo(CLI::App&, GlobalFlags&) {}
+}

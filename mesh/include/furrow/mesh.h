@@ -1,0 +1,289 @@
+// furrow::mesh — core types, scene I/O (glTF 2.0, OBJ/PLY/OFF/STL), topology helpers and validity checks.
+//
+// Conventions (meshoptimizer style): output buffer first, then pointer + count (+ stride); functions that
+// produce elements return their count; errors come back as a Status, never as an exception. No OpenMesh,
+// CGAL or OpenSubdiv type crosses this header.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace furrow {
+
+// ---------------------------------------------------------------------------------------------------------
+// Status
+// ---------------------------------------------------------------------------------------------------------
+enum class StatusCode : int {
+    ok = 0,
+    invalid_input,    // the input data is malformed (bad JSON, index out of range, NaN, truncated file, ...)
+    unsupported,      // well-formed but uses something furrow does not handle (a glTF extension, a mode)
+    io_error,         // a file could not be opened, read, written or renamed
+    invalid_argument, // an option value is out of its documented range
+    out_of_memory,    // a size guard refused the request
+};
+
+struct Status {
+    StatusCode code = StatusCode::ok;
+    std::string message; // one line, no trailing newline; says what is wrong (the CLI prefixes "Error: <file>: ")
+
+    bool ok() const { return code == StatusCode::ok; }
+    static Status success() { return {}; }
+    static Status error(StatusCode c, std::string m) { return {c, std::move(m)}; }
+};
+
+// ---------------------------------------------------------------------------------------------------------
+// Geometry: one primitive = one draw call with one material. All arrays are tightly packed, one entry per
+// vertex unless said otherwise; an empty array means "attribute absent".
+// ---------------------------------------------------------------------------------------------------------
+enum class PrimitiveMode : int { points = 0, lines = 1, triangles = 4 }; // strips/fans/loops are converted on load
+
+struct MorphTarget {
+    std::vector<float> position_deltas; // xyz, or empty
+    std::vector<float> normal_deltas;   // xyz, or empty
+    std::vector<float> tangent_deltas;  // xyz, or empty
+};
+
+// An application-specific vertex attribute. glTF requires the name to start with '_' (e.g. "_FUR_LAYER");
+// it is written as FLOAT SCALAR/VEC2/VEC3/VEC4.
+struct CustomAttribute {
+    std::string name;
+    int components = 1;        // 1..4
+    std::vector<float> values; // components per vertex
+};
+
+struct Primitive {
+    PrimitiveMode mode = PrimitiveMode::triangles;
+    std::vector<float> positions;   // xyz (required)
+    std::vector<float> normals;     // xyz
+    std::vector<float> tangents;    // xyzw
+    std::vector<float> uv0;         // uv (glTF convention: v = 0 at the top of the image)
+    std::vector<float> uv1;         // uv
+    std::vector<float> colors;      // rgba, linear
+    std::vector<uint16_t> joints;   // 4 per vertex (JOINTS_0)
+    std::vector<float> weights;     // 4 per vertex (WEIGHTS_0)
+    std::vector<MorphTarget> targets;
+    std::vector<CustomAttribute> custom;
+    // Faces: corner indices concatenated. face_sizes[i] = corners of face i; empty face_sizes means every face
+    // is a triangle. Quads and n-gons are kept from formats that have them (OBJ, PLY, OFF), so that
+    // Catmull-Clark sees them; glTF output triangulates them (fan, with the polygon's own corner order).
+    // For points/lines, indices are the point/segment indices and face_sizes is empty.
+    std::vector<uint32_t> indices;
+    std::vector<uint32_t> face_sizes;
+    int material = -1; // index into Scene::materials, -1 = glTF default material
+
+    size_t vertex_count() const { return positions.size() / 3; }
+    size_t face_count() const { return face_sizes.empty() ? indices.size() / 3 : face_sizes.size(); }
+    // Number of triangles after fan triangulation of the faces.
+    size_t triangle_count() const;
+};
+
+// Fan-triangulates the faces of a primitive (quads/n-gons) in place; face_sizes becomes empty.
+void triangulate(Primitive& primitive);
+
+struct Mesh {
+    std::string name;
+    std::vector<Primitive> primitives;
+    std::vector<float> weights; // default morph weights
+};
+
+// ---------------------------------------------------------------------------------------------------------
+// Scene: what furrow edits is plain data below; everything else of the source document (skins' extensions,
+// animations, cameras, extras, unknown extensions, the asset block) is carried in `document` and written
+// back on save. Existing indices must stay valid: tools append nodes/materials/textures/images, they do not
+// reorder them.
+// ---------------------------------------------------------------------------------------------------------
+struct Node {
+    std::string name;
+    int mesh = -1;
+    int skin = -1;
+    int camera = -1;
+    std::vector<int> children;
+    // Local transform: either a matrix (column-major, has_matrix) or TRS. Double so that a recentring offset
+    // of 1e5 m keeps its millimetres.
+    bool has_matrix = false;
+    std::array<double, 16> matrix{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+    std::array<double, 3> translation{0, 0, 0};
+    std::array<double, 4> rotation{0, 0, 0, 1}; // quaternion x, y, z, w
+    std::array<double, 3> scale{1, 1, 1};
+    std::vector<double> weights; // morph weights override, or empty
+
+    std::array<double, 16> local_matrix() const; // column-major
+};
+
+struct Skin {
+    std::string name;
+    std::vector<int> joints;                  // node indices
+    std::vector<float> inverse_bind_matrices; // 16 per joint, column-major; empty = identity
+    int skeleton = -1;
+};
+
+enum class AlphaMode : int { opaque = 0, mask = 1, blend = 2 };
+
+struct TextureRef {
+    int texture = -1; // index into Scene::textures, -1 = none
+    int texcoord = 0; // TEXCOORD_n set
+};
+
+// The metallic-roughness core that furrow reads and writes. Other material properties of a loaded material
+// (normal/occlusion/emissive textures, extensions, extras) are kept from the source document.
+struct Material {
+    std::string name;
+    std::array<float, 4> base_color{1, 1, 1, 1}; // linear RGBA factor
+    TextureRef base_color_texture;
+    float metallic = 1.0f;
+    float roughness = 1.0f;
+    std::array<float, 3> emissive{0, 0, 0};
+    AlphaMode alpha_mode = AlphaMode::opaque;
+    float alpha_cutoff = 0.5f; // used when alpha_mode == mask
+    bool double_sided = false;
+};
+
+struct Sampler { // glTF enums; -1 = unset (viewer's choice)
+    int mag_filter = -1;
+    int min_filter = -1;
+    int wrap_s = 10497; // REPEAT
+    int wrap_t = 10497;
+};
+
+struct Texture {
+    int image = -1;
+    int sampler = -1;
+};
+
+struct Image {
+    std::string name;
+    std::string mime_type;        // "image/png" or "image/jpeg"
+    std::vector<uint8_t> encoded; // the file's bytes (PNG/JPEG); empty if the image could not be read
+    std::string source_uri;       // where it came from (informational; output always embeds the bytes)
+};
+
+namespace detail { struct Document; }
+
+struct Scene {
+    std::vector<Mesh> meshes;
+    std::vector<Node> nodes;
+    std::vector<int> roots; // root nodes of the default scene
+    std::vector<Material> materials;
+    std::vector<Texture> textures;
+    std::vector<Sampler> samplers;
+    std::vector<Image> images;
+    std::vector<Skin> skins;
+    std::vector<std::string> warnings; // non-fatal findings of the loader (e.g. a missing texture file)
+    std::shared_ptr<const detail::Document> document; // the rest of the source; null for non-glTF sources
+
+    // World matrix (column-major) of every node, from the roots; nodes not reachable get identity.
+    std::vector<std::array<double, 16>> world_matrices() const;
+};
+
+// ---------------------------------------------------------------------------------------------------------
+// I/O. Format by extension: .gltf .glb (read/write), .obj .ply .off .stl (read).
+// ---------------------------------------------------------------------------------------------------------
+struct LoadOptions {
+    bool recentre = true;                // move far-from-origin meshes to their bbox centre (see recentre())
+    double recentre_threshold = 1000.0;  // ... when |centre| > threshold × bbox diagonal ... or > 1e4 units
+    bool load_images = true;             // read texture bytes (set false to skip external files)
+    size_t max_file_bytes = size_t(2) << 30; // refuse larger inputs (memory guard)
+};
+
+struct SaveOptions {
+    bool pretty_json = false; // .gltf only: indent the JSON
+};
+
+Status load_scene(Scene& out, const std::string& path, const LoadOptions& options = {});
+// Loads from memory; `extension` is the format, e.g. ".glb" (external URIs are not resolved).
+Status load_scene_from_memory(Scene& out, const uint8_t* data, size_t size, const std::string& extension,
+                              const LoadOptions& options = {});
+// Writes .glb or .gltf (+ .bin beside it, named after the .gltf). Output is written to a temporary file in
+// the same folder and renamed into place, so a failure never leaves a half-written file. Validator-clean:
+// POSITION min/max, uint16/uint32 indices as needed, images embedded, no dangling references.
+Status save_scene(const Scene& scene, const std::string& path, const SaveOptions& options = {});
+
+// A scene with one node holding one mesh of one primitive (the shape of an OBJ/STL import).
+Scene make_scene(Primitive primitive, const std::string& name = "mesh");
+
+// Recentres every mesh whose bounding-box centre is far from the origin: positions become relative to the
+// centre (computed in double) and the centre goes into the translation of the nodes that use the mesh, so
+// float32 positions keep their precision. Meshes used by skinned nodes are left alone. Returns the number of
+// meshes moved.
+size_t recentre(Scene& scene, double threshold = 1000.0);
+
+// Reads a PNG (8/16-bit, any channel count) into floats in [0,1], `channels` per pixel as stored.
+// Used for masks and brushes.
+struct ImageF {
+    int width = 0, height = 0, channels = 0;
+    std::vector<float> pixels; // row-major, top row first
+};
+Status load_png(ImageF& out, const std::string& path);
+Status decode_image(ImageF& out, const uint8_t* data, size_t size); // PNG or JPEG bytes
+// Writes 8-bit PNG (channels 1..4) from floats in [0,1] (clamped), atomically (temp + rename).
+Status save_png(const std::string& path, const ImageF& image, bool srgb_encode = false);
+// Encodes 8-bit RGBA bytes (width*height*4) to PNG bytes, deterministic.
+std::vector<uint8_t> encode_png_rgba8(const uint8_t* rgba, int width, int height);
+
+// ---------------------------------------------------------------------------------------------------------
+// Topology helpers
+// ---------------------------------------------------------------------------------------------------------
+
+// Welds vertices by position: remap[i] = index of the first vertex with the same position (within
+// `tolerance`, absolute; 0 = exact bit equality of the float values, with -0 == +0). Returns the number of
+// unique positions. Deterministic; O(n log n).
+size_t weld_positions(uint32_t* remap, const float* positions, size_t vertex_count, size_t stride_floats = 3,
+                      double tolerance = 0.0);
+
+// Angle-weighted vertex pseudo-normals (Thürmer & Wüthrich 1998), accumulated in double over the welded
+// vertices so every split copy of a position gets the same normal. Degenerate faces contribute nothing;
+// a vertex without a valid face gets (0,0,0) — callers choose a fallback. Triangles only
+// (indices.size() multiple of 3). Writes vertex_count normals.
+void compute_vertex_normals(float* normals_out, const float* positions, size_t vertex_count,
+                            const uint32_t* indices, size_t index_count);
+
+// Boundary loops of a triangle mesh over welded positions, found on an OpenMesh halfedge structure; each
+// loop as welded vertex indices (first vertex of each position). Faces that would make the mesh non-manifold
+// are skipped (counted in *skipped_faces if non-null). Returns the number of loops.
+size_t boundary_loops(std::vector<std::vector<uint32_t>>& loops, const float* positions, size_t vertex_count,
+                      const uint32_t* indices, size_t index_count, size_t* skipped_faces = nullptr);
+
+// ---------------------------------------------------------------------------------------------------------
+// Validity checks (`furrow check`). Topology is measured after welding by exact position, as a viewer
+// or an OpenSubdiv refiner would see it.
+// ---------------------------------------------------------------------------------------------------------
+struct CheckOptions {
+    double sliver_angle_degrees = 1.0;     // a triangle with a smaller interior angle is a sliver
+    double zero_area_relative = 1e-14;     // area <= this × diagonal² is zero-area
+    bool self_intersections = false;       // CGAL Polygon_mesh_processing (slow on big meshes)
+};
+
+struct CheckReport {
+    size_t vertices = 0, faces = 0, triangles = 0;
+    size_t welded_vertices = 0;        // unique positions
+    size_t components = 0;             // edge-connected, over welded vertices
+    size_t boundary_edges = 0, boundary_loops = 0;
+    size_t non_manifold_edges = 0;     // edges with more than 2 faces
+    size_t non_manifold_vertices = 0;  // vertices whose faces form more than one fan
+    size_t degenerate_faces = 0;       // a (welded) vertex repeated in a face
+    size_t zero_area_faces = 0;        // area <= zero_area_relative × diag² (includes degenerate ones)
+    size_t slivers = 0;                // min angle < sliver_angle_degrees (non-zero-area triangles)
+    size_t duplicate_vertices = 0;     // vertices - welded_vertices
+    size_t unreferenced_vertices = 0;
+    size_t nan_values = 0;             // NaN or Inf components in any float attribute
+    size_t indices_out_of_range = 0;
+    size_t inconsistent_edges = 0;     // interior edges whose two faces traverse it in the same direction
+    size_t valence2_interior_vertices = 0;
+    long long self_intersections = -1; // intersecting face pairs, -1 = not computed
+    bool closed = false;               // no boundary edges and at least one face
+    bool has_uv = false;
+    std::array<float, 2> uv_min{0, 0}, uv_max{0, 0};
+    std::array<double, 3> bbox_min{0, 0, 0}, bbox_max{0, 0, 0};
+    double diagonal = 0;
+};
+
+// Checks one primitive (object space). Never fails on bad data: bad data is what it reports.
+CheckReport check_primitive(const Primitive& primitive, const CheckOptions& options = {});
+// Sums per-primitive reports (bbox united, closed = all closed, self_intersections summed if computed).
+CheckReport merge_reports(const std::vector<CheckReport>& reports);
+
+} // namespace furrow

@@ -1,0 +1,131 @@
+#include "test_support.h"
+
+#include <cmath>
+#include <fcntl.h>
+#include <fstream>
+#include <sstream>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+extern char** environ;
+
+namespace furrow::test {
+namespace fs = std::filesystem;
+
+fs::path source_dir() { return FURROW_SOURCE_DIR; }
+fs::path corpus_dir() { return FURROW_CORPUS_DIR; }
+fs::path models_dir() { return source_dir() / "models"; }
+
+fs::path corpus(const std::string& relative) {
+    fs::path p = corpus_dir() / relative;
+    if (!fs::exists(p)) ADD_FAILURE() << "corpus file missing: " << p << " (../shared/corpus must sit beside the repo)";
+    return p;
+}
+
+fs::path temp_dir() {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    std::string name = info ? std::string(info->test_suite_name()) + "." + info->name() : "no_test";
+    for (char& c : name)
+        if (c == '/') c = '_';
+    fs::path dir = fs::current_path() / "tmp" / name;
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+    return dir;
+}
+
+static std::string slurp_fd(int fd) {
+    std::string s;
+    char buf[65536];
+    ssize_t n;
+    while ((n = read(fd, buf, sizeof buf)) > 0) s.append(buf, size_t(n));
+    return s;
+}
+
+// Runs argv, capturing stdout and stderr through temp files (no deadlock on large outputs).
+static RunResult run_process(const std::vector<std::string>& argv) {
+    RunResult r;
+    char out_name[] = "/tmp/furrow_test_outXXXXXX";
+    char err_name[] = "/tmp/furrow_test_errXXXXXX";
+    int out_fd = mkstemp(out_name), err_fd = mkstemp(err_name);
+    posix_spawn_file_actions_t actions;
+    posix_spawn_file_actions_init(&actions);
+    posix_spawn_file_actions_adddup2(&actions, out_fd, 1);
+    posix_spawn_file_actions_adddup2(&actions, err_fd, 2);
+    posix_spawn_file_actions_addopen(&actions, 0, "/dev/null", O_RDONLY, 0);
+    std::vector<char*> cargv;
+    for (const auto& a : argv) cargv.push_back(const_cast<char*>(a.c_str()));
+    cargv.push_back(nullptr);
+    pid_t pid = 0;
+    if (posix_spawn(&pid, cargv[0], &actions, nullptr, cargv.data(), environ) == 0) {
+        int status = 0;
+        waitpid(pid, &status, 0);
+        r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+    }
+    posix_spawn_file_actions_destroy(&actions);
+    lseek(out_fd, 0, SEEK_SET);
+    lseek(err_fd, 0, SEEK_SET);
+    r.out = slurp_fd(out_fd);
+    r.err = slurp_fd(err_fd);
+    close(out_fd);
+    close(err_fd);
+    unlink(out_name);
+    unlink(err_name);
+    return r;
+}
+
+RunResult run_furrow(const std::vector<std::string>& args) {
+    std::vector<std::string> argv{FURROW_CLI};
+    argv.insert(argv.end(), args.begin(), args.end());
+    return run_process(argv);
+}
+
+std::string validate_gltf(const fs::path& file) {
+    RunResult r = run_process({FURROW_NODE, (source_dir() / "tests/support/validate_gltf.js").string(), "--validator",
+                               FURROW_VALIDATOR_DIR, file.string()});
+    if (r.exit_code == 0) return "";
+    return "validator exit " + std::to_string(r.exit_code) + ":\n" + r.out + r.err;
+}
+
+std::vector<uint8_t> read_bytes(const fs::path& file) {
+    std::ifstream in(file, std::ios::binary);
+    return std::vector<uint8_t>(std::istreambuf_iterator<char>(in), {});
+}
+
+void write_bytes(const fs::path& file, const std::vector<uint8_t>& bytes) {
+    std::ofstream out(file, std::ios::binary);
+    out.write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
+}
+
+void write_text(const fs::path& file, const std::string& text) {
+    std::ofstream out(file, std::ios::binary);
+    out << text;
+}
+
+std::vector<std::string> list_dir(const fs::path& dir) {
+    std::vector<std::string> names;
+    for (const auto& e : fs::directory_iterator(dir)) names.push_back(e.path().filename().string());
+    std::sort(names.begin(), names.end());
+    return names;
+}
+
+bool all_finite(const Scene& scene) {
+    auto finite = [](const std::vector<float>& v) {
+        for (float x : v)
+            if (!std::isfinite(x)) return false;
+        return true;
+    };
+    for (const auto& m : scene.meshes)
+        for (const auto& p : m.primitives) {
+            if (!finite(p.positions) || !finite(p.normals) || !finite(p.uv0) || !finite(p.uv1) || !finite(p.colors) ||
+                !finite(p.weights) || !finite(p.tangents))
+                return false;
+            for (const auto& c : p.custom)
+                if (!finite(c.values)) return false;
+            for (const auto& t : p.targets)
+                if (!finite(t.position_deltas) || !finite(t.normal_deltas)) return false;
+        }
+    return true;
+}
+
+} // namespace furrow::test

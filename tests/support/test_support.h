@@ -1,0 +1,45 @@
+// Helpers shared by the test executables: paths, temp folders, the CLI runner, the Khronos validator.
+#pragma once
+
+#include <furrow/mesh.h>
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace furrow::test {
+
+std::filesystem::path source_dir();         // the repository
+std::filesystem::path corpus_dir();         // ../shared/corpus
+std::filesystem::path corpus(const std::string& relative); // corpus_dir()/relative; fails the test if missing
+std::filesystem::path models_dir();         // repository models/
+
+// A fresh, empty folder for one test (under the build tree), named after the running test.
+std::filesystem::path temp_dir();
+
+struct RunResult {
+    int exit_code = -1;
+    std::string out, err;
+};
+// Runs the built `furrow` executable with the given arguments (no shell involved).
+RunResult run_furrow(const std::vector<std::string>& args);
+
+// Runs the Khronos glTF-Validator on a written file. Returns "" when it reports 0 errors and 0 warnings,
+// otherwise the validator's report. Use: EXPECT_VALID_GLTF(path).
+std::string validate_gltf(const std::filesystem::path& file);
+#define EXPECT_VALID_GLTF(path)                                                                    \
+    do {                                                                                           \
+        std::string report_ = ::furrow::test::validate_gltf(path);                                 \
+        EXPECT_TRUE(report_.empty()) << report_;                                                   \
+    } while (0)
+
+std::vector<uint8_t> read_bytes(const std::filesystem::path& file);
+void write_bytes(const std::filesystem::path& file, const std::vector<uint8_t>& bytes);
+void write_text(const std::filesystem::path& file, const std::string& text);
+// Files in a folder (names only, sorted): to assert that a failed command left nothing behind.
+std::vector<std::string> list_dir(const std::filesystem::path& dir);
+
+bool all_finite(const Scene& scene);
+
+} // namespace furrow::test
