@@ -1,1 +1,547 @@
-// placeholder: being written
+// glTF 2.0 writing. The output is rebuilt from the Scene: one binary buffer, one tightly packed buffer view per
+// accessor, every image embedded, and the rest of the source document (animations, cameras, extras, unknown
+// extensions) carried over. Target: the Khronos glTF-Validator reports 0 errors and 0 warnings.
+#include "atomic_file.h"
+#include "document.h"
+
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <map>
+#include <sstream>
+
+#ifndef FURROW_VERSION_STRING
+#define FURROW_VERSION_STRING "0.1.0"
+#endif
+
+namespace furrow {
+namespace {
+
+// Appends typed, 4-byte aligned data to the single output buffer.
+class BinWriter {
+public:
+    tinygltf::Model& m;
+    std::vector<unsigned char> bin;
+    explicit BinWriter(tinygltf::Model& model) : m(model) {}
+
+    int add_view(const void* data, size_t bytes, int target) {
+        while (bin.size() % 4) bin.push_back(0);
+        tinygltf::BufferView bv;
+        bv.buffer = 0;
+        bv.byteOffset = bin.size();
+        bv.byteLength = bytes;
+        bv.target = target;
+        const auto* p = static_cast<const unsigned char*>(data);
+        bin.insert(bin.end(), p, p + bytes);
+        m.bufferViews.push_back(std::move(bv));
+        return int(m.bufferViews.size() - 1);
+    }
+
+    // Float accessor of `components` (1,2,3,4,16) per element. min/max when asked (POSITION, animation input).
+    int add_floats(const std::vector<float>& v, int components, bool min_max, int target = TINYGLTF_TARGET_ARRAY_BUFFER) {
+        tinygltf::Accessor a;
+        a.bufferView = add_view(v.data(), v.size() * sizeof(float), target);
+        a.componentType = TINYGLTF_COMPONENT_TYPE_FLOAT;
+        a.count = v.size() / size_t(components);
+        a.type = components == 1 ? TINYGLTF_TYPE_SCALAR
+                 : components == 2 ? TINYGLTF_TYPE_VEC2
+                 : components == 3 ? TINYGLTF_TYPE_VEC3
+                 : components == 4 ? TINYGLTF_TYPE_VEC4
+                                   : TINYGLTF_TYPE_MAT4;
+        if (min_max) {
+            a.minValues.assign(size_t(components), INFINITY);
+            a.maxValues.assign(size_t(components), -INFINITY);
+            for (size_t i = 0; i < v.size(); ++i) {
+                size_t c = i % size_t(components);
+                a.minValues[c] = std::min(a.minValues[c], double(v[i]));
+                a.maxValues[c] = std::max(a.maxValues[c], double(v[i]));
+            }
+        }
+        m.accessors.push_back(std::move(a));
+        return int(m.accessors.size() - 1);
+    }
+
+    int add_joints(const std::vector<uint16_t>& j) {
+        tinygltf::Accessor a;
+        a.bufferView = add_view(j.data(), j.size() * sizeof(uint16_t), TINYGLTF_TARGET_ARRAY_BUFFER);
+        a.componentType = TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT;
+        a.count = j.size() / 4;
+        a.type = TINYGLTF_TYPE_VEC4;
+        m.accessors.push_back(std::move(a));
+        return int(m.accessors.size() - 1);
+    }
+
+    // uint16 when every index fits below the primitive-restart value 65535, else uint32.
+    int add_indices(const std::vector<uint32_t>& idx, size_t vertex_count) {
+        tinygltf::Accessor a;
+        if (vertex_count <= 65535) {
+            std::vector<uint16_t> s(idx.begin(), idx.end());
+            a.bufferView = add_view(s.data(), s.size() * 2, TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER);
+            a.componentType = TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT;
+        } else {
+            a.bufferView = add_view(idx.data(), idx.size() * 4, TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER);
+            a.componentType = TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT;
+        }
+        a.count = idx.size();
+        a.type = TINYGLTF_TYPE_SCALAR;
+        m.accessors.push_back(std::move(a));
+        return int(m.accessors.size() - 1);
+    }
+};
+
+// glTF requires unit normals and tangents (validator: ACCESSOR_VECTOR3_NON_UNIT). A zero or non-finite
+// vector takes the fallback (the welded angle-weighted normal), else +Y.
+std::vector<float> unit_vectors(const std::vector<float>& v, size_t stride, const std::vector<float>& fallback) {
+    std::vector<float> out(v);
+    for (size_t i = 0; i * stride < v.size(); ++i) {
+        float* p = &out[i * stride];
+        double l = std::sqrt(double(p[0]) * p[0] + double(p[1]) * p[1] + double(p[2]) * p[2]);
+        if (!(l > 1e-20) || !std::isfinite(l)) {
+            const float* f = fallback.size() >= (i + 1) * 3 ? &fallback[i * 3] : nullptr;
+            double fl = f ? std::sqrt(double(f[0]) * f[0] + double(f[1]) * f[1] + double(f[2]) * f[2]) : 0;
+            if (f && fl > 1e-20 && std::isfinite(fl)) {
+                p[0] = float(f[0] / fl), p[1] = float(f[1] / fl), p[2] = float(f[2] / fl);
+            } else {
+                p[0] = 0, p[1] = 1, p[2] = 0;
+            }
+        } else if (std::abs(l - 1.0) > 1e-6) { // leave unit vectors bit-exact, so re-saving changes nothing
+            p[0] = float(p[0] / l), p[1] = float(p[1] / l), p[2] = float(p[2] / l);
+        }
+        if (stride == 4) p[3] = p[3] < 0 ? -1.0f : 1.0f;
+    }
+    return out;
+}
+
+// WEIGHTS_0 must sum to 1 (validator: ACCESSOR_WEIGHTS_NON_NORMALIZED); renormalise in double.
+std::vector<float> normalized_weights(const std::vector<float>& w) {
+    std::vector<float> out(w.size());
+    for (size_t i = 0; i + 3 < w.size(); i += 4) {
+        double s = 0;
+        for (int k = 0; k < 4; ++k) s += std::max(0.0f, std::isfinite(w[i + size_t(k)]) ? w[i + size_t(k)] : 0.0f);
+        for (int k = 0; k < 4; ++k) {
+            float x = std::isfinite(w[i + size_t(k)]) ? std::max(0.0f, w[i + size_t(k)]) : 0.0f;
+            out[i + size_t(k)] = s > 0 ? float(x / s) : (k == 0 ? 1.0f : 0.0f);
+        }
+    }
+    return out;
+}
+
+std::vector<float> clamped01(const std::vector<float>& v) {
+    std::vector<float> out(v.size());
+    for (size_t i = 0; i < v.size(); ++i) out[i] = std::isfinite(v[i]) ? std::min(1.0f, std::max(0.0f, v[i])) : 0.0f;
+    return out;
+}
+
+// Per-vertex tangents from UV derivatives (Lengyel 2001, "Computing Tangent Space Basis Vectors for an
+// Arbitrary Mesh"), Gram-Schmidt against the normal. Only used when a material has a normal texture and the
+// primitive brings no TANGENT: the validator warns when a viewer would have to invent the tangent space.
+std::vector<float> generate_tangents(const std::vector<float>& pos, const std::vector<float>& nrm,
+                                     const std::vector<float>& uv, const std::vector<uint32_t>& tris) {
+    const size_t n = pos.size() / 3;
+    std::vector<double> t(n * 3, 0.0), b(n * 3, 0.0);
+    for (size_t f = 0; f + 2 < tris.size(); f += 3) {
+        uint32_t i0 = tris[f], i1 = tris[f + 1], i2 = tris[f + 2];
+        double e1[3], e2[3];
+        for (int k = 0; k < 3; ++k) {
+            e1[k] = double(pos[i1 * 3 + size_t(k)]) - pos[i0 * 3 + size_t(k)];
+            e2[k] = double(pos[i2 * 3 + size_t(k)]) - pos[i0 * 3 + size_t(k)];
+        }
+        double du1 = double(uv[i1 * 2]) - uv[i0 * 2], dv1 = double(uv[i1 * 2 + 1]) - uv[i0 * 2 + 1];
+        double du2 = double(uv[i2 * 2]) - uv[i0 * 2], dv2 = double(uv[i2 * 2 + 1]) - uv[i0 * 2 + 1];
+        double det = du1 * dv2 - du2 * dv1;
+        if (std::abs(det) < 1e-20) continue;
+        double r = 1.0 / det;
+        for (uint32_t v : {i0, i1, i2})
+            for (int k = 0; k < 3; ++k) {
+                t[v * 3 + size_t(k)] += (e1[k] * dv2 - e2[k] * dv1) * r;
+                b[v * 3 + size_t(k)] += (e2[k] * du1 - e1[k] * du2) * r;
+            }
+    }
+    std::vector<float> out(n * 4);
+    for (size_t v = 0; v < n; ++v) {
+        double N[3] = {nrm[v * 3], nrm[v * 3 + 1], nrm[v * 3 + 2]};
+        double T[3] = {t[v * 3], t[v * 3 + 1], t[v * 3 + 2]};
+        double d = N[0] * T[0] + N[1] * T[1] + N[2] * T[2];
+        for (int k = 0; k < 3; ++k) T[k] -= N[k] * d;
+        double l = std::sqrt(T[0] * T[0] + T[1] * T[1] + T[2] * T[2]);
+        if (!(l > 1e-20)) { // any direction perpendicular to N
+            double a[3] = {std::abs(N[0]) < 0.9 ? 1.0 : 0.0, std::abs(N[0]) < 0.9 ? 0.0 : 1.0, 0.0};
+            T[0] = a[1] * N[2] - a[2] * N[1];
+            T[1] = a[2] * N[0] - a[0] * N[2];
+            T[2] = a[0] * N[1] - a[1] * N[0];
+            l = std::sqrt(T[0] * T[0] + T[1] * T[1] + T[2] * T[2]);
+            if (!(l > 1e-20)) T[0] = 1, T[1] = T[2] = 0, l = 1;
+        }
+        double C[3] = {N[1] * T[2] - N[2] * T[1], N[2] * T[0] - N[0] * T[2], N[0] * T[1] - N[1] * T[0]};
+        double w = C[0] * b[v * 3] + C[1] * b[v * 3 + 1] + C[2] * b[v * 3 + 2] < 0 ? -1.0 : 1.0;
+        out[v * 4 + 0] = float(T[0] / l);
+        out[v * 4 + 1] = float(T[1] / l);
+        out[v * 4 + 2] = float(T[2] / l);
+        out[v * 4 + 3] = float(w);
+    }
+    return out;
+}
+
+Status write_primitive(tinygltf::Primitive& out, const Primitive& src, bool needs_tangents, BinWriter& w,
+                       const std::string& where) {
+    const size_t n = src.vertex_count();
+    if (n == 0 || src.positions.size() != n * 3)
+        return Status::error(StatusCode::invalid_argument, where + ": has no vertices");
+    auto check_size = [&](const std::vector<float>& v, size_t per, const char* name) -> Status {
+        if (!v.empty() && v.size() != n * per)
+            return Status::error(StatusCode::invalid_argument, where + ": " + name + " has " + std::to_string(v.size()) +
+                                                                   " values, expected " + std::to_string(n * per));
+        return Status::success();
+    };
+    Status s;
+    if (!(s = check_size(src.normals, 3, "normals")).ok() || !(s = check_size(src.tangents, 4, "tangents")).ok() ||
+        !(s = check_size(src.uv0, 2, "uv0")).ok() || !(s = check_size(src.uv1, 2, "uv1")).ok() ||
+        !(s = check_size(src.colors, 4, "colors")).ok() || !(s = check_size(src.weights, 4, "weights")).ok())
+        return s;
+    if (!src.joints.empty() && src.joints.size() != n * 4)
+        return Status::error(StatusCode::invalid_argument, where + ": joints must have 4 per vertex");
+    if (src.joints.empty() != src.weights.empty())
+        return Status::error(StatusCode::invalid_argument, where + ": joints and weights must come together");
+    for (float x : src.positions)
+        if (!std::isfinite(x)) return Status::error(StatusCode::invalid_argument, where + ": positions contain NaN or Inf");
+
+    Primitive tri = src; // n-gons are fanned for glTF; the caller's primitive is left as it is
+    triangulate(tri);
+    for (uint32_t i : tri.indices)
+        if (i >= n) return Status::error(StatusCode::invalid_argument, where + ": index " + std::to_string(i) + " out of range");
+    if (tri.mode == PrimitiveMode::triangles && tri.indices.empty())
+        return Status::error(StatusCode::invalid_argument, where + ": has no faces");
+
+    std::vector<float> welded_normals; // fallback for zero-length normals, and the source when NORMAL is missing
+    if (tri.mode == PrimitiveMode::triangles && (needs_tangents || !tri.normals.empty())) {
+        welded_normals.resize(n * 3);
+        compute_vertex_normals(welded_normals.data(), tri.positions.data(), n, tri.indices.data(), tri.indices.size());
+    }
+    out.attributes["POSITION"] = w.add_floats(tri.positions, 3, true);
+    std::vector<float> normals;
+    if (!tri.normals.empty()) normals = unit_vectors(tri.normals, 3, welded_normals);
+    else if (needs_tangents && !tri.uv0.empty()) normals = unit_vectors(welded_normals, 3, {});
+    if (!normals.empty()) out.attributes["NORMAL"] = w.add_floats(normals, 3, false);
+    if (!tri.tangents.empty()) out.attributes["TANGENT"] = w.add_floats(unit_vectors(tri.tangents, 4, {}), 4, false);
+    else if (needs_tangents && !tri.uv0.empty() && !normals.empty())
+        out.attributes["TANGENT"] = w.add_floats(generate_tangents(tri.positions, normals, tri.uv0, tri.indices), 4, false);
+    if (!tri.uv0.empty()) out.attributes["TEXCOORD_0"] = w.add_floats(tri.uv0, 2, false);
+    if (!tri.uv1.empty()) out.attributes["TEXCOORD_1"] = w.add_floats(tri.uv1, 2, false);
+    if (!tri.colors.empty()) out.attributes["COLOR_0"] = w.add_floats(clamped01(tri.colors), 4, false);
+    if (!tri.joints.empty()) {
+        out.attributes["JOINTS_0"] = w.add_joints(tri.joints);
+        out.attributes["WEIGHTS_0"] = w.add_floats(normalized_weights(tri.weights), 4, false);
+    }
+    for (const auto& c : tri.custom) {
+        if (c.name.empty() || c.name[0] != '_')
+            return Status::error(StatusCode::invalid_argument, where + ": custom attribute '" + c.name + "' must start with '_'");
+        if (c.components < 1 || c.components > 4 || c.values.size() != n * size_t(c.components))
+            return Status::error(StatusCode::invalid_argument, where + ": custom attribute " + c.name + " has the wrong size");
+        for (float x : c.values)
+            if (!std::isfinite(x)) return Status::error(StatusCode::invalid_argument, where + ": " + c.name + " contains NaN or Inf");
+        out.attributes[c.name] = w.add_floats(c.values, c.components, false);
+    }
+    for (const auto& t : tri.targets) {
+        std::map<std::string, int> target;
+        if (!t.position_deltas.empty()) {
+            if (!(s = check_size(t.position_deltas, 3, "morph position deltas")).ok()) return s;
+            target["POSITION"] = w.add_floats(t.position_deltas, 3, true); // min/max required on morph POSITION
+        }
+        if (!t.normal_deltas.empty() && !normals.empty()) {
+            if (!(s = check_size(t.normal_deltas, 3, "morph normal deltas")).ok()) return s;
+            target["NORMAL"] = w.add_floats(t.normal_deltas, 3, false);
+        }
+        if (!t.tangent_deltas.empty() && out.attributes.count("TANGENT")) {
+            if (!(s = check_size(t.tangent_deltas, 3, "morph tangent deltas")).ok()) return s;
+            target["TANGENT"] = w.add_floats(t.tangent_deltas, 3, false);
+        }
+        out.targets.push_back(std::move(target));
+    }
+    out.indices = w.add_indices(tri.indices, n);
+    out.mode = tri.mode == PrimitiveMode::points ? TINYGLTF_MODE_POINTS
+               : tri.mode == PrimitiveMode::lines ? TINYGLTF_MODE_LINE
+                                                  : TINYGLTF_MODE_TRIANGLES;
+    out.material = src.material;
+    return Status::success();
+}
+
+std::vector<double> vec(const double* p, size_t n) { return std::vector<double>(p, p + n); }
+
+Status build_model(tinygltf::Model& m, const Scene& scene) {
+    static const tinygltf::Model empty;
+    const tinygltf::Model& src = scene.document ? scene.document->model : empty;
+    m = src;
+    m.buffers.clear();
+    m.bufferViews.clear();
+    m.accessors.clear();
+    BinWriter w(m);
+
+    // --- reference checks: never write a dangling index
+    auto bad = [](const std::string& what) { return Status::error(StatusCode::invalid_argument, what); };
+    for (size_t i = 0; i < scene.nodes.size(); ++i) {
+        const Node& n = scene.nodes[i];
+        if (n.mesh >= int(scene.meshes.size())) return bad("node " + std::to_string(i) + ": mesh does not exist");
+        if (n.skin >= int(scene.skins.size())) return bad("node " + std::to_string(i) + ": skin does not exist");
+        if (n.camera >= int(src.cameras.size())) return bad("node " + std::to_string(i) + ": camera does not exist");
+        for (int c : n.children)
+            if (c < 0 || c >= int(scene.nodes.size())) return bad("node " + std::to_string(i) + ": child does not exist");
+    }
+    for (int r : scene.roots)
+        if (r < 0 || r >= int(scene.nodes.size())) return bad("scene root " + std::to_string(r) + " does not exist");
+    for (size_t i = 0; i < scene.textures.size(); ++i)
+        if (scene.textures[i].image >= int(scene.images.size()) || scene.textures[i].sampler >= int(scene.samplers.size()))
+            return bad("texture " + std::to_string(i) + ": image or sampler does not exist");
+    for (size_t i = 0; i < scene.materials.size(); ++i)
+        if (scene.materials[i].base_color_texture.texture >= int(scene.textures.size()))
+            return bad("material " + std::to_string(i) + ": texture does not exist");
+
+    // --- materials (properties furrow does not model are kept from the source material)
+    m.materials.resize(scene.materials.size());
+    std::vector<bool> material_needs_tangents(scene.materials.size(), false);
+    for (size_t i = 0; i < scene.materials.size(); ++i) {
+        const Material& a = scene.materials[i];
+        tinygltf::Material& o = m.materials[i];
+        o.name = a.name;
+        o.pbrMetallicRoughness.baseColorFactor.assign(a.base_color.begin(), a.base_color.end());
+        o.pbrMetallicRoughness.baseColorTexture.index = a.base_color_texture.texture;
+        o.pbrMetallicRoughness.baseColorTexture.texCoord = a.base_color_texture.texcoord;
+        o.pbrMetallicRoughness.metallicFactor = a.metallic;
+        o.pbrMetallicRoughness.roughnessFactor = a.roughness;
+        o.emissiveFactor.assign(a.emissive.begin(), a.emissive.end());
+        o.alphaMode = a.alpha_mode == AlphaMode::mask ? "MASK" : a.alpha_mode == AlphaMode::blend ? "BLEND" : "OPAQUE";
+        o.alphaCutoff = a.alpha_cutoff;
+        o.doubleSided = a.double_sided;
+        material_needs_tangents[i] = o.normalTexture.index >= 0;
+        for (int t : {o.normalTexture.index, o.occlusionTexture.index, o.emissiveTexture.index,
+                      o.pbrMetallicRoughness.metallicRoughnessTexture.index})
+            if (t >= int(scene.textures.size())) return bad("material " + std::to_string(i) + ": texture does not exist");
+    }
+
+    // --- meshes
+    std::vector<tinygltf::Mesh> meshes(scene.meshes.size());
+    for (size_t mi = 0; mi < scene.meshes.size(); ++mi) {
+        const Mesh& mesh = scene.meshes[mi];
+        tinygltf::Mesh& o = meshes[mi];
+        if (mi < src.meshes.size()) {
+            o.extras = src.meshes[mi].extras;
+            o.extensions = src.meshes[mi].extensions;
+        }
+        o.name = mesh.name;
+        if (mesh.primitives.empty()) return bad("mesh " + std::to_string(mi) + " has no primitives");
+        const size_t targets = mesh.primitives[0].targets.size();
+        for (size_t pi = 0; pi < mesh.primitives.size(); ++pi) {
+            const Primitive& p = mesh.primitives[pi];
+            const std::string where = "mesh " + std::to_string(mi) + " primitive " + std::to_string(pi);
+            if (p.material >= int(scene.materials.size())) return bad(where + ": material does not exist");
+            if (p.targets.size() != targets) return bad(where + ": all primitives of a mesh need the same morph targets");
+            tinygltf::Primitive op;
+            if (mi < src.meshes.size() && pi < src.meshes[mi].primitives.size()) {
+                op.extras = src.meshes[mi].primitives[pi].extras;
+                op.extensions = src.meshes[mi].primitives[pi].extensions;
+            }
+            bool tangents = p.material >= 0 && material_needs_tangents[size_t(p.material)];
+            Status s = write_primitive(op, p, tangents, w, where);
+            if (!s.ok()) return s;
+            o.primitives.push_back(std::move(op));
+        }
+        if (!mesh.weights.empty()) {
+            if (mesh.weights.size() != targets) return bad("mesh " + std::to_string(mi) + ": weights do not match its morph targets");
+            o.weights.assign(mesh.weights.begin(), mesh.weights.end());
+        }
+    }
+    m.meshes = std::move(meshes);
+
+    // --- nodes and scene
+    m.nodes.resize(scene.nodes.size());
+    for (size_t i = 0; i < scene.nodes.size(); ++i) {
+        const Node& n = scene.nodes[i];
+        tinygltf::Node& o = m.nodes[i];
+        o.name = n.name;
+        o.mesh = n.mesh;
+        o.skin = n.skin;
+        o.camera = n.camera;
+        o.children = n.children;
+        o.matrix.clear();
+        o.translation.clear();
+        o.rotation.clear();
+        o.scale.clear();
+        if (n.has_matrix) {
+            const std::array<double, 16> id{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+            if (n.matrix != id) o.matrix = vec(n.matrix.data(), 16);
+        } else {
+            if (n.translation != std::array<double, 3>{0, 0, 0}) o.translation = vec(n.translation.data(), 3);
+            if (n.rotation != std::array<double, 4>{0, 0, 0, 1}) o.rotation = vec(n.rotation.data(), 4);
+            if (n.scale != std::array<double, 3>{1, 1, 1}) o.scale = vec(n.scale.data(), 3);
+        }
+        o.weights = n.weights;
+    }
+    if (m.scenes.empty()) m.scenes.resize(1);
+    int si = m.defaultScene >= 0 && size_t(m.defaultScene) < m.scenes.size() ? m.defaultScene : 0;
+    m.scenes[size_t(si)].nodes = scene.roots;
+    m.defaultScene = si;
+
+    // --- textures, samplers, images (embedded)
+    m.textures.resize(scene.textures.size());
+    for (size_t i = 0; i < scene.textures.size(); ++i) {
+        m.textures[i].source = scene.textures[i].image;
+        m.textures[i].sampler = scene.textures[i].sampler;
+    }
+    m.samplers.resize(scene.samplers.size());
+    for (size_t i = 0; i < scene.samplers.size(); ++i) {
+        m.samplers[i].magFilter = scene.samplers[i].mag_filter;
+        m.samplers[i].minFilter = scene.samplers[i].min_filter;
+        m.samplers[i].wrapS = scene.samplers[i].wrap_s;
+        m.samplers[i].wrapT = scene.samplers[i].wrap_t;
+    }
+    m.images.resize(scene.images.size());
+    for (size_t i = 0; i < scene.images.size(); ++i) {
+        const Image& a = scene.images[i];
+        tinygltf::Image& o = m.images[i];
+        o.name = a.name;
+        o.image.clear();
+        o.width = o.height = o.component = o.bits = o.pixel_type = -1;
+        if (!a.encoded.empty()) {
+            if (a.mime_type != "image/png" && a.mime_type != "image/jpeg")
+                return bad("image " + std::to_string(i) + ": mime type '" + a.mime_type + "' is not image/png or image/jpeg");
+            o.bufferView = w.add_view(a.encoded.data(), a.encoded.size(), 0);
+            o.mimeType = a.mime_type;
+            o.uri.clear();
+        } else if (!a.source_uri.empty()) {
+            o.bufferView = -1; // the source file was missing: keep the reference rather than invent pixels
+            o.uri = a.source_uri;
+            o.mimeType.clear();
+        } else {
+            return bad("image " + std::to_string(i) + " has no data");
+        }
+    }
+
+    // --- skins
+    m.skins.resize(scene.skins.size());
+    for (size_t i = 0; i < scene.skins.size(); ++i) {
+        const Skin& a = scene.skins[i];
+        tinygltf::Skin& o = m.skins[i];
+        o.name = a.name;
+        o.joints = a.joints;
+        o.skeleton = a.skeleton;
+        for (int j : a.joints)
+            if (j < 0 || j >= int(scene.nodes.size())) return bad("skin " + std::to_string(i) + ": joint does not exist");
+        if (a.skeleton >= int(scene.nodes.size())) return bad("skin " + std::to_string(i) + ": skeleton does not exist");
+        o.inverseBindMatrices = -1;
+        if (!a.inverse_bind_matrices.empty()) {
+            if (a.inverse_bind_matrices.size() != a.joints.size() * 16)
+                return bad("skin " + std::to_string(i) + ": inverse bind matrices do not match its joints");
+            o.inverseBindMatrices = w.add_floats(a.inverse_bind_matrices, 16, false, 0);
+        }
+    }
+
+    // --- animations: samplers re-encoded from the source accessors (shared accessors stay shared)
+    std::map<int, int> remap;
+    for (auto& anim : m.animations) {
+        for (auto& smp : anim.samplers) {
+            for (int* acc : {&smp.input, &smp.output}) {
+                auto it = remap.find(*acc);
+                if (it != remap.end()) {
+                    *acc = it->second;
+                    continue;
+                }
+                std::vector<float> v;
+                int comps = 0;
+                Status s = detail::read_accessor_floats(v, src, *acc, comps);
+                if (!s.ok()) return s;
+                int out = w.add_floats(v, comps, acc == &smp.input, 0);
+                remap[*acc] = out;
+                *acc = out;
+            }
+        }
+        for (const auto& ch : anim.channels)
+            if (ch.target_node >= int(scene.nodes.size())) return bad("animation channel targets a node that does not exist");
+    }
+
+    // --- the document block
+    auto drop = [](std::vector<std::string>& v, const std::string& e) { v.erase(std::remove(v.begin(), v.end(), e), v.end()); };
+    drop(m.extensionsUsed, "KHR_mesh_quantization"); // positions are written dequantized, as float
+    drop(m.extensionsRequired, "KHR_mesh_quantization");
+    m.asset.version = "2.0";
+    m.asset.generator = "furrow " FURROW_VERSION_STRING;
+    m.asset.minVersion.clear();
+    if (!w.bin.empty()) {
+        while (w.bin.size() % 4) w.bin.push_back(0);
+        tinygltf::Buffer b;
+        b.data = std::move(w.bin);
+        m.buffers.push_back(std::move(b));
+    }
+    return Status::success();
+}
+
+std::string lower_ext(const std::string& path) {
+    std::string e = std::filesystem::path(path).extension().string();
+    for (char& c : e) c = char(std::tolower(static_cast<unsigned char>(c)));
+    return e;
+}
+
+} // namespace
+
+Status save_scene(const Scene& scene, const std::string& path, const SaveOptions& options) {
+    const std::string ext = lower_ext(path);
+    if (ext != ".glb" && ext != ".gltf")
+        return Status::error(StatusCode::unsupported, "cannot write '" + ext + "' (furrow writes .glb or .gltf)");
+    tinygltf::Model m;
+    Status s = build_model(m, scene);
+    if (!s.ok()) return s;
+    tinygltf::TinyGLTF writer;
+    writer.SetImageWriter(nullptr, nullptr); // images are embedded (or kept as references); never write files
+    // Serialise the JSON without the binary buffer (tinygltf would base64 it), then finish it ourselves.
+    std::vector<unsigned char> bin;
+    if (!m.buffers.empty()) {
+        bin = std::move(m.buffers[0].data);
+        m.buffers.clear();
+    }
+    std::ostringstream out;
+    if (!writer.WriteGltfSceneToStream(&m, out, false, false))
+        return Status::error(StatusCode::io_error, "serialising the glTF failed");
+    nlohmann::json j = nlohmann::json::parse(out.str(), nullptr, false);
+    if (j.is_discarded()) return Status::error(StatusCode::io_error, "internal: serialised glTF is not JSON");
+    // tinygltf writes an object with no properties (a bare `{}` node, say) as null; glTF wants `{}`.
+    for (auto& [key, value] : j.items())
+        if (value.is_array())
+            for (auto& e : value)
+                if (e.is_null()) e = nlohmann::json::object();
+    const std::string bin_name = std::filesystem::path(path).stem().string() + ".bin";
+    if (ext == ".glb") {
+        if (!bin.empty()) j["buffers"] = nlohmann::json::array({{{"byteLength", bin.size()}}});
+        std::string text = j.dump();
+        while (text.size() % 4) text.push_back(' ');
+        while (bin.size() % 4) bin.push_back(0);
+        const uint32_t total = uint32_t(12 + 8 + text.size() + (bin.empty() ? 0 : 8 + bin.size()));
+        std::vector<uint8_t> glb;
+        glb.reserve(total);
+        auto u32 = [&glb](uint32_t v) {
+            for (int k = 0; k < 4; ++k) glb.push_back(uint8_t(v >> (8 * k)));
+        };
+        glb.insert(glb.end(), {'g', 'l', 'T', 'F'});
+        u32(2);
+        u32(total);
+        u32(uint32_t(text.size()));
+        u32(0x4E4F534A); // JSON
+        glb.insert(glb.end(), text.begin(), text.end());
+        if (!bin.empty()) {
+            u32(uint32_t(bin.size()));
+            u32(0x004E4942); // BIN
+            glb.insert(glb.end(), bin.begin(), bin.end());
+        }
+        return detail::atomic_write(path, glb.data(), glb.size());
+    }
+    if (!bin.empty()) {
+        j["buffers"] = nlohmann::json::array({{{"byteLength", bin.size()}, {"uri", bin_name}}});
+        const std::string bin_path = (std::filesystem::path(path).parent_path() / bin_name).string();
+        Status bs = detail::atomic_write(bin_path, bin.data(), bin.size());
+        if (!bs.ok()) return bs;
+    }
+    const std::string text = j.dump(options.pretty_json ? 2 : -1);
+    return detail::atomic_write(path, text.data(), text.size());
+}
+
+} // namespace furrow

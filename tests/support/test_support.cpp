@@ -1,6 +1,7 @@
 #include "test_support.h"
 
 #include <cmath>
+#include <cstring>
 #include <fcntl.h>
 #include <fstream>
 #include <sstream>
@@ -126,6 +127,17 @@ bool all_finite(const Scene& scene) {
                 if (!finite(t.position_deltas) || !finite(t.normal_deltas)) return false;
         }
     return true;
+}
+
+nlohmann::json gltf_json(const fs::path& file) {
+    std::vector<uint8_t> b = read_bytes(file);
+    if (b.size() >= 20 && std::memcmp(b.data(), "glTF", 4) == 0) {
+        uint32_t len = 0;
+        std::memcpy(&len, b.data() + 12, 4);
+        if (20 + size_t(len) > b.size()) return nullptr;
+        return nlohmann::json::parse(b.begin() + 20, b.begin() + 20 + len, nullptr, false);
+    }
+    return nlohmann::json::parse(b.begin(), b.end(), nullptr, false);
 }
 
 } // namespace furrow::test

@@ -3,6 +3,7 @@
 
 #include <furrow/mesh.h>
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include <filesystem>
 #include <string>
@@ -41,5 +42,8 @@ void write_text(const std::filesystem::path& file, const std::string& text);
 std::vector<std::string> list_dir(const std::filesystem::path& dir);
 
 bool all_finite(const Scene& scene);
+
+// The JSON document of a .gltf or .glb file (the GLB's JSON chunk); null on failure.
+nlohmann::json gltf_json(const std::filesystem::path& file);
 
 } // namespace furrow::test

@@ -185,7 +185,7 @@ struct Scene {
 struct LoadOptions {
     bool recentre = true;                // move far-from-origin meshes to their bbox centre (see recentre())
     double recentre_threshold = 1000.0;  // ... when |centre| > threshold × bbox diagonal ... or > 1e4 units
-    bool load_images = true;             // read texture bytes (set false to skip external files)
+    bool allow_non_finite = false;       // accept NaN/Inf positions (for `furrow check`, which reports them)
     size_t max_file_bytes = size_t(2) << 30; // refuse larger inputs (memory guard)
 };
 

@@ -1,0 +1,14 @@
+// Internal: write-to-temporary-then-rename, so that a failed write never leaves a half-written output and
+// a reader never sees one.
+#pragma once
+
+#include <furrow/mesh.h>
+
+namespace furrow::detail {
+
+// Writes bytes to `path` atomically (temporary file in the same folder, then rename).
+Status atomic_write(const std::string& path, const void* data, size_t size);
+// A unique temporary path beside `path` (same folder, so rename is atomic).
+std::string temp_path_beside(const std::string& path);
+
+} // namespace furrow::detail

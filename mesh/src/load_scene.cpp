@@ -1,0 +1,63 @@
+// load_scene: reads the file once (with a size guard) and dispatches on the extension.
+#include "document.h"
+
+#include <algorithm>
+#include <cerrno>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+
+namespace furrow {
+
+namespace {
+std::string lower_extension(const std::string& path) {
+    std::string ext = std::filesystem::path(path).extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+    return ext;
+}
+
+Status dispatch(Scene& out, const uint8_t* data, size_t size, const std::string& ext, const std::string& base_dir,
+                const LoadOptions& options) {
+    if (ext == ".gltf" || ext == ".glb") return load_gltf_bytes(out, data, size, base_dir, options);
+    if (ext == ".obj" || ext == ".ply" || ext == ".off" || ext == ".stl")
+        return load_openmesh_bytes(out, std::string(reinterpret_cast<const char*>(data), size), ext, options);
+    return Status::error(StatusCode::unsupported,
+                         "unsupported file type '" + ext + "' (expected .gltf, .glb, .obj, .ply, .off or .stl)");
+}
+} // namespace
+
+Status load_scene(Scene& out, const std::string& path, const LoadOptions& options) {
+    namespace fs = std::filesystem;
+    std::error_code ec;
+    if (!fs::exists(path, ec)) return Status::error(StatusCode::io_error, "file not found");
+    if (fs::is_directory(path, ec)) return Status::error(StatusCode::io_error, "is a directory, not a mesh file");
+    const std::string ext = lower_extension(path);
+    if (ext != ".gltf" && ext != ".glb" && ext != ".obj" && ext != ".ply" && ext != ".off" && ext != ".stl")
+        return dispatch(out, nullptr, 0, ext, "", options);
+    std::ifstream in(path, std::ios::binary);
+    if (!in) return Status::error(StatusCode::io_error, std::string("cannot open: ") + std::strerror(errno));
+    in.seekg(0, std::ios::end);
+    const auto end = in.tellg();
+    if (end < 0) return Status::error(StatusCode::io_error, "cannot read");
+    const size_t size = size_t(end);
+    if (size > options.max_file_bytes)
+        return Status::error(StatusCode::out_of_memory, "file is " + std::to_string(size) + " bytes, above the limit of " +
+                                                            std::to_string(options.max_file_bytes));
+    in.seekg(0);
+    std::vector<uint8_t> bytes(size);
+    if (size && !in.read(reinterpret_cast<char*>(bytes.data()), std::streamsize(size)))
+        return Status::error(StatusCode::io_error, "read failed");
+    std::string base_dir = fs::path(path).parent_path().string();
+    return dispatch(out, bytes.data(), bytes.size(), ext, base_dir, options);
+}
+
+Status load_scene_from_memory(Scene& out, const uint8_t* data, size_t size, const std::string& extension,
+                              const LoadOptions& options) {
+    std::string ext = extension;
+    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+    if (!ext.empty() && ext[0] != '.') ext = "." + ext;
+    if (size > options.max_file_bytes) return Status::error(StatusCode::out_of_memory, "input above the size limit");
+    return dispatch(out, data, size, ext, "", options);
+}
+
+} // namespace furrow

@@ -1,0 +1,200 @@
+// load_scene / load_scene_from_memory: glTF accessor features and the errors for what is broken.
+#include "gltf_builder.h"
+#include "test_support.h"
+
+#include <cmath>
+
+using namespace furrow;
+using namespace furrow::test;
+
+namespace {
+
+Status load_json(Scene& s, const std::string& json) {
+    return load_scene_from_memory(s, reinterpret_cast<const uint8_t*>(json.data()), json.size(), ".gltf");
+}
+
+// A glTF document around a raw buffer, with the accessor/bufferView JSON given by the test.
+std::string doc(const std::vector<uint8_t>& bytes, const std::string& prim, const std::string& accessors,
+                const std::string& views, const std::string& extra = "") {
+    return "{\"asset\":{\"version\":\"2.0\"},\"scenes\":[{\"nodes\":[0]}],\"nodes\":[{\"mesh\":0}],"
+           "\"meshes\":[{\"primitives\":[" + prim + "]}],\"accessors\":[" + accessors + "],\"bufferViews\":[" + views +
+           "],\"buffers\":[{\"byteLength\":" + std::to_string(bytes.size()) +
+           ",\"uri\":\"data:application/octet-stream;base64," + base64(bytes) + "\"}]" + extra + "}";
+}
+
+TEST(load_scene, TriangleStripIsConvertedKeepingWinding) {
+    // Strip 0 1 2 3 -> triangles (0 1 2) and (2 1 3): the second swaps its first two corners.
+    TinyGltf g;
+    g.positions = {0, 0, 0, 0, 1, 0, 1, 0, 0, 1, 1, 0};
+    g.indices = {0, 1, 2, 3};
+    g.mode = 5;
+    Scene s;
+    ASSERT_TRUE(load_json(s, g.json()).ok());
+    EXPECT_EQ(s.meshes[0].primitives[0].indices, (std::vector<uint32_t>{0, 1, 2, 2, 1, 3}));
+}
+
+TEST(load_scene, TriangleFanIsConverted) {
+    TinyGltf g;
+    g.positions = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0};
+    g.indices = {0, 1, 2, 3};
+    g.mode = 6;
+    Scene s;
+    ASSERT_TRUE(load_json(s, g.json()).ok());
+    EXPECT_EQ(s.meshes[0].primitives[0].indices, (std::vector<uint32_t>{0, 1, 2, 0, 2, 3}));
+}
+
+TEST(load_scene, LineLoopBecomesLines) {
+    TinyGltf g;
+    g.indices = {0, 1, 2};
+    g.mode = 2;
+    Scene s;
+    ASSERT_TRUE(load_json(s, g.json()).ok());
+    EXPECT_EQ(int(s.meshes[0].primitives[0].mode), int(PrimitiveMode::lines));
+    EXPECT_EQ(s.meshes[0].primitives[0].indices, (std::vector<uint32_t>{0, 1, 1, 2, 2, 0}));
+}
+
+TEST(load_scene, InterleavedByteStride) {
+    // Position (12 bytes) and uv (8 bytes) interleaved with a 20-byte stride, no indices.
+    std::vector<float> inter = {0, 0, 0, 0.1f, 0.2f, 1, 0, 0, 0.3f, 0.4f, 0, 1, 0, 0.5f, 0.6f};
+    std::vector<uint8_t> bytes;
+    append_bytes(bytes, inter);
+    std::string json = doc(bytes, R"({"attributes":{"POSITION":0,"TEXCOORD_0":1}})",
+                           R"({"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]},
+                              {"bufferView":0,"byteOffset":12,"componentType":5126,"count":3,"type":"VEC2"})",
+                           R"({"buffer":0,"byteLength":60,"byteStride":20})");
+    Scene s;
+    Status st = load_json(s, json);
+    ASSERT_TRUE(st.ok()) << st.message;
+    const auto& p = s.meshes[0].primitives[0];
+    EXPECT_EQ(p.positions, (std::vector<float>{0, 0, 0, 1, 0, 0, 0, 1, 0}));
+    EXPECT_EQ(p.uv0, (std::vector<float>{0.1f, 0.2f, 0.3f, 0.4f, 0.5f, 0.6f}));
+    EXPECT_EQ(p.indices, (std::vector<uint32_t>{0, 1, 2}));
+}
+
+TEST(load_scene, SparseAccessorSubstitutesValues) {
+    // Base positions all zero (no bufferView), sparse sets vertex 1 and 2.
+    std::vector<uint8_t> bytes;
+    append_bytes(bytes, std::vector<uint16_t>{1, 2});
+    append_bytes(bytes, std::vector<float>{1, 0, 0, 0, 1, 0});
+    std::string json = doc(bytes, R"({"attributes":{"POSITION":0}})",
+                           R"({"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0],
+                              "sparse":{"count":2,"indices":{"bufferView":0,"componentType":5123},"values":{"bufferView":1}}})",
+                           R"({"buffer":0,"byteLength":4},{"buffer":0,"byteOffset":4,"byteLength":24})");
+    Scene s;
+    Status st = load_json(s, json);
+    ASSERT_TRUE(st.ok()) << st.message;
+    EXPECT_EQ(s.meshes[0].primitives[0].positions, (std::vector<float>{0, 0, 0, 1, 0, 0, 0, 1, 0}));
+}
+
+TEST(load_scene, QuantizedPositionsAndNormalizedUvsAreDequantized) {
+    // KHR_mesh_quantization: int16 positions (not normalized), uint8 normalized UVs, int8 normalized normals.
+    std::vector<uint8_t> bytes;
+    append_bytes(bytes, std::vector<int16_t>{0, 0, 0, 0, 100, 0, 0, 0, 0, 100, 0, 0}); // 3 × (xyz + pad)
+    append_bytes(bytes, std::vector<uint8_t>{0, 0, 0, 0, 255, 0, 0, 0, 0, 255, 0, 0}); // 3 × (uv + pad)
+    append_bytes(bytes, std::vector<int8_t>{0, 0, 127, 0, 0, 0, 127, 0, 0, 0, -127, 0}); // 3 × (xyz + pad)
+    std::string json = doc(bytes, R"({"attributes":{"POSITION":0,"TEXCOORD_0":1,"NORMAL":2}})",
+                           R"({"bufferView":0,"componentType":5122,"count":3,"type":"VEC3","min":[0,0,0],"max":[100,100,0]},
+                              {"bufferView":1,"componentType":5121,"normalized":true,"count":3,"type":"VEC2"},
+                              {"bufferView":2,"componentType":5120,"normalized":true,"count":3,"type":"VEC3"})",
+                           R"({"buffer":0,"byteLength":24,"byteStride":8},{"buffer":0,"byteOffset":24,"byteLength":12,"byteStride":4},
+                              {"buffer":0,"byteOffset":36,"byteLength":12,"byteStride":4})",
+                           R"(,"extensionsUsed":["KHR_mesh_quantization"],"extensionsRequired":["KHR_mesh_quantization"])");
+    Scene s;
+    Status st = load_json(s, json);
+    ASSERT_TRUE(st.ok()) << st.message;
+    const auto& p = s.meshes[0].primitives[0];
+    EXPECT_EQ(p.positions, (std::vector<float>{0, 0, 0, 100, 0, 0, 0, 100, 0}));
+    EXPECT_EQ(p.uv0, (std::vector<float>{0, 0, 1, 0, 0, 1}));
+    EXPECT_EQ(p.normals, (std::vector<float>{0, 0, 1, 0, 0, 1, 0, 0, -1}));
+    // Written back as float: the extension is no longer needed.
+    const auto out = temp_dir() / "q.gltf";
+    ASSERT_TRUE(save_scene(s, out.string()).ok());
+    auto j = gltf_json(out);
+    EXPECT_FALSE(j.contains("extensionsRequired") && !j["extensionsRequired"].empty());
+    EXPECT_VALID_GLTF(out);
+}
+
+TEST(load_scene, IndexOutOfRangeIsAnError) {
+    TinyGltf g;
+    g.indices = {0, 1, 7};
+    Scene s;
+    Status st = load_json(s, g.json());
+    EXPECT_EQ(st.code, StatusCode::invalid_input);
+    EXPECT_NE(st.message.find("index 7"), std::string::npos) << st.message;
+}
+
+TEST(load_scene, NanPositionIsAnErrorUnlessAllowed) {
+    TinyGltf g;
+    g.positions[4] = std::nanf("");
+    g.min_max = false;
+    Scene s;
+    Status st = load_json(s, g.json());
+    EXPECT_EQ(st.code, StatusCode::invalid_input);
+    EXPECT_NE(st.message.find("NaN"), std::string::npos) << st.message;
+    LoadOptions o;
+    o.allow_non_finite = true;
+    const std::string j = g.json();
+    EXPECT_TRUE(load_scene_from_memory(s, reinterpret_cast<const uint8_t*>(j.data()), j.size(), ".gltf", o).ok());
+}
+
+TEST(load_scene, InvalidModeIsUnsupported) {
+    TinyGltf g;
+    g.mode = 9;
+    Scene s;
+    Status st = load_json(s, g.json());
+    EXPECT_NE(st.code, StatusCode::ok);
+}
+
+TEST(load_scene, AccessorPastEndOfBufferViewIsAnError) {
+    std::vector<uint8_t> bytes(36, 0);
+    std::string json = doc(bytes, R"({"attributes":{"POSITION":0}})",
+                           R"({"bufferView":0,"componentType":5126,"count":4,"type":"VEC3"})",
+                           R"({"buffer":0,"byteLength":36})");
+    Scene s;
+    Status st = load_json(s, json);
+    EXPECT_EQ(st.code, StatusCode::invalid_input);
+    EXPECT_NE(st.message.find("past the end"), std::string::npos) << st.message;
+}
+
+TEST(load_scene, DracoRequiredIsUnsupported) {
+    TinyGltf g;
+    g.extra_top_level = R"(,"extensionsUsed":["KHR_draco_mesh_compression"],"extensionsRequired":["KHR_draco_mesh_compression"])";
+    Scene s;
+    Status st = load_json(s, g.json());
+    EXPECT_EQ(st.code, StatusCode::unsupported);
+    EXPECT_NE(st.message.find("KHR_draco_mesh_compression"), std::string::npos);
+}
+
+TEST(load_scene, GarbageAndTruncatedInputsFailCleanly) {
+    Scene s;
+    const std::string garbage = "{ not json";
+    EXPECT_EQ(load_json(s, garbage).code, StatusCode::invalid_input);
+    const uint8_t glb_header[] = {'g', 'l', 'T', 'F', 2, 0, 0, 0, 200, 0, 0, 0};
+    EXPECT_EQ(load_scene_from_memory(s, glb_header, sizeof glb_header, ".glb").code, StatusCode::invalid_input);
+    EXPECT_EQ(load_scene_from_memory(s, glb_header, 0, ".glb").code, StatusCode::invalid_input);
+    EXPECT_EQ(load_scene(s, "/nonexistent/file.glb").code, StatusCode::io_error);
+    EXPECT_EQ(load_scene(s, "mesh.xyz").code, StatusCode::io_error);
+}
+
+TEST(load_scene, ObjWithSeamsSplitsVerticesAndKeepsDoublePrecision) {
+    // A quad whose two triangles use different UVs at the shared corner 2 (a seam), 1e5 m from the origin.
+    const auto dir = temp_dir();
+    write_text(dir / "seam.obj",
+               "v 100000.001 0 0\nv 100001.002 0 0\nv 100001.002 1 0\nv 100000.001 1 0\n"
+               "vt 0 0\nvt 1 0\nvt 1 1\nvt 0.5 0.5\nvt 0 1\n"
+               "f 1/1 2/2 3/3\nf 1/1 3/4 4/5\n");
+    Scene s;
+    Status st = load_scene(s, (dir / "seam.obj").string());
+    ASSERT_TRUE(st.ok()) << st.message;
+    const auto& p = s.meshes[0].primitives[0];
+    EXPECT_EQ(p.vertex_count(), 5u); // corner 3 split in two by its UVs
+    // Recentred: the node carries the centre in double, the float positions the small offsets.
+    EXPECT_DOUBLE_EQ(s.nodes[0].translation[0], (100000.001 + 100001.002) / 2);
+    // float32 at 1e5 m would be good to 8 mm; relative to the centre it is good to a micrometre.
+    EXPECT_NEAR(double(p.positions[0]) + s.nodes[0].translation[0], 100000.001, 1e-6);
+    EXPECT_NEAR(double(p.positions[3]) + s.nodes[0].translation[0], 100001.002, 1e-6);
+    // OBJ v=0 is the image bottom; glTF v=0 is the top.
+    EXPECT_FLOAT_EQ(p.uv0[1], 1.0f);
+}
+
+} // namespace
