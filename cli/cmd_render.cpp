@@ -1,4 +1,154 @@
+// `furrow render IN -o OUT.png`: the verification rasterizer (furrow/render.h) on the command line.
 #include "cli_common.h"
+
+#include <furrow/render.h>
+
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <unistd.h>
+
 namespace furrow::cli {
-void register_render(CLI::App&, GlobalFlags&) {}
+namespace {
+
+std::string lower_extension(const std::string& path) {
+    std::string e = std::filesystem::path(path).extension().string();
+    for (char& c : e) c = char(std::tolower(static_cast<unsigned char>(c)));
+    return e;
 }
+
+// Writes bytes to a temporary file beside `path` and renames it into place, so a failure never leaves a
+// half-written output. Throws InputError naming `path`.
+void write_atomically(const std::string& path, const std::vector<uint8_t>& bytes) {
+    namespace fs = std::filesystem;
+    fs::path target(path);
+    fs::path temp = target.parent_path() / ("." + target.filename().string() + ".furrow-tmp-" + std::to_string(getpid()));
+    {
+        std::ofstream out(temp, std::ios::binary | std::ios::trunc);
+        if (!out) throw InputError(path, std::string("cannot write: ") + std::strerror(errno));
+        out.write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
+        out.close();
+        if (!out) {
+            std::error_code ec;
+            fs::remove(temp, ec);
+            throw InputError(path, "cannot write: write failed (disk full?)");
+        }
+    }
+    std::error_code ec;
+    fs::rename(temp, target, ec);
+    if (ec) {
+        std::error_code ignored;
+        fs::remove(temp, ignored);
+        throw InputError(path, "cannot write: " + ec.message());
+    }
+}
+
+// A float image as PFM (Netpbm's portable float map: greyscale "Pf", little-endian, bottom row first).
+std::vector<uint8_t> encode_pfm(const ImageF& depth) {
+    std::string header = "Pf\n" + std::to_string(depth.width) + " " + std::to_string(depth.height) + "\n-1.0\n";
+    std::vector<uint8_t> bytes(header.begin(), header.end());
+    size_t row_bytes = size_t(depth.width) * sizeof(float);
+    for (int y = depth.height - 1; y >= 0; --y) {
+        const auto* row = reinterpret_cast<const uint8_t*>(&depth.pixels[size_t(y) * size_t(depth.width)]);
+        bytes.insert(bytes.end(), row, row + row_bytes); // x86/ARM are little-endian, as "-1.0" declares
+    }
+    return bytes;
+}
+
+std::array<float, 3> parse_colour(const std::string& s) {
+    std::array<float, 3> c{};
+    std::istringstream in(s);
+    char c1 = 0, c2 = 0;
+    if (!(in >> c[0] >> c1 >> c[1] >> c2 >> c[2]) || c1 != ',' || c2 != ',' || !(in >> std::ws).eof())
+        throw CLI::ValidationError("--background", "expected R,G,B in 0..1, got '" + s + "'");
+    for (float v : c)
+        if (!(v >= 0 && v <= 1)) throw CLI::ValidationError("--background", "each of R,G,B must be in 0..1, got '" + s + "'");
+    return c;
+}
+
+} // namespace
+
+void register_render(CLI::App& app, GlobalFlags& g) {
+    struct Args {
+        std::string in, out, mode, attribute, background, depth_out;
+        bool ortho = false, no_legend = false;
+        double ortho_height = 0;
+        int ssaa = 1;
+        CameraFlags camera;
+    };
+    auto args = std::make_shared<Args>();
+    CLI::App* cmd = app.add_subcommand("render", "Render a scene to a PNG with the verification rasterizer");
+    cmd->add_option("input", args->in, "Input file (.gltf .glb .obj .ply .off .stl)")->required();
+    cmd->add_option("-o,--output", args->out, "Output PNG (RGBA; transparent where nothing is drawn)")->required();
+    cmd->add_option("--mode", args->mode,
+                    "shaded (default), normals (world normal as 0.5+0.5n), uv, depth, wireframe (shaded + edges), "
+                    "attribute (heat map of --attribute)")
+        ->check(CLI::IsMember({"shaded", "normals", "uv", "depth", "wireframe", "attribute"}));
+    cmd->add_option("--attribute", args->attribute,
+                    "Scalar vertex attribute for the heat map, e.g. _FUR_LENGTH (implies --mode attribute)");
+    cmd->add_flag("--ortho", args->ortho, "Orthographic view (default view: top-down along the up axis)");
+    cmd->add_option("--ortho-height", args->ortho_height, "World units visible vertically with --ortho (default: fit)")
+        ->check(CLI::PositiveNumber);
+    cmd->add_option("--ssaa", args->ssaa, "Supersampling: N×N samples per pixel, 1..8 (default 1)")
+        ->check(CLI::Range(1, 8));
+    cmd->add_option("--background", args->background, "Opaque background colour R,G,B in 0..1 (sRGB; default transparent)");
+    cmd->add_option("--depth-out", args->depth_out,
+                    "Also write the depth (view-axis distance, +inf where empty) as a float PFM image");
+    cmd->add_flag("--no-legend", args->no_legend, "Attribute mode: leave out the colour bar");
+    add_camera_flags(*cmd, args->camera);
+    cmd->footer("Examples:\n"
+                "  furrow render fox.glb -o fox.png\n"
+                "  furrow render fox.glb -o fox.png --size 1920x1080 --ssaa 4 --background 1,1,1\n"
+                "  furrow render terrain.glb -o top.png --ortho --mode depth --depth-out top.pfm\n"
+                "  furrow render shells.glb -o length.png --attribute _FUR_LENGTH\n"
+                "  furrow render bunny.obj -o wire.png --mode wireframe --camera 0.3,0.2,0.4 --target 0,0.1,0 --fov 30");
+    cmd->callback([args, &g] {
+        RenderOptions o;
+        o.width = args->camera.width;
+        o.height = args->camera.height;
+        o.camera.eye = args->camera.eye;
+        o.camera.target = args->camera.target;
+        o.camera.up = args->camera.up;
+        o.camera.fov_degrees = args->camera.fov_degrees;
+        o.camera.orthographic = args->ortho;
+        o.camera.ortho_height = args->ortho_height;
+        o.ssaa = args->ssaa;
+        o.legend = !args->no_legend;
+        static const std::pair<const char*, RenderMode> modes[] = {
+            {"shaded", RenderMode::shaded}, {"normals", RenderMode::normals},     {"uv", RenderMode::uv},
+            {"depth", RenderMode::depth},   {"wireframe", RenderMode::wireframe}, {"attribute", RenderMode::attribute}};
+        std::string mode = args->mode.empty() ? (args->attribute.empty() ? "shaded" : "attribute") : args->mode;
+        for (const auto& [name, m] : modes)
+            if (mode == name) o.mode = m;
+        if (o.mode == RenderMode::attribute && args->attribute.empty())
+            throw CLI::ValidationError("--mode", "attribute mode needs --attribute NAME");
+        if (o.mode != RenderMode::attribute && !args->attribute.empty())
+            throw CLI::ValidationError("--attribute", "only used with --mode attribute");
+        o.attribute = args->attribute;
+        if (args->ortho_height > 0 && !args->ortho) throw CLI::ValidationError("--ortho-height", "needs --ortho");
+        if (!args->background.empty()) o.background = parse_colour(args->background);
+        if (lower_extension(args->out) != ".png") throw CLI::ValidationError("--output", "must end in .png");
+        if (!args->depth_out.empty() && lower_extension(args->depth_out) != ".pfm")
+            throw CLI::ValidationError("--depth-out", "must end in .pfm");
+        for (const std::string* out : {&args->out, &args->depth_out})
+            if (!out->empty() && same_file(*out, args->in))
+                throw InputError(*out, "output path is the input file; refusing to overwrite the input");
+
+        Scene scene = load_or_throw(args->in);
+        for (const auto& w : scene.warnings) info(g, "Warning: " + args->in + ": " + w);
+        RenderResult r;
+        require_ok(render_scene(r, scene, o), args->in);
+        for (const auto& w : r.warnings) info(g, "Warning: " + args->in + ": " + w);
+        write_atomically(args->out, encode_png_rgba8(r.rgba8.data(), r.color.width, r.color.height));
+        if (!args->depth_out.empty()) write_atomically(args->depth_out, encode_pfm(r.depth));
+        char timing[64];
+        std::snprintf(timing, sizeof timing, "%.1f ms", r.timing.total);
+        info(g, "Wrote " + args->out + " (" + std::to_string(o.width) + "x" + std::to_string(o.height) + ", " + mode +
+                    ", " + std::to_string(r.triangles) + " triangles, " + timing + ")");
+    });
+}
+
+} // namespace furrow::cli

@@ -23,5 +23,6 @@ namespace furrow {
 // Format loaders behind load_scene (gltf_load.cpp, openmesh_load.cpp).
 Status load_gltf_bytes(Scene& out, const uint8_t* data, size_t size, const std::string& base_dir,
                        const LoadOptions& options);
+Status load_stl_bytes(Scene& out, const std::string& bytes, const LoadOptions& options);
 Status load_openmesh_bytes(Scene& out, const std::string& bytes, const std::string& ext, const LoadOptions& options);
 } // namespace furrow

@@ -232,8 +232,13 @@ Status write_primitive(tinygltf::Primitive& out, const Primitive& src, bool need
     if (!tri.uv1.empty()) out.attributes["TEXCOORD_1"] = w.add_floats(tri.uv1, 2, false);
     if (!tri.colors.empty()) out.attributes["COLOR_0"] = w.add_floats(clamped01(tri.colors), 4, false);
     if (!tri.joints.empty()) {
-        out.attributes["JOINTS_0"] = w.add_joints(tri.joints);
-        out.attributes["WEIGHTS_0"] = w.add_floats(normalized_weights(tri.weights), 4, false);
+        std::vector<float> weights = normalized_weights(tri.weights);
+        // A joint with zero weight has no effect; glTF wants it written as 0 (ACCESSOR_JOINTS_USED_ZERO_WEIGHT).
+        std::vector<uint16_t> joints = tri.joints;
+        for (size_t i = 0; i < joints.size(); ++i)
+            if (weights[i] == 0.0f) joints[i] = 0;
+        out.attributes["JOINTS_0"] = w.add_joints(joints);
+        out.attributes["WEIGHTS_0"] = w.add_floats(weights, 4, false);
     }
     for (const auto& c : tri.custom) {
         if (c.name.empty() || c.name[0] != '_')

@@ -19,7 +19,8 @@ std::string lower_extension(const std::string& path) {
 Status dispatch(Scene& out, const uint8_t* data, size_t size, const std::string& ext, const std::string& base_dir,
                 const LoadOptions& options) {
     if (ext == ".gltf" || ext == ".glb") return load_gltf_bytes(out, data, size, base_dir, options);
-    if (ext == ".obj" || ext == ".ply" || ext == ".off" || ext == ".stl")
+    if (ext == ".stl") return load_stl_bytes(out, std::string(reinterpret_cast<const char*>(data), size), options);
+    if (ext == ".obj" || ext == ".ply" || ext == ".off")
         return load_openmesh_bytes(out, std::string(reinterpret_cast<const char*>(data), size), ext, options);
     return Status::error(StatusCode::unsupported,
                          "unsupported file type '" + ext + "' (expected .gltf, .glb, .obj, .ply, .off or .stl)");

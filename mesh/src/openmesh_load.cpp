@@ -1,4 +1,4 @@
-// OBJ / PLY / OFF / STL loading through OpenMesh's readers. The readers feed a recording importer instead of
+// OBJ / PLY / OFF loading through OpenMesh's readers. The readers feed a recording importer instead of
 // a halfedge mesh: a halfedge structure would silently drop or split the non-manifold and degenerate faces
 // that `furrow check` must see. Polygons stay polygons (Catmull-Clark wants the quads).
 #include "document.h"
@@ -168,13 +168,6 @@ Status load_openmesh_bytes(Scene& out, const std::string& bytes, const std::stri
     OpenMesh::IO::Options opt = OpenMesh::IO::Options::VertexTexCoord | OpenMesh::IO::Options::FaceTexCoord |
                                 OpenMesh::IO::Options::VertexNormal | OpenMesh::IO::Options::VertexColor;
     std::string fmt = ext.substr(1);
-    if (fmt == "stl" && bytes.size() >= 84 && bytes.compare(0, 5, "solid") != 0) opt += OpenMesh::IO::Options::Binary;
-    if (fmt == "stl" && bytes.size() >= 84 && bytes.compare(0, 5, "solid") == 0) {
-        // Binary STLs may also start with "solid": trust the size formula 84 + 50·n.
-        uint32_t n = 0;
-        std::memcpy(&n, bytes.data() + 80, 4);
-        if (size_t(84) + size_t(n) * 50 == bytes.size()) opt += OpenMesh::IO::Options::Binary;
-    }
     std::istringstream in(bytes);
     bool ok = OpenMesh::IO::IOManager().read(in, fmt, rec, opt);
     if (!ok) return Status::error(StatusCode::invalid_input, "could not be parsed as " + fmt + " (OpenMesh reader failed)");

@@ -16,6 +16,7 @@ void triangulate(Primitive& p) {
     tris.reserve(p.triangle_count() * 3);
     size_t at = 0;
     for (uint32_t s : p.face_sizes) {
+        if (s > p.indices.size() - at) break; // face_sizes claims more corners than there are: stop, never overread
         // A fan keeps the polygon's winding; faces with fewer than 3 corners carry no area and are dropped.
         for (uint32_t k = 1; k + 1 < s; ++k) {
             tris.push_back(p.indices[at]);

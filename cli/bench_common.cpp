@@ -1,0 +1,103 @@
+#include "bench_common.h"
+
+#include <algorithm>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <sstream>
+
+namespace furrow::cli {
+namespace fs = std::filesystem;
+
+double median_seconds(int repeat, const std::function<void()>& f) {
+    f(); // warm-up: page faults, allocator growth
+    std::vector<double> t;
+    for (int i = 0; i < repeat; ++i) {
+        auto a = std::chrono::steady_clock::now();
+        f();
+        auto b = std::chrono::steady_clock::now();
+        t.push_back(std::chrono::duration<double>(b - a).count());
+    }
+    std::sort(t.begin(), t.end());
+    return t[t.size() / 2];
+}
+
+static double status_kib(const char* key) {
+    std::ifstream in("/proc/self/status");
+    std::string line;
+    while (std::getline(in, line))
+        if (line.rfind(key, 0) == 0) return std::stod(line.substr(std::strlen(key)));
+    return 0;
+}
+
+PeakMemory::PeakMemory() {
+    std::ofstream("/proc/self/clear_refs") << "5"; // reset VmHWM to the current RSS
+    base_kib_ = status_kib("VmRSS:");
+}
+
+double PeakMemory::peak_mib() const { return std::max(0.0, status_kib("VmHWM:") - base_kib_) / 1024.0; }
+
+std::vector<fs::path> collect_bench_inputs(const BenchArgs& args, const std::vector<std::string>& extensions) {
+    std::vector<std::string> inputs = args.inputs;
+    if (inputs.empty()) {
+        for (const char* d : {FURROW_MODELS_DIR, FURROW_CORPUS_DIR})
+            if (fs::is_directory(d)) inputs.push_back(d);
+    }
+    auto wanted = [&](const fs::path& p) {
+        std::string e = p.extension().string();
+        std::transform(e.begin(), e.end(), e.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+        return std::find(extensions.begin(), extensions.end(), e) != extensions.end();
+    };
+    std::vector<fs::path> files;
+    for (const auto& in : inputs) {
+        if (fs::is_directory(in)) {
+            std::vector<fs::path> found;
+            for (const auto& e : fs::recursive_directory_iterator(in))
+                if (e.is_regular_file() && wanted(e.path())) found.push_back(e.path());
+            std::sort(found.begin(), found.end());
+            files.insert(files.end(), found.begin(), found.end());
+        } else if (fs::exists(in)) {
+            files.push_back(in);
+        } else {
+            throw InputError(in, "file not found");
+        }
+    }
+    return files;
+}
+
+std::string fmt(double v, int decimals) {
+    char b[64];
+    std::snprintf(b, sizeof b, "%.*f", decimals, v);
+    return b;
+}
+
+std::string fmt_sci(double v) {
+    char b[64];
+    std::snprintf(b, sizeof b, "%.3g", v);
+    return b;
+}
+
+void Table::print() const {
+    std::vector<size_t> w;
+    for (const auto& r : rows_)
+        for (size_t c = 0; c < r.size(); ++c) {
+            if (w.size() <= c) w.push_back(0);
+            w[c] = std::max(w[c], r[c].size());
+        }
+    for (size_t i = 0; i < rows_.size(); ++i) {
+        std::string line;
+        for (size_t c = 0; c < rows_[i].size(); ++c) {
+            const std::string& s = rows_[i][c];
+            std::string pad(w[c] - s.size(), ' ');
+            line += c == 0 ? s + pad : "  " + pad + s; // first column left-aligned, numbers right-aligned
+        }
+        std::printf("%s\n", line.c_str());
+        if (i == 0) {
+            size_t total = 0;
+            for (size_t c = 0; c < w.size(); ++c) total += w[c] + (c ? 2 : 0);
+            std::printf("%s\n", std::string(total, '-').c_str());
+        }
+    }
+}
+
+} // namespace furrow::cli

@@ -1,0 +1,173 @@
+// Image-side helpers of the verification rasterizer: texture sampling, transfer functions, the heat-map
+// colours and legend, and the image metrics of render.h.
+//
+// References:
+//   IEC 61966-2-1 (sRGB transfer function). glTF 2.0 §3.8 samplers (wrap modes, texel centres at +0.5).
+//   Viridis: van der Walt & Smith, matplotlib (2015) — perceptually uniform and readable in greyscale.
+//   Legend text: stb_easy_font (S. Barrett, public domain), rasterized here as axis-aligned quads.
+#include "render_internal.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+#include <stb_easy_font.h>
+
+namespace furrow {
+
+float srgb_to_linear(float v) {
+    return v <= 0.04045f ? v / 12.92f : std::pow((v + 0.055f) / 1.055f, 2.4f);
+}
+float linear_to_srgb(float v) {
+    if (!(v < 1.0f)) return v >= 1.0f ? 1.0f : 0.0f; // exact white (the formula gives 1 ± 1 ulp); NaN -> 0
+    v = std::max(v, 0.0f);
+    return v <= 0.0031308f ? v * 12.92f : 1.055f * std::pow(v, 1.0f / 2.4f) - 0.055f;
+}
+
+ImageF silhouette_mask(const ImageF& image, float alpha_threshold) {
+    ImageF m{image.width, image.height, 1, {}};
+    size_t n = size_t(image.width) * size_t(image.height);
+    if (image.channels < 1 || image.pixels.size() != n * size_t(image.channels)) return m;
+    m.pixels.resize(n);
+    for (size_t i = 0; i < n; ++i)
+        m.pixels[i] = image.pixels[i * size_t(image.channels) + size_t(image.channels - 1)] > alpha_threshold ? 1.0f : 0.0f;
+    return m;
+}
+
+size_t mask_area(const ImageF& mask) {
+    return size_t(std::count_if(mask.pixels.begin(), mask.pixels.end(), [](float v) { return v > 0.5f; }));
+}
+
+double mask_iou(const ImageF& a, const ImageF& b) {
+    if (a.width != b.width || a.height != b.height || a.channels != 1 || b.channels != 1 ||
+        a.pixels.size() != b.pixels.size())
+        return std::nan("");
+    size_t both = 0, either = 0;
+    for (size_t i = 0; i < a.pixels.size(); ++i) {
+        bool x = a.pixels[i] > 0.5f, y = b.pixels[i] > 0.5f;
+        both += x && y;
+        either += x || y;
+    }
+    return either ? double(both) / double(either) : 1.0;
+}
+
+double mean_absolute_difference(const ImageF& a, const ImageF& b) {
+    if (a.width != b.width || a.height != b.height || a.channels != b.channels || a.pixels.size() != b.pixels.size())
+        return std::nan("");
+    if (a.pixels.empty()) return 0;
+    double sum = 0;
+    for (size_t i = 0; i < a.pixels.size(); ++i) sum += std::abs(double(a.pixels[i]) - double(b.pixels[i]));
+    return sum / double(a.pixels.size());
+}
+
+namespace render_detail {
+
+namespace {
+constexpr int kRepeat = 10497, kClampToEdge = 33071, kMirroredRepeat = 33648;
+
+int64_t fast_floor(double x) { // std::floor is a libm call on baseline x86-64; |x| is bounded by the callers
+    int64_t k = int64_t(x);
+    return k - (double(k) > x);
+}
+
+// The two texels a coordinate falls between along one axis (the same one twice for nearest), and the weight
+// of the second, with the sampler's wrap mode applied.
+struct Axis {
+    int i0, i1;
+    float f;
+};
+Axis axis(float coord, int n, int mode, bool nearest) {
+    double c = coord;
+    // Reduce to one period first so the texel indices below stay within one period of the range.
+    if (mode == kRepeat) c -= std::abs(c) < 1e9 ? double(fast_floor(c)) : std::floor(c);
+    else if (mode == kMirroredRepeat) c -= 2 * (std::abs(c) < 1e9 ? double(fast_floor(c / 2)) : std::floor(c / 2));
+    else c = std::clamp(c, -1.0, 2.0);
+    double x = c * n - (nearest ? 0.0 : 0.5);
+    int64_t k = fast_floor(x);
+    auto fix = [&](int64_t i) {
+        if (mode == kRepeat) return int(i < 0 ? i + n : i >= n ? i - n : i);
+        if (mode == kMirroredRepeat) {
+            i = i < 0 ? -1 - i : i >= 2 * n ? i - 2 * n : i; // [-1, 2n] -> [0, 2n)
+            return int(i < n ? i : 2 * n - 1 - i);
+        }
+        return int(std::clamp<int64_t>(i, 0, n - 1));
+    };
+    if (nearest) return {fix(k), fix(k), 0.0f};
+    return {fix(k), fix(k + 1), float(x - double(k))};
+}
+} // namespace
+
+std::array<float, 4> sample(const DecodedTexture& t, float u, float v) {
+    if (!std::isfinite(u) || !std::isfinite(v)) u = v = 0;
+    Axis ax = axis(u, t.width, t.wrap_s, t.nearest), ay = axis(v, t.height, t.wrap_t, t.nearest);
+    auto texel = [&](int x, int y) { return &t.rgba[4 * (size_t(y) * size_t(t.width) + size_t(x))]; };
+    const float *a = texel(ax.i0, ay.i0), *b = texel(ax.i1, ay.i0), *c = texel(ax.i0, ay.i1), *d = texel(ax.i1, ay.i1);
+    std::array<float, 4> r;
+    for (size_t k = 0; k < 4; ++k) {
+        float top = a[k] + ax.f * (b[k] - a[k]), bottom = c[k] + ax.f * (d[k] - c[k]);
+        r[k] = top + ay.f * (bottom - top);
+    }
+    return r;
+}
+
+std::array<float, 3> viridis(float t) {
+    static constexpr unsigned char stops[11][3] = { // matplotlib viridis at 0, 0.1, ..., 1 (sRGB)
+        {0x44, 0x01, 0x54}, {0x48, 0x24, 0x75}, {0x41, 0x44, 0x87}, {0x35, 0x5F, 0x8D},
+        {0x2A, 0x78, 0x8E}, {0x21, 0x91, 0x8C}, {0x22, 0xA8, 0x84}, {0x44, 0xBF, 0x70},
+        {0x7A, 0xD1, 0x51}, {0xBD, 0xDF, 0x26}, {0xFD, 0xE7, 0x25}};
+    float x = std::clamp(t, 0.0f, 1.0f) * 10;
+    int i = std::min(int(x), 9);
+    float f = x - float(i);
+    std::array<float, 3> r;
+    for (size_t c = 0; c < 3; ++c) r[c] = (stops[i][c] + f * (stops[i + 1][c] - stops[i][c])) / 255.0f;
+    return r;
+}
+
+namespace {
+// Straight-alpha "over" of one colour onto a pixel.
+void blend_pixel(ImageF& img, int x, int y, std::array<float, 3> rgb, float a) {
+    if (x < 0 || y < 0 || x >= img.width || y >= img.height) return;
+    float* p = &img.pixels[4 * (size_t(y) * size_t(img.width) + size_t(x))];
+    float out_a = a + p[3] * (1 - a);
+    for (int c = 0; c < 3; ++c)
+        p[c] = out_a > 0 ? (rgb[size_t(c)] * a + p[c] * p[3] * (1 - a)) / out_a : 0.0f;
+    p[3] = out_a;
+}
+void fill_rect(ImageF& img, int x0, int y0, int x1, int y1, std::array<float, 3> rgb, float a) {
+    for (int y = y0; y < y1; ++y)
+        for (int x = x0; x < x1; ++x) blend_pixel(img, x, y, rgb, a);
+}
+int text_width(const std::string& s) { return stb_easy_font_width(const_cast<char*>(s.c_str())); }
+void draw_text(ImageF& img, int x, int y, int scale, const std::string& s) {
+    std::vector<char> buffer(300 * (s.size() + 1));
+    int quads = stb_easy_font_print(0, 0, const_cast<char*>(s.c_str()), nullptr, buffer.data(), int(buffer.size()));
+    for (int q = 0; q < quads; ++q) {
+        float corner[2][2];
+        for (int k = 0; k < 2; ++k) std::copy_n(reinterpret_cast<const float*>(&buffer[size_t(q * 4 + 2 * k) * 16]), 2, corner[k]);
+        fill_rect(img, x + int(corner[0][0]) * scale, y + int(corner[0][1]) * scale, x + int(corner[1][0]) * scale,
+                  y + int(corner[1][1]) * scale, {1, 1, 1}, 1);
+    }
+}
+std::string label(float v) {
+    char s[32];
+    std::snprintf(s, sizeof s, "%.4g", double(v));
+    return s;
+}
+} // namespace
+
+void draw_legend(ImageF& img, float lo, float hi) {
+    int k = std::max(1, img.height / 400); // text and bar scale
+    int bar_w = 10 * k, bar_h = std::max(16, img.height / 2), margin = 8 * k;
+    int bar_x = img.width - margin - bar_w, bar_y = (img.height - bar_h) / 2;
+    std::string top = label(hi), bottom = label(lo);
+    int text_w = std::max(text_width(top), text_width(bottom)) * k, text_h = 7 * k;
+    int panel_x = bar_x - text_w - 3 * margin / 2;
+    fill_rect(img, panel_x, bar_y - text_h - margin, img.width - margin / 2, bar_y + bar_h + margin, {0.05f, 0.05f, 0.05f}, 0.7f);
+    for (int y = 0; y < bar_h; ++y)
+        fill_rect(img, bar_x, bar_y + y, bar_x + bar_w, bar_y + y + 1, viridis(1.0f - float(y) / float(bar_h - 1)), 1);
+    draw_text(img, bar_x - margin / 2 - text_width(top) * k, bar_y - text_h / 2, k, top);
+    draw_text(img, bar_x - margin / 2 - text_width(bottom) * k, bar_y + bar_h - text_h / 2, k, bottom);
+}
+
+} // namespace render_detail
+} // namespace furrow

@@ -1,0 +1,162 @@
+// save_scene: what furrow writes is valid glTF (Khronos validator: 0 errors, 0 warnings) and reads back the
+// same, for every attribute kind furrow models; failures write nothing.
+#include "scene_compare.h"
+#include "test_support.h"
+
+#include <furrow/shapes.h>
+
+#include <cmath>
+
+using namespace furrow;
+using namespace furrow::test;
+
+namespace {
+
+// Saves as .glb and .gltf, validates both, reloads both and compares with the original.
+void round_trip(const Scene& s, const std::string& stem) {
+    const auto dir = temp_dir();
+    for (const char* ext : {".glb", ".gltf"}) {
+        const auto out = dir / (stem + ext);
+        Status st = save_scene(s, out.string());
+        ASSERT_TRUE(st.ok()) << st.message;
+        EXPECT_VALID_GLTF(out);
+        Scene b;
+        st = load_scene(b, out.string(), LoadOptions{.recentre = false});
+        ASSERT_TRUE(st.ok()) << st.message;
+        expect_same_scene(s, b);
+    }
+}
+
+TEST(save_scene, CustomAttributesColorsAndTwoUvSets) {
+    // An engine-layout fur mesh carries _FUR_LAYER (scalar) and _FUR_DIRECTION (vec3) beside COLOR_0/UV1.
+    Primitive p = shapes::uv_sphere(1.0f, 16, 8);
+    const size_t n = p.vertex_count();
+    p.uv1 = p.uv0;
+    p.colors.assign(n * 4, 0.5f);
+    CustomAttribute layer{"_FUR_LAYER", 1, std::vector<float>(n, 3.0f)};
+    CustomAttribute dir{"_FUR_DIRECTION", 3, p.normals};
+    p.custom = {layer, dir};
+    round_trip(make_scene(p, "fur"), "custom");
+}
+
+TEST(save_scene, MorphTargetsAndWeights) {
+    Primitive p = shapes::box(1, 1, 1, true);
+    MorphTarget t;
+    t.position_deltas.assign(p.positions.size(), 0.0f);
+    t.position_deltas[1] = 0.25f;
+    t.normal_deltas.assign(p.normals.size(), 0.0f);
+    p.targets = {t};
+    Scene s = make_scene(p, "morph");
+    s.meshes[0].weights = {0.5f};
+    round_trip(s, "morph");
+}
+
+TEST(save_scene, SkinnedMeshWithJointsAndInverseBindMatrices) {
+    // Two joints along y; every vertex weighted between them.
+    Primitive p = shapes::box(1, 2, 1, true);
+    const size_t n = p.vertex_count();
+    for (size_t i = 0; i < n; ++i) {
+        float w = std::clamp(p.positions[i * 3 + 1] + 0.5f, 0.0f, 1.0f);
+        p.joints.insert(p.joints.end(), {0, 1, 0, 0});
+        p.weights.insert(p.weights.end(), {1 - w, w, 0, 0});
+    }
+    Scene s = make_scene(p, "skinned");
+    Node j0, j1;
+    j0.name = "root_joint";
+    j1.name = "tip_joint";
+    j1.translation = {0, 1, 0};
+    j0.children = {2};
+    s.nodes.push_back(j0);
+    s.nodes.push_back(j1);
+    s.roots.push_back(1);
+    s.nodes[0].skin = 0;
+    Skin sk;
+    sk.joints = {1, 2};
+    sk.inverse_bind_matrices = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, //
+                                1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, -1, 0, 1};
+    s.skins.push_back(sk);
+    round_trip(s, "skin");
+}
+
+TEST(save_scene, MoreThan65535VerticesUseUint32Indices) {
+    Primitive p = shapes::grid(10, 10, 300, 300); // 90601 vertices
+    ASSERT_GT(p.vertex_count(), 65535u);
+    Scene s = make_scene(p, "big");
+    const auto out = temp_dir() / "big.glb";
+    ASSERT_TRUE(save_scene(s, out.string()).ok());
+    auto j = gltf_json(out);
+    int idx = j["meshes"][0]["primitives"][0]["indices"];
+    EXPECT_EQ(j["accessors"][idx]["componentType"], 5125);
+    EXPECT_VALID_GLTF(out);
+    Primitive small = shapes::grid(1, 1, 4, 4);
+    const auto out2 = temp_dir() / "small.glb";
+    ASSERT_TRUE(save_scene(make_scene(small, "small"), out2.string()).ok());
+    auto j2 = gltf_json(out2);
+    int idx2 = j2["meshes"][0]["primitives"][0]["indices"];
+    EXPECT_EQ(j2["accessors"][idx2]["componentType"], 5123);
+}
+
+TEST(save_scene, QuadsAreFannedOnWrite) {
+    Primitive q = shapes::quad_grid(1, 1, 3, 2);
+    const auto out = temp_dir() / "q.glb";
+    ASSERT_TRUE(save_scene(make_scene(q, "q"), out.string()).ok());
+    Scene b;
+    ASSERT_TRUE(load_scene(b, out.string()).ok());
+    EXPECT_EQ(b.meshes[0].primitives[0].indices, shapes::grid(1, 1, 3, 2).indices);
+    EXPECT_VALID_GLTF(out);
+}
+
+TEST(save_scene, ZeroLengthNormalsAreRepairedNotWrittenAsNaN) {
+    // A degenerate input normal (0,0,0) would be a validator error and NaN after normalisation.
+    Primitive p = shapes::grid(1, 1, 2, 2);
+    p.normals[0] = p.normals[1] = p.normals[2] = 0.0f;
+    p.normals[3] = std::nanf("");
+    const auto out = temp_dir() / "n.glb";
+    ASSERT_TRUE(save_scene(make_scene(p, "n"), out.string()).ok());
+    EXPECT_VALID_GLTF(out);
+    Scene b;
+    ASSERT_TRUE(load_scene(b, out.string()).ok());
+    EXPECT_TRUE(all_finite(b));
+    EXPECT_FLOAT_EQ(b.meshes[0].primitives[0].normals[1], 1.0f); // the welded face normal (+y)
+}
+
+TEST(save_scene, FarFromOriginKeepsPrecisionThroughNodeTranslation) {
+    // A 1 m grid 1e5 m from the origin: recentre() moves the offset into the node in double.
+    Primitive p = shapes::grid(1, 1, 4, 4);
+    Scene s = make_scene(p, "far");
+    s.nodes[0].translation = {0, 0, 0};
+    for (size_t i = 0; i < p.positions.size(); i += 3) s.meshes[0].primitives[0].positions[i] += 100000.0f;
+    EXPECT_EQ(recentre(s), 1u);
+    EXPECT_DOUBLE_EQ(s.nodes[0].translation[0], 100000.0);
+    EXPECT_EQ(s.meshes[0].primitives[0].positions, p.positions); // the grid is symmetric about its centre
+    round_trip(s, "far");
+}
+
+TEST(save_scene, BadSceneIsRefusedAndNothingIsWritten) {
+    const auto dir = temp_dir();
+    Primitive p = shapes::grid(1, 1, 1, 1);
+    Scene s = make_scene(p, "bad");
+    s.meshes[0].primitives[0].material = 3; // no such material
+    Status st = save_scene(s, (dir / "bad.glb").string());
+    EXPECT_EQ(st.code, StatusCode::invalid_argument);
+    s.meshes[0].primitives[0].material = -1;
+    s.meshes[0].primitives[0].custom.push_back({"NO_UNDERSCORE", 1, std::vector<float>(4, 0.0f)});
+    EXPECT_EQ(save_scene(s, (dir / "bad.glb").string()).code, StatusCode::invalid_argument);
+    s.meshes[0].primitives[0].custom.clear();
+    s.meshes[0].primitives[0].positions[0] = INFINITY;
+    EXPECT_EQ(save_scene(s, (dir / "bad.glb").string()).code, StatusCode::invalid_argument);
+    EXPECT_TRUE(list_dir(dir).empty());
+    EXPECT_EQ(save_scene(make_scene(p), (dir / "no/such/dir/x.glb").string()).code, StatusCode::io_error);
+    EXPECT_EQ(save_scene(make_scene(p), (dir / "x.obj").string()).code, StatusCode::unsupported);
+    EXPECT_TRUE(list_dir(dir).empty());
+}
+
+TEST(save_scene, SameSceneGivesSameBytes) {
+    Scene s = make_scene(shapes::torus(1.0f, 0.25f, 24, 12), "torus");
+    const auto dir = temp_dir();
+    ASSERT_TRUE(save_scene(s, (dir / "a.glb").string()).ok());
+    ASSERT_TRUE(save_scene(s, (dir / "b.glb").string()).ok());
+    EXPECT_EQ(read_bytes(dir / "a.glb"), read_bytes(dir / "b.glb"));
+}
+
+} // namespace
