@@ -16,6 +16,7 @@ int main(int argc, char** argv) {
     CLI::App app{"furrow " FURROW_VERSION " — fur shells, adaptive tessellation and deformable terrain", "furrow"};
     app.set_version_flag("--version", "furrow " FURROW_VERSION);
     app.require_subcommand(1);
+    app.fallthrough(); // -q and -j may also follow the command: `furrow check x.glb -q`
     GlobalFlags g;
     app.add_flag("-q,--quiet", g.quiet, "Print nothing but errors");
     std::unique_ptr<tbb::global_control> thread_limit; // lives until the command has run
