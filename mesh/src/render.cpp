@@ -285,12 +285,16 @@ struct View {
     double near_plane = 1, far_plane = 0;
 };
 
+// `reserve_right`: pixels at the right edge that the default framing leaves free (for the legend).
 Status make_view(View& v, const RenderCamera& cam, const Vec3& lo, const Vec3& hi, int width, int height,
-                 std::vector<std::string>& warnings) {
+                 int reserve_right, std::vector<std::string>& warnings) {
     Vec3 centre = scale(add(lo, hi), 0.5);
     double radius = 0.5 * length(sub(hi, lo));
     if (!(radius > 0)) radius = 1; // a single point: frame a unit sphere around it
     double aspect = double(width) / height;
+    if (cam.eye) reserve_right = 0; // a camera the user placed is not moved
+    reserve_right = std::min(reserve_right, width / 3);
+    double fit_aspect = double(width - reserve_right) / height, shift = -double(reserve_right) / width; // NDC
     double half_fov = cam.fov_degrees * M_PI / 360;
     Vec3 up = normalize(cam.up);
     // The default views are built on a frame of the up axis: front = +Z (or −Y when up is Z).
@@ -311,7 +315,7 @@ Status make_view(View& v, const RenderCamera& cam, const Vec3& lo, const Vec3& h
         // d >= |x| / tan(half angle) − z.
         Vec3 dir = normalize(add(add(front, right), scale(up, 0.8)));
         Vec3 cr = normalize(cross(scale(dir, -1), up)), cu = cross(cr, scale(dir, -1));
-        double tv = 0.96 * std::tan(half_fov), th = tv * aspect, distance = 0;
+        double tv = 0.96 * std::tan(half_fov), th = tv * fit_aspect, distance = 0;
         for (int c = 0; c < 8; ++c) {
             Vec3 p = sub(Vec3{(c & 1) ? hi[0] : lo[0], (c & 2) ? hi[1] : lo[1], (c & 4) ? hi[2] : lo[2]}, target);
             double z = -dot(p, dir);
@@ -345,7 +349,7 @@ Status make_view(View& v, const RenderCamera& cam, const Vec3& lo, const Vec3& h
     double pad = 1e-6 * std::max(radius, dmax - dmin);
     Mat4 proj{};
     if (cam.orthographic) {
-        double h = cam.ortho_height > 0 ? cam.ortho_height : 1.02 * 2 * std::max(hy, hx / aspect);
+        double h = cam.ortho_height > 0 ? cam.ortho_height : 1.02 * 2 * std::max(hy, hx / fit_aspect);
         if (!(h > 0)) h = 2 * radius;
         v.near_plane = cam.near_plane > 0 ? cam.near_plane : dmin - 0.01 * (dmax - dmin) - pad;
         v.far_plane = dmax + 0.01 * (dmax - dmin) + pad;
@@ -356,6 +360,7 @@ Status make_view(View& v, const RenderCamera& cam, const Vec3& lo, const Vec3& h
         proj[10] = 1 / (v.far_plane - v.near_plane);
         proj[14] = v.far_plane / (v.far_plane - v.near_plane);
         proj[15] = 1;
+        proj[12] = shift;
     } else {
         if (cam.near_plane > 0) {
             v.near_plane = cam.near_plane;
@@ -372,6 +377,7 @@ Status make_view(View& v, const RenderCamera& cam, const Vec3& lo, const Vec3& h
         proj[5] = fy;
         proj[14] = v.near_plane;
         proj[11] = -1;
+        proj[8] = -shift; // x_ndc += shift (w = −z_eye)
     }
     Mat4 view{r[0], u[0], -f[0], 0, r[1], u[1], -f[1], 0, r[2], u[2], -f[2], 0,
               -dot(r, eye), -dot(u, eye), dot(f, eye), 1};
@@ -555,8 +561,10 @@ Status render_scene(RenderResult& out, const Scene& scene, const RenderOptions& 
         out.attribute_max = amax;
     }
 
+    bool legend = o.mode == RenderMode::attribute && o.legend && o.width >= 64 && o.height >= 48;
     View view;
-    if (Status s = make_view(view, cam, lo, hi, o.width, o.height, out.warnings); !s.ok()) return s;
+    int reserve = legend ? legend_width(o.height, amin, amax) : 0;
+    if (Status s = make_view(view, cam, lo, hi, o.width, o.height, reserve, out.warnings); !s.ok()) return s;
 
     // Pass 2: clip space plus the attributes the pixel stage needs, one Draw per instance.
     std::map<int, std::unique_ptr<DecodedTexture>> textures;
@@ -566,7 +574,7 @@ Status render_scene(RenderResult& out, const Scene& scene, const RenderOptions& 
     bool missing_attribute_warned = false;
     Mat4 vp = view.view_proj;
     for (size_t d = 0; d < instances.size(); ++d) {
-        const Instance& inst = instances[d];
+        Instance& inst = instances[d];
         const Primitive& p = *inst.prim;
         Draw& draw = draws[d];
         Material m = p.material >= 0 ? scene.materials[size_t(p.material)] : Material{};
@@ -600,7 +608,7 @@ Status render_scene(RenderResult& out, const Scene& scene, const RenderOptions& 
         bool view_normals = o.mode != RenderMode::normals;
         size_t count = inst.position.size() / 3;
         draw.verts.resize(count);
-        draw.tris = inst.tris;
+        draw.tris = std::move(inst.tris);
         float arange = amax > amin ? amax - amin : 1.0f;
         tbb::parallel_for(tbb::blocked_range<size_t>(0, count, 4096), [&](const tbb::blocked_range<size_t>& r) {
             for (size_t i = r.begin(); i != r.end(); ++i) {
@@ -663,16 +671,16 @@ Status render_scene(RenderResult& out, const Scene& scene, const RenderOptions& 
     if (out.nan_triangles)
         out.warnings.push_back(std::to_string(out.nan_triangles) + " triangles with NaN or infinite positions skipped");
 
-    if (o.mode == RenderMode::attribute && o.legend) {
-        if (o.width >= 64 && o.height >= 48)
-            draw_legend(out.color, amin, amax);
-        else
-            out.warnings.push_back("image too small for the legend");
-    }
+    if (legend)
+        draw_legend(out.color, amin, amax);
+    else if (o.mode == RenderMode::attribute && o.legend)
+        out.warnings.push_back("image too small for the legend");
     size_t pixels = size_t(o.width) * size_t(o.height);
     out.rgba8.resize(4 * pixels);
-    for (size_t i = 0; i < 4 * pixels; ++i)
-        out.rgba8[i] = uint8_t(std::lround(std::clamp(out.color.pixels[i], 0.0f, 1.0f) * 255.0f));
+    for (size_t i = 0; i < 4 * pixels; ++i) {
+        float v = out.color.pixels[i];
+        out.rgba8[i] = uint8_t((v >= 0 ? (v <= 1 ? v : 1.0f) : 0.0f) * 255.0f + 0.5f); // NaN -> 0
+    }
     out.timing.total = ms_since(t0);
     return Status::success();
 }

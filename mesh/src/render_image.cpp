@@ -1,8 +1,8 @@
-// Image-side helpers of the verification rasterizer: texture sampling, transfer functions, the heat-map
-// colours and legend, and the image metrics of render.h.
+// Image-side helpers of the verification rasterizer: transfer functions, the heat-map colours and legend,
+// and the image metrics of render.h.
 //
 // References:
-//   IEC 61966-2-1 (sRGB transfer function). glTF 2.0 §3.8 samplers (wrap modes, texel centres at +0.5).
+//   IEC 61966-2-1 (sRGB transfer function).
 //   Viridis: van der Walt & Smith, matplotlib (2015) — perceptually uniform and readable in greyscale.
 //   Legend text: stb_easy_font (S. Barrett, public domain), rasterized here as axis-aligned quads.
 #include "render_internal.h"
@@ -62,54 +62,6 @@ double mean_absolute_difference(const ImageF& a, const ImageF& b) {
 
 namespace render_detail {
 
-namespace {
-constexpr int kRepeat = 10497, kClampToEdge = 33071, kMirroredRepeat = 33648;
-
-int64_t fast_floor(double x) { // std::floor is a libm call on baseline x86-64; |x| is bounded by the callers
-    int64_t k = int64_t(x);
-    return k - (double(k) > x);
-}
-
-// The two texels a coordinate falls between along one axis (the same one twice for nearest), and the weight
-// of the second, with the sampler's wrap mode applied.
-struct Axis {
-    int i0, i1;
-    float f;
-};
-Axis axis(float coord, int n, int mode, bool nearest) {
-    double c = coord;
-    // Reduce to one period first so the texel indices below stay within one period of the range.
-    if (mode == kRepeat) c -= std::abs(c) < 1e9 ? double(fast_floor(c)) : std::floor(c);
-    else if (mode == kMirroredRepeat) c -= 2 * (std::abs(c) < 1e9 ? double(fast_floor(c / 2)) : std::floor(c / 2));
-    else c = std::clamp(c, -1.0, 2.0);
-    double x = c * n - (nearest ? 0.0 : 0.5);
-    int64_t k = fast_floor(x);
-    auto fix = [&](int64_t i) {
-        if (mode == kRepeat) return int(i < 0 ? i + n : i >= n ? i - n : i);
-        if (mode == kMirroredRepeat) {
-            i = i < 0 ? -1 - i : i >= 2 * n ? i - 2 * n : i; // [-1, 2n] -> [0, 2n)
-            return int(i < n ? i : 2 * n - 1 - i);
-        }
-        return int(std::clamp<int64_t>(i, 0, n - 1));
-    };
-    if (nearest) return {fix(k), fix(k), 0.0f};
-    return {fix(k), fix(k + 1), float(x - double(k))};
-}
-} // namespace
-
-std::array<float, 4> sample(const DecodedTexture& t, float u, float v) {
-    if (!std::isfinite(u) || !std::isfinite(v)) u = v = 0;
-    Axis ax = axis(u, t.width, t.wrap_s, t.nearest), ay = axis(v, t.height, t.wrap_t, t.nearest);
-    auto texel = [&](int x, int y) { return &t.rgba[4 * (size_t(y) * size_t(t.width) + size_t(x))]; };
-    const float *a = texel(ax.i0, ay.i0), *b = texel(ax.i1, ay.i0), *c = texel(ax.i0, ay.i1), *d = texel(ax.i1, ay.i1);
-    std::array<float, 4> r;
-    for (size_t k = 0; k < 4; ++k) {
-        float top = a[k] + ax.f * (b[k] - a[k]), bottom = c[k] + ax.f * (d[k] - c[k]);
-        r[k] = top + ay.f * (bottom - top);
-    }
-    return r;
-}
-
 std::array<float, 3> viridis(float t) {
     static constexpr unsigned char stops[11][3] = { // matplotlib viridis at 0, 0.1, ..., 1 (sRGB)
         {0x44, 0x01, 0x54}, {0x48, 0x24, 0x75}, {0x41, 0x44, 0x87}, {0x35, 0x5F, 0x8D},
@@ -155,18 +107,36 @@ std::string label(float v) {
 }
 } // namespace
 
+namespace {
+struct LegendLayout {
+    int k, bar_w, bar_h, margin, text_w, text_h;
+    std::string top, bottom;
+};
+LegendLayout legend_layout(int height, float lo, float hi) {
+    LegendLayout l;
+    l.k = std::max(1, height / 250); // text and bar scale
+    l.bar_w = 10 * l.k, l.bar_h = std::max(16, height / 2), l.margin = 8 * l.k;
+    l.top = label(hi), l.bottom = label(lo);
+    l.text_w = std::max(text_width(l.top), text_width(l.bottom)) * l.k, l.text_h = 7 * l.k;
+    return l;
+}
+} // namespace
+
+int legend_width(int height, float lo, float hi) {
+    LegendLayout l = legend_layout(height, lo, hi);
+    return l.bar_w + l.text_w + 3 * l.margin;
+}
+
 void draw_legend(ImageF& img, float lo, float hi) {
-    int k = std::max(1, img.height / 400); // text and bar scale
-    int bar_w = 10 * k, bar_h = std::max(16, img.height / 2), margin = 8 * k;
-    int bar_x = img.width - margin - bar_w, bar_y = (img.height - bar_h) / 2;
-    std::string top = label(hi), bottom = label(lo);
-    int text_w = std::max(text_width(top), text_width(bottom)) * k, text_h = 7 * k;
-    int panel_x = bar_x - text_w - 3 * margin / 2;
-    fill_rect(img, panel_x, bar_y - text_h - margin, img.width - margin / 2, bar_y + bar_h + margin, {0.05f, 0.05f, 0.05f}, 0.7f);
-    for (int y = 0; y < bar_h; ++y)
-        fill_rect(img, bar_x, bar_y + y, bar_x + bar_w, bar_y + y + 1, viridis(1.0f - float(y) / float(bar_h - 1)), 1);
-    draw_text(img, bar_x - margin / 2 - text_width(top) * k, bar_y - text_h / 2, k, top);
-    draw_text(img, bar_x - margin / 2 - text_width(bottom) * k, bar_y + bar_h - text_h / 2, k, bottom);
+    LegendLayout l = legend_layout(img.height, lo, hi);
+    int k = l.k, margin = l.margin;
+    int bar_x = img.width - margin - l.bar_w, bar_y = (img.height - l.bar_h) / 2;
+    int panel_x = bar_x - l.text_w - 3 * margin / 2;
+    fill_rect(img, panel_x, bar_y - l.text_h - margin, img.width - margin / 2, bar_y + l.bar_h + margin, {0.05f, 0.05f, 0.05f}, 0.7f);
+    for (int y = 0; y < l.bar_h; ++y)
+        fill_rect(img, bar_x, bar_y + y, bar_x + l.bar_w, bar_y + y + 1, viridis(1.0f - float(y) / float(l.bar_h - 1)), 1);
+    draw_text(img, bar_x - margin / 2 - text_width(l.top) * k, bar_y - l.text_h / 2, k, l.top);
+    draw_text(img, bar_x - margin / 2 - text_width(l.bottom) * k, bar_y + l.bar_h - l.text_h / 2, k, l.bottom);
 }
 
 } // namespace render_detail

@@ -20,8 +20,6 @@ struct DecodedTexture {
     int wrap_s = 10497, wrap_t = 10497; // glTF REPEAT / CLAMP_TO_EDGE (33071) / MIRRORED_REPEAT (33648)
     bool nearest = false;               // sampler magFilter NEAREST (9728)
 };
-// Linear RGBA at texture coordinate (u, v), v = 0 at the top row (glTF).
-std::array<float, 4> sample(const DecodedTexture& t, float u, float v);
 
 // One vertex after the vertex stage: clip-space position, then what the pixel stage interpolates.
 struct Vert {
@@ -67,7 +65,9 @@ RasterStats rasterize(RenderResult& out, const std::vector<Draw>& draws, const F
 
 // Colours.
 std::array<float, 3> viridis(float t); // sRGB, t in [0,1]
-// Draws the colour bar and its min/max labels onto an RGBA (straight alpha, raw) image.
+// Draws the colour bar and its min/max labels at the right edge of an RGBA (straight alpha, raw) image.
 void draw_legend(ImageF& image, float min_value, float max_value);
+// Pixels the legend takes from the right edge (the default view frames the scene in the rest).
+int legend_width(int image_height, float min_value, float max_value);
 
 } // namespace furrow::render_detail

@@ -49,13 +49,68 @@ struct Chunk {
     size_t nan = 0, culled = 0;
 };
 
+// The sample grid and the guard band (in NDC units) that keeps snapped coordinates in range.
+struct Grid {
+    int ws, hs;
+    float gx, gy;
+};
+using Snapped = std::array<int32_t, 2>;
+
 struct Setup {
     const Draw& draw;
-    const Frame& frame;
+    const std::vector<Snapped>& snapped; // per Draw vertex (valid where !outside(v))
     Chunk& chunk;
-    int ws, hs;        // sample grid
-    double gx, gy;     // guard band in NDC units
+    Grid grid;
 };
+
+// ---- Texture sampling (glTF 2.0 §3.8: wrap modes, texel centres at +0.5) ----
+
+constexpr int kRepeat = 10497, kMirroredRepeat = 33648; // and CLAMP_TO_EDGE (33071)
+
+int64_t fast_floor(double x) { // std::floor is a libm call on baseline x86-64; |x| is bounded by the callers
+    int64_t k = int64_t(x);
+    return k - (double(k) > x);
+}
+
+// The two texels a coordinate falls between along one axis (the same one twice for nearest), and the weight
+// of the second, with the sampler's wrap mode applied.
+struct Axis {
+    int i0, i1;
+    float f;
+};
+Axis axis(float coord, int n, int mode, bool nearest) {
+    double c = coord;
+    // Reduce to one period first so the texel indices below stay within one period of the range.
+    if (mode == kRepeat) c -= std::abs(c) < 1e9 ? double(fast_floor(c)) : std::floor(c);
+    else if (mode == kMirroredRepeat) c -= 2 * (std::abs(c) < 1e9 ? double(fast_floor(c / 2)) : std::floor(c / 2));
+    else c = std::clamp(c, -1.0, 2.0); // kClampToEdge: anything beyond one period out reads the edge
+    double x = c * n - (nearest ? 0.0 : 0.5);
+    int64_t k = fast_floor(x);
+    auto fix = [&](int64_t i) {
+        if (mode == kRepeat) return int(i < 0 ? i + n : i >= n ? i - n : i);
+        if (mode == kMirroredRepeat) {
+            i = i < 0 ? -1 - i : i >= 2 * n ? i - 2 * n : i; // [-1, 2n] -> [0, 2n)
+            return int(i < n ? i : 2 * n - 1 - i);
+        }
+        return int(std::clamp<int64_t>(i, 0, n - 1));
+    };
+    if (nearest) return {fix(k), fix(k), 0.0f};
+    return {fix(k), fix(k + 1), float(x - double(k))};
+}
+
+// Texture lookup at (u, v), v = 0 at the top row (glTF): bilinear on linear values, or nearest.
+std::array<float, 4> sample(const DecodedTexture& t, float u, float v) {
+    if (!std::isfinite(u) || !std::isfinite(v)) u = v = 0;
+    Axis ax = axis(u, t.width, t.wrap_s, t.nearest), ay = axis(v, t.height, t.wrap_t, t.nearest);
+    auto texel = [&](int x, int y) { return &t.rgba[4 * (size_t(y) * size_t(t.width) + size_t(x))]; };
+    const float *a = texel(ax.i0, ay.i0), *b = texel(ax.i1, ay.i0), *c = texel(ax.i0, ay.i1), *d = texel(ax.i1, ay.i1);
+    std::array<float, 4> r;
+    for (size_t k = 0; k < 4; ++k) {
+        float top = a[k] + ax.f * (b[k] - a[k]), bottom = c[k] + ax.f * (d[k] - c[k]);
+        r[k] = top + ay.f * (bottom - top);
+    }
+    return r;
+}
 
 // Twice the signed area in snapped coordinates (y down), positive when the triangle is counter-clockwise on
 // screen. Equals the edge function of edge 0 at v[2].
@@ -75,25 +130,31 @@ Vert lerp(const Vert& a, const Vert& b, float t) {
 }
 
 // Signed distances to the clip planes: near (z/w <= 1) and the guard band. >= 0 is inside.
-float plane_distance(const Vert& v, int plane, const Setup& s) {
+float plane_distance(const Vert& v, int plane, const Grid& g) {
     switch (plane) {
     case 0: return v.w - v.z;
-    case 1: return v.x + float(s.gx) * v.w;
-    case 2: return float(s.gx) * v.w - v.x;
-    case 3: return v.y + float(s.gy) * v.w;
-    default: return float(s.gy) * v.w - v.y;
+    case 1: return v.x + g.gx * v.w;
+    case 2: return g.gx * v.w - v.x;
+    case 3: return v.y + g.gy * v.w;
+    default: return g.gy * v.w - v.y;
     }
 }
+bool outside(const Vert& v, const Grid& g) { // beyond the near plane or the guard band (or NaN)
+    return !(v.z <= v.w && std::abs(v.x) <= g.gx * v.w && std::abs(v.y) <= g.gy * v.w);
+}
 
-// Snaps, orients and culls one triangle, and keeps it if any sample centre lies in its bounding box.
-void emit(Setup& s, const Vert* const v[3], const uint32_t idx[3], unsigned edges, bool& culled) {
+// Divides by w and snaps to the sub-sample grid (round to nearest). Every triangle sharing a vertex gets the
+// same integers from the same floats, which is what makes the fill rule exact across shared edges.
+Snapped snap(const Vert& v, const Grid& g) {
+    double iw = 1.0 / v.w;
+    return {int32_t(fast_floor((v.x * iw * 0.5 + 0.5) * g.ws * kOne + 0.5)),
+            int32_t(fast_floor((0.5 - v.y * iw * 0.5) * g.hs * kOne + 0.5))};
+}
+
+// Orients and culls one snapped triangle, and keeps it if any sample centre lies in its bounding box.
+void emit(Setup& s, const Snapped p[3], const uint32_t idx[3], unsigned edges, bool& culled) {
     Tri t;
-    for (int k = 0; k < 3; ++k) {
-        double iw = 1.0 / v[k]->w;
-        t.X[k] = int32_t(std::llround((v[k]->x * iw * 0.5 + 0.5) * s.ws * kOne));
-        t.Y[k] = int32_t(std::llround((0.5 - v[k]->y * iw * 0.5) * s.hs * kOne));
-        t.v[k] = idx[k];
-    }
+    for (int k = 0; k < 3; ++k) t.X[k] = p[k][0], t.Y[k] = p[k][1], t.v[k] = idx[k];
     int64_t area = twice_area(t); // > 0: counter-clockwise as seen, the glTF front face
     if (area == 0) return;
     bool back = (area < 0) != s.draw.flip_winding;
@@ -111,8 +172,8 @@ void emit(Setup& s, const Vert* const v[3], const uint32_t idx[3], unsigned edge
     // Sample x's centre is x·kOne + kOne/2; the first centre >= min and the last <= max (floor shifts).
     t.x0 = std::max(0, int32_t((int64_t(minx) - kOne / 2 + kOne - 1) >> kSubBits));
     t.y0 = std::max(0, int32_t((int64_t(miny) - kOne / 2 + kOne - 1) >> kSubBits));
-    t.x1 = std::min(s.ws - 1, int32_t((int64_t(maxx) - kOne / 2) >> kSubBits));
-    t.y1 = std::min(s.hs - 1, int32_t((int64_t(maxy) - kOne / 2) >> kSubBits));
+    t.x1 = std::min(s.grid.ws - 1, int32_t((int64_t(maxx) - kOne / 2) >> kSubBits));
+    t.y1 = std::min(s.grid.hs - 1, int32_t((int64_t(maxy) - kOne / 2) >> kSubBits));
     if (t.x0 > t.x1 || t.y0 > t.y1) return; // too small to reach a sample centre
     s.chunk.tris.push_back(t);
 }
@@ -134,12 +195,12 @@ void clip_and_emit(Setup& s, const Vert* const in[3], const uint32_t in_idx[3], 
         for (int i = 0; i < n; ++i) {
             const P& a = poly[i];
             const P& b = poly[(i + 1) % n];
-            float da = plane_distance(a.v, plane, s), db = plane_distance(b.v, plane, s);
+            float da = plane_distance(a.v, plane, s.grid), db = plane_distance(b.v, plane, s.grid);
             if (da >= 0) next[m++] = a;
             if ((da >= 0) != (db >= 0)) {
                 const P& inside = da >= 0 ? a : b;
                 const P& outside = da >= 0 ? b : a;
-                float di = plane_distance(inside.v, plane, s), dout = plane_distance(outside.v, plane, s);
+                float di = plane_distance(inside.v, plane, s.grid), dout = plane_distance(outside.v, plane, s.grid);
                 next[m++] = {lerp(inside.v, outside.v, di / (di - dout)), UINT32_MAX, da >= 0 ? false : a.edge};
             }
         }
@@ -149,7 +210,9 @@ void clip_and_emit(Setup& s, const Vert* const in[3], const uint32_t in_idx[3], 
     if (n < 3) return;
     uint32_t base = uint32_t(s.draw.verts.size());
     uint32_t idx[16];
+    Snapped snapped[16];
     for (int i = 0; i < n; ++i) {
+        snapped[i] = snap(poly[i].v, s.grid);
         if (poly[i].idx != UINT32_MAX) {
             idx[i] = poly[i].idx;
         } else {
@@ -158,16 +221,17 @@ void clip_and_emit(Setup& s, const Vert* const in[3], const uint32_t in_idx[3], 
         }
     }
     for (int i = 1; i + 1 < n; ++i) {
-        const Vert* v[3] = {&poly[0].v, &poly[i].v, &poly[i + 1].v};
+        const Snapped p[3] = {snapped[0], snapped[i], snapped[i + 1]};
         uint32_t tri_idx[3] = {idx[0], idx[i], idx[i + 1]};
         unsigned edges = (i == 1 && poly[0].edge ? 1u : 0u) | (poly[i].edge ? 2u : 0u) |
                          (i + 2 == n && poly[n - 1].edge ? 4u : 0u);
-        emit(s, v, tri_idx, edges, culled);
+        emit(s, p, tri_idx, edges, culled);
     }
 }
 
-void setup_chunk(Chunk& ch, const Draw& d, const Frame& f, int ws, int hs, int band_rows, int bands) {
-    Setup s{d, f, ch, ws, hs, kGuard / ws, kGuard / hs};
+void setup_chunk(Chunk& ch, const Draw& d, const std::vector<Snapped>& snapped, const Grid& grid, int band_rows, int bands) {
+    Setup s{d, snapped, ch, grid};
+    ch.tris.reserve(ch.count);
     for (size_t t = ch.first; t < ch.first + ch.count; ++t) {
         const uint32_t idx[3] = {d.tris[3 * t], d.tris[3 * t + 1], d.tris[3 * t + 2]};
         const Vert* v[3] = {&d.verts[idx[0]], &d.verts[idx[1]], &d.verts[idx[2]]};
@@ -177,19 +241,19 @@ void setup_chunk(Chunk& ch, const Draw& d, const Frame& f, int ws, int hs, int b
             ++ch.nan;
             continue;
         }
-        auto all = [&](auto outside) { return outside(*v[0]) && outside(*v[1]) && outside(*v[2]); };
-        auto any = [&](auto outside) { return outside(*v[0]) || outside(*v[1]) || outside(*v[2]); };
+        auto all = [&](auto test) { return test(*v[0]) && test(*v[1]) && test(*v[2]); };
+        auto any = [&](auto test) { return test(*v[0]) || test(*v[1]) || test(*v[2]); };
         if (all([](const Vert& p) { return p.z > p.w; }) || all([](const Vert& p) { return p.x > p.w; }) ||
             all([](const Vert& p) { return p.x < -p.w; }) || all([](const Vert& p) { return p.y > p.w; }) ||
             all([](const Vert& p) { return p.y < -p.w; }))
             continue; // wholly outside the view
         bool culled = false;
-        if (any([&](const Vert& p) {
-                return p.z > p.w || std::abs(p.x) > float(s.gx) * p.w || std::abs(p.y) > float(s.gy) * p.w;
-            }))
+        if (any([&](const Vert& p) { return outside(p, grid); })) {
             clip_and_emit(s, v, idx, culled);
-        else
-            emit(s, v, idx, 7, culled);
+        } else {
+            const Snapped p[3] = {snapped[idx[0]], snapped[idx[1]], snapped[idx[2]]};
+            emit(s, p, idx, 7, culled);
+        }
         ch.culled += culled;
     }
     // Bin into bands (counting sort keeps the draw order inside each band).
@@ -397,9 +461,18 @@ RasterStats rasterize(RenderResult& out, const std::vector<Draw>& draws, const F
             c.count = std::min(kChunk, draws[d].tris.size() / 3 - first);
             chunks.push_back(std::move(c));
         }
+    Grid grid{ws, hs, float(kGuard / ws), float(kGuard / hs)};
+    std::vector<std::vector<Snapped>> snapped(draws.size());
+    for (size_t d = 0; d < draws.size(); ++d) {
+        snapped[d].resize(draws[d].verts.size());
+        tbb::parallel_for(tbb::blocked_range<size_t>(0, draws[d].verts.size(), 4096), [&](const tbb::blocked_range<size_t>& r) {
+            for (size_t i = r.begin(); i != r.end(); ++i)
+                snapped[d][i] = outside(draws[d].verts[i], grid) ? Snapped{0, 0} : snap(draws[d].verts[i], grid);
+        });
+    }
     tbb::parallel_for(tbb::blocked_range<size_t>(0, chunks.size(), 1), [&](const tbb::blocked_range<size_t>& r) {
         for (size_t i = r.begin(); i != r.end(); ++i)
-            setup_chunk(chunks[i], draws[chunks[i].draw], f, ws, hs, band_rows, bands);
+            setup_chunk(chunks[i], draws[chunks[i].draw], snapped[chunks[i].draw], grid, band_rows, bands);
     });
     for (const Chunk& c : chunks) stats.nan_triangles += c.nan, stats.culled += c.culled;
     stats.setup_ms = ms_since(t0);

@@ -161,6 +161,18 @@ TEST(render_scene, TopLeftFillRuleNoGapsNoOverlap) {
     EXPECT_EQ(alpha_at(r, 64, 63), 0.5f); // the shared centre vertex: exactly one owner
 }
 
+// A square whose edges run exactly through sample centres: the samples on its top and left edges are in,
+// those on its bottom and right edges are out (D3D / OpenGL convention).
+TEST(render_scene, TopLeftFillRuleOwnsTopAndLeftEdges) {
+    const int H = 8;
+    RenderResult r;
+    // World x in [2.5, 5.5], image rows 2..5 (world y = H − row − 0.5).
+    ASSERT_TRUE(render_scene(r, scene_of({quad(2.5f, H - 5.5f, 5.5f, H - 2.5f)}), pixel_view(8, H)).ok());
+    for (int y = 0; y < H; ++y)
+        for (int x = 0; x < 8; ++x)
+            EXPECT_EQ(alpha_at(r, x, y), (x >= 2 && x <= 4 && y >= 2 && y <= 4) ? 1.0f : 0.0f) << x << "," << y;
+}
+
 // A jittered grid of triangles under a perspective camera: still every covered pixel exactly once.
 TEST(render_scene, TopLeftFillRuleHoldsUnderPerspective) {
     Primitive p;

@@ -10,7 +10,8 @@
 // (drawn after opaque geometry, primitives sorted back to front, no depth write); doubleSided disables
 // back-face culling and flips the normal of back faces; a node with a negative-determinant transform flips
 // the winding. Lambert with one directional light plus ambient, emissive added. Primitives without normals
-// are shaded flat. Points and lines are ignored.
+// are shaded flat. Points and lines are ignored. The alpha modes apply in every RenderMode; of two opaque
+// surfaces at exactly the same depth, the one drawn first (scene order) wins.
 //
 // Time a frame by timing render_scene; RenderResult::timing splits it into stages (for `furrow bench`).
 #pragma once
@@ -29,15 +30,17 @@ namespace furrow {
 enum class RenderMode : int {
     shaded = 0, // material colour, Lambert lit; sRGB-encoded output
     normals,    // world-space normal as 0.5 + 0.5·n, unlit, written raw (no sRGB): n = 2·v − 1
-    uv,         // TEXCOORD_0 as (u, v, 0), fractional part for values outside [0,1], raw
+    uv,         // TEXCOORD_0 as (u, v, 0), fractional part for values outside [0,1], raw (MASK/BLEND use the
+                // factor and COLOR_0 alpha only: the texture is not sampled in this mode)
     depth,      // grey = 1 at the nearest visible depth .. 0.1 at the farthest, raw; exact values in .depth
     wireframe,  // shaded with the triangle edges drawn over it (clipping does not add edges)
     attribute,  // heat map (viridis) of a scalar CustomAttribute (its first component), with a legend
 };
 
 // A camera. Unset eye/target frame the scene's bounding box: perspective looks from the front-right-above
-// (a 3/4 view: +X, +Y, +Z of a Y-up scene); orthographic looks straight down the up axis (top-down; for a
-// Y-up scene +X is right and −Z is up in the image).
+// (a 3/4 view: +X, +Y, +Z of a Y-up scene) and backs off until every bounding-box corner is in view;
+// orthographic looks straight down the up axis (top-down; for a Y-up scene +X is right and −Z is up in the
+// image). In attribute mode the default framing leaves the legend's strip at the right edge free.
 struct RenderCamera {
     std::optional<std::array<double, 3>> eye;
     std::optional<std::array<double, 3>> target; // default: the bounding-box centre
@@ -72,8 +75,8 @@ struct RenderResult {
     // RGBA, width × height, straight (not premultiplied) alpha, in the encoding the PNG gets: the 8-bit
     // value is round(255·v). sRGB-encoded for shaded and wireframe, raw for the other modes.
     ImageF color;
-    // 1 channel: distance along the view axis (eye space −z) of the nearest surface in the pixel (minimum
-    // over its supersamples); +infinity where nothing was drawn.
+    // 1 channel: distance along the view axis (eye space −z) of the nearest OPAQUE or MASK surface in the
+    // pixel (minimum over its supersamples; BLEND surfaces do not write depth); +infinity where none.
     ImageF depth;
     std::vector<uint8_t> rgba8; // color quantized, width × height × 4 (what encode_png_rgba8 takes)
     std::vector<std::string> warnings; // each distinct problem once (a missing texture, an unknown sampler, ...)
