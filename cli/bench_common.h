@@ -54,5 +54,9 @@ private:
 
 // One registration per benchmark (cli/bench_<tool>.cpp), called by register_bench.
 void register_bench_io(CLI::App& bench, GlobalFlags& g);
+void register_bench_tessellate(CLI::App& bench, GlobalFlags& g);
+void register_bench_render(CLI::App& bench, GlobalFlags& g);
+void register_bench_shells(CLI::App& bench, GlobalFlags& g);
+void register_bench_stamp(CLI::App& bench, GlobalFlags& g);
 
 } // namespace furrow::cli

@@ -33,6 +33,9 @@ int main(int argc, char** argv) {
     register_check(app, g);
     register_convert(app, g);
     register_render(app, g);
+    register_shells(app, g);
+    register_stamp(app, g);
+    register_tessellate(app, g);
     register_demo(app, g);
     register_bench(app, g);
     try {

@@ -1,0 +1,230 @@
+// `furrow bench shells`: time of add_fur_shells per model and shell count, against a memcpy of the bytes it
+// produces (same run), with the achieved offset measured against the requested one.
+#include "bench_common.h"
+#include "cli_common.h"
+
+#include <furrow/shells.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <sstream>
+
+namespace furrow::cli {
+namespace fs = std::filesystem;
+
+namespace {
+
+struct ShellsArgs {
+    BenchArgs base;
+    std::vector<int> layers{8, 32, 64};
+    double relative_length = 0.02;   // fur length as a fraction of the model's bounding-box diagonal
+    size_t max_samples = 200000;     // distance queries per row (vertices sampled evenly)
+};
+
+struct Row {
+    std::string model;
+    int layers = 0;
+    size_t base_triangles = 0, out_triangles = 0, out_bytes = 0;
+    double seconds = 0, memcpy_seconds = 0, peak_mib = 0;
+    double max_rel = 0, mean_rel = 0;
+    size_t measured = 0, clamped = 0, welded = 0;
+};
+
+size_t primitive_bytes(const Primitive& p) {
+    size_t b = (p.positions.size() + p.normals.size() + p.tangents.size() + p.uv0.size() + p.uv1.size() + p.colors.size() +
+                p.weights.size()) * sizeof(float) +
+               p.joints.size() * sizeof(uint16_t) + p.indices.size() * sizeof(uint32_t);
+    for (const auto& t : p.targets) b += (t.position_deltas.size() + t.normal_deltas.size() + t.tangent_deltas.size()) * sizeof(float);
+    for (const auto& c : p.custom) b += c.values.size() * sizeof(float);
+    return b;
+}
+
+// Bytes that add_fur_shells appended: primitives beyond the original counts, new meshes, new images.
+size_t added_bytes(const Scene& before, const Scene& after) {
+    size_t b = 0;
+    for (size_t m = 0; m < after.meshes.size(); ++m) {
+        size_t first = m < before.meshes.size() ? before.meshes[m].primitives.size() : 0;
+        for (size_t p = first; p < after.meshes[m].primitives.size(); ++p) b += primitive_bytes(after.meshes[m].primitives[p]);
+    }
+    for (size_t i = before.images.size(); i < after.images.size(); ++i) b += after.images[i].encoded.size();
+    return b;
+}
+
+double bbox_diagonal(const Scene& s) {
+    double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
+    std::vector<std::array<double, 16>> world = s.world_matrices();
+    for (size_t n = 0; n < s.nodes.size(); ++n) {
+        int mi = s.nodes[n].mesh;
+        if (mi < 0 || mi >= int(s.meshes.size())) continue;
+        const auto& M = world[n];
+        const bool skinned = s.nodes[n].skin >= 0; // bind pose: take the mesh as it is
+        for (const auto& p : s.meshes[size_t(mi)].primitives)
+            for (size_t v = 0; v + 3 <= p.positions.size(); v += 3) {
+                double x = p.positions[v], y = p.positions[v + 1], z = p.positions[v + 2];
+                double w[3] = {x, y, z};
+                if (!skinned)
+                    for (int k = 0; k < 3; ++k) w[k] = M[size_t(k)] * x + M[size_t(4 + k)] * y + M[size_t(8 + k)] * z + M[size_t(12 + k)];
+                for (int k = 0; k < 3; ++k) lo[k] = std::min(lo[k], w[k]), hi[k] = std::max(hi[k], w[k]);
+            }
+    }
+    double d = 0;
+    for (int k = 0; k < 3; ++k)
+        if (hi[k] >= lo[k]) d += (hi[k] - lo[k]) * (hi[k] - lo[k]);
+    return std::sqrt(d);
+}
+
+// Distance of sampled shell vertices to the base surface vs the requested offset s·L·mask, over vertices that
+// no clamp touched (a clamped vertex is short on purpose).
+void measure(Row& row, const Scene& scene, const FurReport& rep, int layers, size_t max_samples) {
+    size_t candidates = 0;
+    for (const auto& f : rep.frames)
+        for (size_t v = 0; v < f.frame.length.size(); ++v)
+            if (f.frame.flags[v] == 0 && f.frame.requested[v] > 0) ++candidates;
+    const size_t total = candidates * size_t(layers);
+    const size_t stride = std::max<size_t>(1, (total + max_samples - 1) / std::max<size_t>(max_samples, 1));
+    double sum = 0, worst = 0;
+    size_t count = 0, k = 0;
+    for (const auto& f : rep.frames) {
+        const Primitive& p = scene.meshes[f.mesh].primitives[f.primitive];
+        std::vector<float> pts;
+        std::vector<double> want;
+        for (int i = 1; i <= layers; ++i) {
+            const double s = shell_height_fraction(i, layers, 1.0);
+            for (size_t v = 0; v < f.frame.length.size(); ++v) {
+                if (f.frame.flags[v] != 0 || !(f.frame.requested[v] > 0)) continue;
+                if (k++ % stride) continue;
+                for (int c = 0; c < 3; ++c)
+                    pts.push_back(float(double(p.positions[3 * v + c]) + f.frame.length[v] * s * double(f.frame.direction[3 * v + c])));
+                want.push_back(s * f.frame.requested[v]);
+            }
+        }
+        std::vector<double> d(want.size());
+        distances_to_mesh(d.data(), pts.data(), want.size(), p.positions.data(), p.vertex_count(), f.triangles.data(), f.triangles.size());
+        for (size_t i = 0; i < want.size(); ++i) {
+            double e = std::abs(d[i] - want[i]) / want[i];
+            sum += e;
+            worst = std::max(worst, e);
+            ++count;
+        }
+        row.clamped += f.frame.clamped_vertices;
+        row.welded += f.frame.welded_vertices;
+    }
+    row.measured = count;
+    row.max_rel = worst;
+    row.mean_rel = count ? sum / double(count) : 0;
+}
+
+Row bench_one(const fs::path& file, int layers, const ShellsArgs& a) {
+    Row row;
+    row.model = file.filename().string();
+    row.layers = layers;
+    Scene base = load_or_throw(file.string());
+    FurOptions o;
+    o.shells.layers = layers;
+    o.shells.length = a.relative_length * bbox_diagonal(base);
+    fs::path mask = file.parent_path() / (file.stem().string() + "_fur_mask.png");
+    if (fs::exists(mask)) require_ok(load_png(o.mask, mask.string()), mask.string());
+    // Timed: add_fur_shells on a fresh copy of the loaded scene (the copy is not timed).
+    std::vector<double> times;
+    Scene result;
+    FurReport rep;
+    double peak = 0;
+    for (int r = 0; r <= a.base.repeat; ++r) {
+        Scene s = base;
+        FurReport rr;
+        PeakMemory pm;
+        auto t0 = std::chrono::steady_clock::now();
+        Status st = add_fur_shells(s, o, &rr);
+        auto t1 = std::chrono::steady_clock::now();
+        peak = std::max(peak, pm.peak_mib());
+        require_ok(st, file.string());
+        if (r > 0) times.push_back(std::chrono::duration<double>(t1 - t0).count()); // run 0 warms up
+        if (r == a.base.repeat) result = std::move(s), rep = std::move(rr);
+    }
+    std::sort(times.begin(), times.end());
+    row.seconds = times[times.size() / 2];
+    row.peak_mib = peak;
+    row.base_triangles = rep.base_triangles;
+    row.out_triangles = rep.shell_triangles;
+    row.out_bytes = added_bytes(base, result);
+    std::vector<char> src(row.out_bytes, 1), dst(row.out_bytes);
+    row.memcpy_seconds = median_seconds(std::max(a.base.repeat, 9), [&] {
+        std::memcpy(dst.data(), src.data(), src.size());
+        do_not_optimize(dst.data());
+    });
+    // Accuracy from one more run that keeps the frames (not timed).
+    Scene s = base;
+    FurOptions keep = o;
+    keep.keep_frames = true;
+    FurReport fr;
+    require_ok(add_fur_shells(s, keep, &fr), file.string());
+    measure(row, base, fr, layers, a.max_samples);
+    return row;
+}
+
+void run_bench_shells(const ShellsArgs& a, const GlobalFlags& g) {
+    BenchArgs ba = a.base;
+    if (ba.inputs.empty()) {
+        fs::path creature = fs::path(FURROW_MODELS_DIR) / "creature.glb";
+        if (fs::exists(creature)) ba.inputs.push_back(creature.string());
+        if (fs::is_directory(FURROW_CORPUS_DIR)) ba.inputs.push_back(FURROW_CORPUS_DIR);
+    }
+    std::vector<fs::path> files = collect_bench_inputs(ba, {".glb", ".gltf", ".obj", ".ply", ".off", ".stl"});
+    if (files.empty()) throw InputError("bench shells", "no input models found (give files or folders)");
+    std::vector<Row> rows;
+    for (const auto& f : files)
+        for (int n : a.layers) {
+            info(g, "bench shells: " + f.string() + " N=" + std::to_string(n));
+            try {
+                rows.push_back(bench_one(f, n, a));
+            } catch (const InputError& e) {
+                info(g, "  skipped: " + e.file + ": " + e.what());
+            }
+        }
+    Table t({"model", "N", "base tris", "out tris", "ms", "Mtri/s", "out MiB", "memcpy ms", "x memcpy", "peak MiB",
+             "max rel err", "mean rel err", "measured", "clamped"});
+    nlohmann::json j = nlohmann::json::array();
+    for (const auto& r : rows) {
+        const double ratio = r.seconds / r.memcpy_seconds;
+        t.add({r.model, std::to_string(r.layers), std::to_string(r.base_triangles), std::to_string(r.out_triangles),
+               fmt(r.seconds * 1e3, 2), fmt(r.out_triangles / r.seconds / 1e6, 1), fmt(r.out_bytes / 1048576.0, 1),
+               fmt(r.memcpy_seconds * 1e3, 3), fmt(ratio, 1), fmt(r.peak_mib, 1), fmt_sci(r.max_rel), fmt_sci(r.mean_rel),
+               std::to_string(r.measured), std::to_string(r.clamped) + "/" + std::to_string(r.welded)});
+        j.push_back({{"model", r.model}, {"layers", r.layers}, {"base_triangles", r.base_triangles},
+                     {"out_triangles", r.out_triangles}, {"seconds", r.seconds}, {"out_bytes", r.out_bytes},
+                     {"memcpy_seconds", r.memcpy_seconds}, {"over_memcpy", ratio}, {"peak_mib", r.peak_mib},
+                     {"max_relative_error", r.max_rel}, {"mean_relative_error", r.mean_rel}, {"measured", r.measured},
+                     {"clamped_vertices", r.clamped}, {"welded_vertices", r.welded}});
+    }
+    if (a.base.json) {
+        std::printf("%s\n", nlohmann::json{{"bench", "shells"}, {"repeat", a.base.repeat}, {"relative_length", a.relative_length}, {"rows", j}}
+                                .dump(2)
+                                .c_str());
+    } else {
+        std::printf("furrow bench shells: add_fur_shells (viewer layout) per model and N, median of %d runs, length = %.3g x bbox "
+                    "diagonal (creature: with its mask); baseline = memcpy of the output bytes in this run; error = | distance of "
+                    "a shell vertex to the base surface (CGAL) - requested offset | / requested, over unclamped vertices\n",
+                    a.base.repeat, a.relative_length);
+        t.print();
+    }
+}
+
+} // namespace
+
+void register_bench_shells(CLI::App& bench, GlobalFlags& g) {
+    auto a = std::make_shared<ShellsArgs>();
+    a->base.repeat = 3;
+    CLI::App* cmd = bench.add_subcommand("shells", "Fur shells per model and N: time vs memcpy of the output, achieved offset");
+    cmd->add_option("inputs", a->base.inputs, "Model files or folders (default: models/creature.glb and ../shared/corpus)");
+    cmd->add_option("--layers", a->layers, "Shell counts to run (default 8 32 64)")->check(CLI::Range(1, 256))->delimiter(',');
+    cmd->add_option("--relative-length", a->relative_length, "Fur length as a fraction of the bbox diagonal (default 0.02)")
+        ->check(CLI::Range(1e-6, 1.0));
+    cmd->add_option("--repeat", a->base.repeat, "Timed runs per row; the median is reported (default 3)")->check(CLI::Range(1, 1000));
+    cmd->add_flag("--json", a->base.json, "Print one JSON object instead of the table");
+    cmd->footer("Examples:\n  furrow bench shells\n  furrow bench shells models/creature.glb --layers 16,128 --repeat 5 --json");
+    cmd->callback([a, &g] { run_bench_shells(*a, g); });
+}
+
+} // namespace furrow::cli

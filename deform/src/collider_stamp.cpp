@@ -1,0 +1,360 @@
+// Collider footprints rasterised into the carve layer: lower surfaces of spheres, boxes, capsules and image
+// brushes, swept between samples, composited with min (deeper wins).
+//
+// References: Rise of the Tomb Raider's deformation snow (GDC 2016: deformers write their footprint with an
+// atomic min); Blender Dynamic Paint (displace canvas: "deeper value wins", substeps for fast brushes);
+// swept sphere = capsule, swept capsule = Minkowski sum of a parallelogram and a ball (C. Ericson,
+// "Real-Time Collision Detection", 2005, §4.5 and §5.5). For a texel, the imprint is the lowest point of the
+// (swept) solid on the vertical line through the texel centre minus the undeformed ground height there, so
+// a rigid body pressed into a slope leaves the right shape, not a copy of a flat-ground print.
+//
+// Exactness: sphere and capsule sweeps (fixed axis) and box sweeps (fixed heading) are exact envelopes — a
+// fast collider leaves a continuous trench however far apart its samples are. A turning box or capsule is
+// sub-stepped so that its far corner moves at most half a texel per step and each step is swept with both
+// end headings; image brushes are stamped every half texel along the path (they have no closed-form sweep).
+#include "deform_internal.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <atomic>
+#include <functional>
+
+namespace furrow::detail {
+namespace {
+
+// Lowest w of the capsule {x : dist(x, segment ab) <= r} on the vertical line (qu, qv, ·); +inf if missed.
+// (u, v, w) are used as (x, y, z) with w vertical.
+double capsule_low(double qu, double qv, const D3& a, const D3& b, double r) {
+    double best = kInf;
+    const double r2 = r * r;
+    for (const D3* e : {&a, &b}) {
+        const double du = qu - e->x, dv = qv - e->y;
+        const double s = r2 - du * du - dv * dv;
+        if (s >= 0) best = std::min(best, e->z - std::sqrt(s));
+    }
+    const D3 d = b - a;
+    const double L2 = dot(d, d);
+    if (L2 > 1e-24) {
+        // Infinite cylinder around the axis: |(X − a) × d|² = r²·|d|² with X − a = e + w·ẑ.
+        const D3 e{qu - a.x, qv - a.y, -a.z};
+        const D3 A{-d.y, d.x, 0.0}; // ẑ × d
+        const D3 B = cross(e, d);
+        const double AA = dot(A, A);
+        if (AA > 1e-12 * L2) {
+            const double AB = dot(A, B), BB = dot(B, B);
+            const double disc = AB * AB - AA * (BB - r2 * L2);
+            if (disc >= 0) {
+                const double w = (-AB - std::sqrt(disc)) / AA;
+                const D3 xa{e.x, e.y, e.z + w};
+                const double t = dot(xa, d) / L2;
+                if (t >= 0 && t <= 1) best = std::min(best, w);
+            }
+        }
+    }
+    return best;
+}
+
+// Lowest w of the parallelogram a0 + α·e1 + β·e2 (α, β in [0,1]) offset by a ball of radius r, from its
+// interior face only (the edges are capsules, handled by the caller); +inf if the face's offset plane is not
+// what the vertical line meets first.
+struct SlabFace {
+    bool valid = false;
+    D3 a0, e1, e2, n;
+    double g11 = 0, g12 = 0, g22 = 0, det = 0;
+};
+
+SlabFace make_face(const D3& a0, const D3& e1, const D3& e2) {
+    SlabFace f;
+    D3 n = cross(e1, e2);
+    const double nn = norm(n);
+    if (!(nn > 1e-9 * norm(e1) * norm(e2)) || nn == 0) return f;
+    n = n * (1.0 / nn);
+    if (n.z < 0) n = n * -1.0;
+    if (n.z < 1e-9) return f; // a vertical face: its lowest points are on its edges
+    f.valid = true;
+    f.a0 = a0, f.e1 = e1, f.e2 = e2, f.n = n;
+    f.g11 = dot(e1, e1), f.g12 = dot(e1, e2), f.g22 = dot(e2, e2);
+    f.det = f.g11 * f.g22 - f.g12 * f.g12;
+    if (!(f.det > 0)) f.valid = false;
+    return f;
+}
+
+double face_low(const SlabFace& f, double qu, double qv, double r) {
+    if (!f.valid) return kInf;
+    const double w = f.a0.z + (-r - (qu - f.a0.x) * f.n.x - (qv - f.a0.y) * f.n.y) / f.n.z;
+    const D3 s = D3{qu, qv, w} + f.n * r; // the touching point on the face
+    const D3 g = s - f.a0;
+    const double b1 = dot(g, f.e1), b2 = dot(g, f.e2);
+    const double alpha = (f.g22 * b1 - f.g12 * b2) / f.det, beta = (f.g11 * b2 - f.g12 * b1) / f.det;
+    const double eps = 1e-12;
+    if (alpha < -eps || alpha > 1 + eps || beta < -eps || beta > 1 + eps) return kInf;
+    return w;
+}
+
+// Convex hull (counter-clockwise, Andrew's monotone chain) of a few points.
+std::vector<std::array<double, 2>> convex_hull(std::vector<std::array<double, 2>> p) {
+    std::sort(p.begin(), p.end());
+    p.erase(std::unique(p.begin(), p.end()), p.end());
+    if (p.size() < 3) return p;
+    auto turn = [](const std::array<double, 2>& o, const std::array<double, 2>& a, const std::array<double, 2>& b) {
+        return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0]);
+    };
+    std::vector<std::array<double, 2>> h(2 * p.size());
+    size_t k = 0;
+    for (size_t i = 0; i < p.size(); ++i) {
+        while (k >= 2 && turn(h[k - 2], h[k - 1], p[i]) <= 0) --k;
+        h[k++] = p[i];
+    }
+    for (size_t i = p.size() - 1, t = k + 1; i > 0; --i) {
+        while (k >= t && turn(h[k - 2], h[k - 1], p[i - 1]) <= 0) --k;
+        h[k++] = p[i - 1];
+    }
+    h.resize(k - 1);
+    return h;
+}
+
+// Signed distance to a convex counter-clockwise polygon: exact inside, the largest edge distance outside
+// (exact except beyond corners, where it is smaller — harmless for a half-texel coverage ramp).
+double signed_distance(const std::vector<std::array<double, 2>>& h, double x, double y) {
+    if (h.size() < 3) return kInf;
+    double best = -kInf;
+    for (size_t i = 0; i < h.size(); ++i) {
+        const auto& a = h[i];
+        const auto& b = h[(i + 1) % h.size()];
+        const double ex = b[0] - a[0], ey = b[1] - a[1], l = std::hypot(ex, ey);
+        if (l == 0) continue;
+        best = std::max(best, ((x - a[0]) * ey - (y - a[1]) * ex) / l); // outward normal (ey, −ex)
+    }
+    return best;
+}
+
+struct Axes {
+    double ex_u, ex_v; // local x (across)
+    double ez_u, ez_v; // local z (forward)
+};
+Axes axes(double heading) {
+    const double s = std::sin(heading), c = std::cos(heading);
+    return {c, -s, s, c};
+}
+
+// Horizontal radius of the shape around its centre (bounding circle).
+double shape_radius(const Collider& c) {
+    switch (c.shape) {
+    case ColliderShape::sphere: return c.radius;
+    case ColliderShape::box: return 0.5 * std::hypot(c.size[0], c.size[2]);
+    case ColliderShape::capsule: return 0.5 * c.length * std::hypot(c.axis[0], c.axis[2]) + c.radius;
+    case ColliderShape::image: return 0.5 * std::hypot(c.size[0], c.size[1]);
+    }
+    return 0;
+}
+
+// Capsule end points for a pose (half axis in local (u, v, w)).
+D3 capsule_half_axis(const Collider& c, double heading) {
+    const Axes ax = axes(heading);
+    const double h = 0.5 * c.length;
+    return {h * (c.axis[0] * ax.ex_u + c.axis[2] * ax.ez_u), h * (c.axis[0] * ax.ex_v + c.axis[2] * ax.ez_v), h * c.axis[1]};
+}
+
+float atomic_min(float* cell, float value) {
+    std::atomic_ref<float> a(*cell);
+    float cur = a.load(std::memory_order_relaxed);
+    while (value < cur && !a.compare_exchange_weak(cur, value, std::memory_order_relaxed)) {
+    }
+    return cur;
+}
+
+// Evaluates `offset(qu, qv, ground)` (an offset <= 0 to composite, or >= 0 / NaN for none) on every texel of
+// the box [u0, u1] × [v0, v1] (metres) and composites it into the carve layer.
+template <class Offset>
+void rasterise(const StampTarget& T, double u0, double u1, double v0, double v1, double decay, StampResult& res,
+               const Offset& offset) {
+    const double t = T.texel;
+    const int i0 = std::max(0, int(std::ceil(u0 / t))), i1 = std::min(T.width - 1, int(std::floor(u1 / t)));
+    const int j0 = std::max(0, int(std::ceil(v0 / t))), j1 = std::min(T.height - 1, int(std::floor(v1 / t)));
+    if (i1 < i0 || j1 < j0) return;
+    struct Acc {
+        TexelRect rect;
+        size_t written = 0;
+    };
+    auto row_range = [&](int ja, int jb, Acc& acc) {
+        for (int j = ja; j < jb; ++j) {
+            const double qv = j * t;
+            for (int i = i0; i <= i1; ++i) {
+                const size_t idx = size_t(j) * size_t(T.width) + size_t(i);
+                const float g = T.ground[idx];
+                if (std::isnan(g)) continue;
+                double h = offset(i * t, qv, double(g));
+                if (!(h < 0)) continue;
+                if (T.snow_depth > 0) h = std::max(h, -T.snow_depth);
+                const float hv = float(h * decay);
+                if (!(hv < 0)) continue;
+                if (atomic_min(&T.carve[idx], hv) > hv) {
+                    ++acc.written;
+                    acc.rect.unite({i, j, i + 1, j + 1});
+                }
+            }
+        }
+    };
+    const size_t area = size_t(i1 - i0 + 1) * size_t(j1 - j0 + 1);
+    if (area < 16384) {
+        Acc acc;
+        row_range(j0, j1 + 1, acc);
+        res.written += acc.written;
+        res.rect.unite(acc.rect);
+        return;
+    }
+    std::vector<Acc> accs(size_t(j1 - j0 + 1));
+    tbb::parallel_for(tbb::blocked_range<int>(j0, j1 + 1, 8), [&](const tbb::blocked_range<int>& r) {
+        for (int j = r.begin(); j != r.end(); ++j) row_range(j, j + 1, accs[size_t(j - j0)]);
+    });
+    for (const Acc& a : accs) {
+        res.written += a.written;
+        res.rect.unite(a.rect);
+    }
+}
+
+// Translation sweep with a fixed heading, p0 → p1.
+void sweep_fixed(const StampTarget& T, const Collider& c, const LocalPose& p0, const LocalPose& p1, double heading,
+                 double decay, StampResult& res) {
+    const double R = shape_radius(c) + T.texel;
+    const double u0 = std::min(p0.u, p1.u) - R, u1 = std::max(p0.u, p1.u) + R;
+    const double v0 = std::min(p0.v, p1.v) - R, v1 = std::max(p0.v, p1.v) + R;
+    const D3 c0{p0.u, p0.v, p0.w}, c1{p1.u, p1.v, p1.w};
+    switch (c.shape) {
+    case ColliderShape::sphere: {
+        const double r = c.radius;
+        rasterise(T, u0, u1, v0, v1, decay, res, [&](double qu, double qv, double g) { return capsule_low(qu, qv, c0, c1, r) - g; });
+        break;
+    }
+    case ColliderShape::capsule: {
+        const double r = c.radius;
+        const D3 h = capsule_half_axis(c, heading);
+        const D3 a0 = c0 - h, b0 = c0 + h, a1 = c1 - h, b1 = c1 + h;
+        const SlabFace face = make_face(a0, b0 - a0, a1 - a0);
+        const bool moving = dot(c1 - c0, c1 - c0) > 0;
+        rasterise(T, u0, u1, v0, v1, decay, res, [&](double qu, double qv, double g) {
+            double low = capsule_low(qu, qv, a0, b0, r);
+            if (moving) {
+                low = std::min({low, capsule_low(qu, qv, a1, b1, r), capsule_low(qu, qv, a0, a1, r), capsule_low(qu, qv, b0, b1, r),
+                                face_low(face, qu, qv, r)});
+            }
+            return low - g;
+        });
+        break;
+    }
+    case ColliderShape::box: {
+        const Axes ax = axes(heading);
+        const double hx = 0.5 * c.size[0], hy = 0.5 * c.size[1], hz = 0.5 * c.size[2];
+        const double du = p1.u - p0.u, dv = p1.v - p0.v, dw = p1.w - p0.w;
+        const double dx = du * ax.ex_u + dv * ax.ex_v, dz = du * ax.ez_u + dv * ax.ez_v;
+        // Vertical walls alias into staircases on a grid; the imprint is scaled by the texel's coverage,
+        // clamp(1/2 − d/texel, 0, 1) with d the signed distance to the swept outline (a convex polygon).
+        const double pad = 0.5 * T.texel;
+        const auto hull = convex_hull({{-hx, -hz}, {hx, -hz}, {hx, hz}, {-hx, hz}, {-hx + dx, -hz + dz}, {hx + dx, -hz + dz},
+                                       {hx + dx, hz + dz}, {-hx + dx, hz + dz}});
+        rasterise(T, u0, u1, v0, v1, decay, res, [&](double qu, double qv, double g) {
+            const double ru = qu - p0.u, rv = qv - p0.v;
+            const double x0 = ru * ax.ex_u + rv * ax.ex_v, z0 = ru * ax.ez_u + rv * ax.ez_v;
+            const double sd = signed_distance(hull, x0, z0);
+            const double cover = std::clamp(0.5 - sd / T.texel, 0.0, 1.0);
+            if (cover <= 0) return kInf;
+            double ta = 0, tb = 1;
+            // The box (grown by half a texel) covers q at time t when |x0 − t·dx| <= hx and |z0 − t·dz| <= hz.
+            auto clip = [&](double x, double dxx, double half) {
+                if (std::abs(dxx) < 1e-15) {
+                    if (std::abs(x) > half) ta = 1, tb = 0;
+                    return;
+                }
+                double lo = (x - half) / dxx, hi = (x + half) / dxx;
+                if (lo > hi) std::swap(lo, hi);
+                ta = std::max(ta, lo), tb = std::min(tb, hi);
+            };
+            clip(x0, dx, hx + pad);
+            clip(z0, dz, hz + pad);
+            if (ta > tb) return kInf;
+            const double depth = p0.w + std::min(ta * dw, tb * dw) - hy - g;
+            return depth < 0 ? depth * cover : kInf;
+        });
+        break;
+    }
+    case ColliderShape::image: break; // sampled, see stamp_image
+    }
+}
+
+void stamp_image(const StampTarget& T, const Collider& c, const LocalPose& p, double decay, StampResult& res) {
+    if (!(p.penetration > 0) || !c.brush) return;
+    const ImageF& im = *c.brush;
+    const Axes ax = axes(p.heading);
+    const double sx = c.size[0], sz = c.size[1];
+    const double R = shape_radius(c) + T.texel;
+    const int W = im.width, H = im.height, C = im.channels;
+    auto px = [&](int i, int j) {
+        i = std::clamp(i, 0, W - 1), j = std::clamp(j, 0, H - 1);
+        return double(im.pixels[(size_t(j) * size_t(W) + size_t(i)) * size_t(C)]);
+    };
+    rasterise(T, p.u - R, p.u + R, p.v - R, p.v + R, decay, res, [&](double qu, double qv, double) {
+        const double ru = qu - p.u, rv = qv - p.v;
+        const double lx = ru * ax.ex_u + rv * ax.ex_v, lz = ru * ax.ez_u + rv * ax.ez_v;
+        if (std::abs(lx) > 0.5 * sx || std::abs(lz) > 0.5 * sz) return 0.0;
+        // Seen from above with the heading up the page, local +x is on the left: column 0 is at +x.
+        const double xi = (0.5 - lx / sx) * W - 0.5, yj = (0.5 - lz / sz) * H - 0.5;
+        const int i0 = int(std::floor(xi)), j0 = int(std::floor(yj));
+        const double fi = xi - i0, fj = yj - j0;
+        const double v = (px(i0, j0) * (1 - fi) + px(i0 + 1, j0) * fi) * (1 - fj) + (px(i0, j0 + 1) * (1 - fi) + px(i0 + 1, j0 + 1) * fi) * fj;
+        return -std::clamp(v, 0.0, 1.0) * p.penetration;
+    });
+}
+
+LocalPose lerp(const LocalPose& a, const LocalPose& b, double t) {
+    return {a.u + (b.u - a.u) * t, a.v + (b.v - a.v) * t, a.w + (b.w - a.w) * t, a.heading + (b.heading - a.heading) * t,
+            a.penetration + (b.penetration - a.penetration) * t};
+}
+
+} // namespace
+
+double collider_bottom_offset(const Collider& c) {
+    switch (c.shape) {
+    case ColliderShape::sphere: return c.radius;
+    case ColliderShape::box: return 0.5 * c.size[1];
+    case ColliderShape::capsule: return c.radius + 0.5 * c.length * std::abs(c.axis[1]);
+    case ColliderShape::image: return c.depth;
+    }
+    return 0;
+}
+
+double collider_top_offset(const Collider& c) {
+    return c.shape == ColliderShape::image ? 0.0 : collider_bottom_offset(c);
+}
+
+StampResult stamp_sweep(const StampTarget& T, const Collider& c, const LocalPose& p0, const LocalPose& p1, double decay) {
+    StampResult res;
+    res.reach = shape_radius(c);
+    const double t = T.texel;
+    const double dist = std::hypot(p1.u - p0.u, p1.v - p0.v);
+    const double turn = std::abs(p1.heading - p0.heading);
+    const double R = shape_radius(c);
+    if (c.shape == ColliderShape::image) {
+        // Stamps every half texel of travel (of the centre or the far corner).
+        const double travel = std::max(dist + std::abs(p1.w - p0.w), turn * R);
+        const int n = int(std::min(1e6, std::ceil(travel / (0.5 * t))));
+        for (int k = 0; k <= n; ++k) stamp_image(T, c, n ? lerp(p0, p1, double(k) / n) : p0, decay, res);
+        return res;
+    }
+    // Turning: steps in which the far corner moves at most half a texel, each swept with both headings.
+    const bool turns = c.shape != ColliderShape::sphere && turn * R > 0.5 * t;
+    // Long translations: chunks so that each bounding box stays tight around the trench.
+    const double chunk = std::max(4 * R, 32 * t);
+    int n = std::max(1, int(std::ceil(dist / chunk)));
+    if (turns) n = std::max(n, int(std::ceil(turn * R / (0.5 * t))));
+    n = std::min(n, 1000000);
+    for (int k = 0; k < n; ++k) {
+        const LocalPose a = lerp(p0, p1, double(k) / n), b = lerp(p0, p1, double(k + 1) / n);
+        sweep_fixed(T, c, a, b, a.heading, decay, res);
+        if (turns) sweep_fixed(T, c, a, b, b.heading, decay, res);
+    }
+    return res;
+}
+
+} // namespace furrow::detail

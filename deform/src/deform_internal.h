@@ -1,0 +1,139 @@
+// Internals of furrow::deform shared between its .cpp files (one algorithm per file).
+#pragma once
+
+#include <furrow/deform.h>
+
+#include <array>
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <limits>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace furrow::detail {
+
+struct D3 {
+    double x = 0, y = 0, z = 0;
+};
+inline D3 operator+(D3 a, D3 b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
+inline D3 operator-(D3 a, D3 b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
+inline D3 operator*(D3 a, double s) { return {a.x * s, a.y * s, a.z * s}; }
+inline double dot(D3 a, D3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+inline D3 cross(D3 a, D3 b) { return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x}; }
+inline double norm(D3 a) { return std::sqrt(dot(a, a)); }
+inline D3 d3(const std::array<double, 3>& a) { return {a[0], a[1], a[2]}; }
+inline std::array<double, 3> arr(D3 a) { return {a.x, a.y, a.z}; }
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr double kPi = 3.14159265358979323846;
+
+// The in-plane axes for an up vector: +x/+z for +y up, a stable choice otherwise (axis_v = axis_u × up).
+void frame_axes(const std::array<double, 3>& up, std::array<double, 3>& axis_u, std::array<double, 3>& axis_v,
+                std::array<double, 3>& unit_up);
+
+// ---- ground_raster.cpp -----------------------------------------------------------------------------------
+// Highest ground height along up at every texel centre (NaN where no triangle lies over it): what a ray cast
+// down from above sees, by scan conversion instead of one ray per texel. Returns the number of triangles
+// facing away from up (overhangs or undersides).
+size_t rasterize_ground(float* heights, const HeightmapFrame& frame, const float* positions, size_t vertex_count,
+                        const uint32_t* indices, size_t index_count);
+
+// ---- ground_raycast.cpp (the only CGAL file) --------------------------------------------------------------
+class GroundRaycaster {
+public:
+    GroundRaycaster();
+    ~GroundRaycaster();
+    void build(const float* positions, size_t vertex_count, const uint32_t* indices, size_t index_count);
+    // First hit of the ray origin + t·direction (t > 0); NaN when none. Returns the ray parameter t.
+    double first_hit(const D3& origin, const D3& direction) const;
+    bool built() const;
+
+private:
+    struct Tree;
+    std::unique_ptr<Tree> tree_;
+};
+
+// ---- collider_stamp.cpp -----------------------------------------------------------------------------------
+// Where a stamp is written: the carve layer (min-composited, values <= 0 meaning pressed down), the
+// undeformed ground height per texel, and the limits.
+struct StampTarget {
+    float* carve = nullptr;
+    const float* ground = nullptr;
+    int width = 0, height = 0;
+    double texel = 0;
+    double snow_depth = 0; // 0 = unlimited
+};
+
+// A pose in the heightmap's frame: u, v in metres from the origin along axis_u / axis_v, w along up.
+struct LocalPose {
+    double u = 0, v = 0, w = 0;
+    double heading = 0;     // radians
+    double penetration = 0; // image shapes: depth pressed at pixel value 1 (>= 0)
+};
+
+struct StampResult {
+    TexelRect rect;      // texels written (deepened)
+    size_t written = 0;
+    double reach = 0;    // half-extent of the footprint (metres), for the rim's window
+};
+
+// Rasterises the shape swept from p0 to p1 (p0 == p1: one sample) into target.carve with min-compositing,
+// scaled by `decay` (refill). Sphere sweeps are capsules, box sweeps exact for a fixed heading; turning
+// shapes and images are sub-stepped finely enough (half a texel at the far corner). Thread-safe: concurrent
+// calls composite with atomic min.
+StampResult stamp_sweep(const StampTarget& target, const Collider& shape, const LocalPose& p0, const LocalPose& p1,
+                        double decay);
+
+// Lowest point of the collider below its centre (metres along up), as the contact test uses it.
+double collider_bottom_offset(const Collider& shape);
+// Highest point above its centre.
+double collider_top_offset(const Collider& shape);
+
+// ---- snow_rim.cpp -----------------------------------------------------------------------------------------
+struct RimInput {
+    const float* carve = nullptr;  // current carve layer
+    const float* base = nullptr;   // base layer or null (= 0)
+    const float* ground = nullptr; // NaN = no ground: never receives a rim
+    int width = 0, height = 0;
+    double texel = 0;
+    double width_m = 0;            // rim reach (metres)
+    double gather_m = 0;           // half-width of the largest imprint (metres): how far a rim point looks
+    double height_ratio = 0.5;     // cosmetic rim
+    bool conserve = false;
+    double compaction = 0.3;
+};
+// Recomputes the rim over `write` (inside the grid) from the sources inside `window` (which contains write);
+// with conserve, the raised volume inside the window equals the removed one × (1 − compaction). rim is the
+// full-grid layer. Returns the volume (m³) that could not be placed (no receiver near any imprint).
+double compute_rim(float* rim, const RimInput& in, const TexelRect& window, const TexelRect& write);
+
+// ---- heightmap_io.cpp -------------------------------------------------------------------------------------
+// (public save_heightmap / load_heightmap)
+
+// ---- welded normals (displaced_ground.cpp) -----------------------------------------------------------------
+// Angle-weighted normals (Thürmer & Wüthrich) of welded points `which` (all when null) from the faces in
+// `faces_of` (CSR: offsets per welded point, face indices), positions per welded point (double xyz).
+void welded_normals(double* normals, const std::vector<double>& points, const uint32_t* triangles,
+                    const std::vector<uint32_t>& face_offsets, const std::vector<uint32_t>& face_list,
+                    const uint32_t* which, size_t which_count);
+
+// ---- ground_detail_rates.cpp ------------------------------------------------------------------------------
+struct DetailRateOptions {
+    double max_error = 0;                 // metres
+    double min_spacing = 0;               // metres
+    int max_rate = 64;
+    std::optional<StampCamera> camera;
+};
+// Tessellation rate per triangle of a world-space mesh: the segments its longest edge needs so that linear
+// interpolation of the heightmap over it deviates by at most max_error (from the heightmap's curvature inside
+// the triangle's footprint); 1 where the heightmap is flat there.
+void triangle_detail_rates(std::vector<int>& rates, const Heightmap& heightmap, const float* positions,
+                           const uint32_t* indices, size_t triangle_count, const DetailRateOptions& options);
+
+// Size of the grid for a ground extent, and the memory guard (bytes per texel of all layers).
+constexpr size_t kBytesPerTexel = 28;
+
+} // namespace furrow::detail

@@ -1,0 +1,256 @@
+// Displacement of a ground mesh by the heightmap, once or incrementally, with normals on welded positions.
+//
+// References: displacement p −= n·depth as in Blender's Dynamic Paint displace canvas and the seed technique
+// (tessellated ground, vertex offset along the normal); angle-weighted normals: G. Thürmer, C. A. Wüthrich,
+// "Computing Vertex Normals from Polygonal Facets", JGT 3(1), 1998. Crack-freedom needs every copy of a
+// position (UV seams split vertices) to move by exactly the same vector: the displacement and the normal are
+// computed once per welded point and copied to every vertex of that position (OpenSubdiv issue 168: displace
+// shared points once, never per face). An incremental update moves the points whose bilinear footprint meets
+// the dirty rectangle and renormalises every point of the faces around them, which is exactly the set whose
+// angle-weighted normal can change.
+#include "deform_internal.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+
+namespace furrow {
+
+using namespace detail;
+
+namespace detail {
+
+void welded_normals(double* normals, const std::vector<double>& P, const uint32_t* tri, const std::vector<uint32_t>& off,
+                    const std::vector<uint32_t>& faces, const uint32_t* which, size_t which_count) {
+    const size_t n = which ? which_count : off.size() - 1;
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 512), [&](const tbb::blocked_range<size_t>& r) {
+        for (size_t q = r.begin(); q != r.end(); ++q) {
+            const uint32_t v = which ? which[q] : uint32_t(q);
+            D3 sum{0, 0, 0};
+            for (uint32_t k = off[v]; k < off[size_t(v) + 1]; ++k) {
+                const uint32_t* t = tri + 3 * size_t(faces[k]);
+                const int c = t[0] == v ? 0 : t[1] == v ? 1 : 2;
+                auto pt = [&](uint32_t i) { return D3{P[3 * size_t(i)], P[3 * size_t(i) + 1], P[3 * size_t(i) + 2]}; };
+                const D3 p0 = pt(t[c]), p1 = pt(t[(c + 1) % 3]), p2 = pt(t[(c + 2) % 3]);
+                const D3 e1 = p1 - p0, e2 = p2 - p0;
+                const D3 nrm = cross(e1, e2);
+                const double a2 = norm(nrm);
+                if (!(a2 > 0) || !std::isfinite(a2)) continue;
+                // atan2(|e1×e2|, e1·e2) keeps its digits near 0 and pi, unlike acos of a normalised dot.
+                const double angle = std::atan2(a2, dot(e1, e2));
+                sum = sum + nrm * (angle / a2);
+            }
+            const double l = norm(sum);
+            double* o = normals + 3 * size_t(v);
+            if (l > 0) o[0] = sum.x / l, o[1] = sum.y / l, o[2] = sum.z / l;
+            else o[0] = o[1] = o[2] = 0;
+        }
+    });
+}
+
+} // namespace detail
+
+struct DisplacedGround::Impl {
+    HeightmapFrame frame;
+    DisplaceOptions opt;
+    size_t vertex_count = 0;
+    std::vector<uint32_t> remap;          // vertex -> welded point
+    std::vector<uint32_t> copy_off, copies; // welded point -> its vertices (CSR)
+    std::vector<double> rest;             // undeformed position per point
+    std::vector<double> dir;              // displacement direction per point (unit)
+    std::vector<double> texel;            // (ti, tj) per point
+    std::vector<uint8_t> movable;         // top_only: on the top surface
+    std::vector<uint32_t> tris;           // welded, non-degenerate
+    std::vector<uint32_t> face_off, faces; // point -> incident triangles (CSR)
+    std::vector<double> cur, nrm;         // current displaced positions and normals per point
+    // Points bucketed by 16 x 16-texel tiles of their footprint's lower corner.
+    int tiles_x = 0, tiles_y = 0;
+    std::vector<uint32_t> tile_off, tile_pts;
+    std::vector<uint32_t> mark;           // scratch for update()
+    uint32_t epoch = 0;
+    static constexpr int kTile = 16;
+
+    int tile_of(double t, int tiles) const { return std::clamp(int(std::floor(t)) / kTile, 0, tiles - 1); }
+
+    void write(uint32_t p, float* pos, float* nor) const {
+        for (uint32_t k = copy_off[p]; k < copy_off[size_t(p) + 1]; ++k) {
+            const size_t v = copies[k];
+            for (int d = 0; d < 3; ++d) {
+                pos[3 * v + size_t(d)] = float(cur[3 * size_t(p) + size_t(d)]);
+                nor[3 * v + size_t(d)] = float(nrm[3 * size_t(p) + size_t(d)]);
+            }
+        }
+    }
+    void displace(uint32_t p, const Heightmap& h) {
+        double d = 0;
+        if (movable.empty() || movable[p]) d = h.sample(texel[2 * size_t(p)], texel[2 * size_t(p) + 1]);
+        for (int k = 0; k < 3; ++k) cur[3 * size_t(p) + size_t(k)] = rest[3 * size_t(p) + size_t(k)] + dir[3 * size_t(p) + size_t(k)] * d;
+    }
+    void fix_normal(uint32_t p) {
+        double* o = &nrm[3 * size_t(p)];
+        if (o[0] == 0 && o[1] == 0 && o[2] == 0) o[0] = frame.up[0], o[1] = frame.up[1], o[2] = frame.up[2];
+    }
+};
+
+DisplacedGround::DisplacedGround() : impl_(std::make_unique<Impl>()) {}
+DisplacedGround::~DisplacedGround() = default;
+DisplacedGround::DisplacedGround(DisplacedGround&&) noexcept = default;
+DisplacedGround& DisplacedGround::operator=(DisplacedGround&&) noexcept = default;
+
+size_t DisplacedGround::vertex_count() const { return impl_->vertex_count; }
+size_t DisplacedGround::welded_count() const { return impl_->rest.size() / 3; }
+
+Status DisplacedGround::prepare(const float* positions, size_t vertex_count, const uint32_t* indices, size_t index_count,
+                                const HeightmapFrame& frame, const DisplaceOptions& opt, const Heightmap* ground) {
+    if (!(frame.texel > 0) || frame.width <= 0 || frame.height <= 0)
+        return Status::error(StatusCode::invalid_argument, "the heightmap frame is empty");
+    if (index_count % 3) return Status::error(StatusCode::invalid_input, "indices are not triangles");
+    for (size_t k = 0; k < index_count; ++k)
+        if (indices[k] >= vertex_count) return Status::error(StatusCode::invalid_input, "an index is out of range");
+    auto m = std::make_unique<Impl>();
+    m->frame = frame;
+    m->opt = opt;
+    m->vertex_count = vertex_count;
+    std::vector<uint32_t> first(vertex_count);
+    weld_positions(first.data(), positions, vertex_count);
+    // Welded points numbered in order of first appearance.
+    std::vector<uint32_t> id(vertex_count, UINT32_MAX);
+    m->remap.resize(vertex_count);
+    uint32_t points = 0;
+    for (size_t v = 0; v < vertex_count; ++v) {
+        const uint32_t r = first[v];
+        if (id[r] == UINT32_MAX) id[r] = points++;
+        m->remap[v] = id[r];
+    }
+    m->rest.resize(3 * size_t(points));
+    m->copy_off.assign(size_t(points) + 1, 0);
+    for (size_t v = 0; v < vertex_count; ++v) {
+        const uint32_t p = m->remap[v];
+        for (int d = 0; d < 3; ++d) m->rest[3 * size_t(p) + size_t(d)] = positions[3 * v + size_t(d)];
+        ++m->copy_off[size_t(p) + 1];
+    }
+    for (size_t p = 0; p < points; ++p) m->copy_off[p + 1] += m->copy_off[p];
+    m->copies.resize(vertex_count);
+    {
+        std::vector<uint32_t> fill(m->copy_off.begin(), m->copy_off.end() - 1);
+        for (size_t v = 0; v < vertex_count; ++v) m->copies[fill[m->remap[v]]++] = uint32_t(v);
+    }
+    // Triangles on welded points; degenerate ones carry no normal and no neighbourhood.
+    for (size_t t = 0; t + 3 <= index_count; t += 3) {
+        const uint32_t a = m->remap[indices[t]], b = m->remap[indices[t + 1]], c = m->remap[indices[t + 2]];
+        if (a == b || b == c || c == a) continue;
+        m->tris.insert(m->tris.end(), {a, b, c});
+    }
+    const size_t T = m->tris.size() / 3;
+    m->face_off.assign(size_t(points) + 1, 0);
+    for (uint32_t v : m->tris) ++m->face_off[size_t(v) + 1];
+    for (size_t p = 0; p < points; ++p) m->face_off[p + 1] += m->face_off[p];
+    m->faces.resize(m->face_off.back());
+    {
+        std::vector<uint32_t> fill(m->face_off.begin(), m->face_off.end() - 1);
+        for (size_t t = 0; t < T; ++t)
+            for (int k = 0; k < 3; ++k) m->faces[fill[m->tris[3 * t + size_t(k)]]++] = uint32_t(t);
+    }
+    // Undeformed normals give the displacement direction.
+    m->dir.assign(3 * size_t(points), 0.0);
+    if (opt.along_up) {
+        for (size_t p = 0; p < points; ++p)
+            for (int d = 0; d < 3; ++d) m->dir[3 * p + size_t(d)] = frame.up[size_t(d)];
+    } else {
+        welded_normals(m->dir.data(), m->rest, m->tris.data(), m->face_off, m->faces, nullptr, 0);
+        for (size_t p = 0; p < points; ++p) {
+            double* o = &m->dir[3 * p];
+            if (o[0] == 0 && o[1] == 0 && o[2] == 0) o[0] = frame.up[0], o[1] = frame.up[1], o[2] = frame.up[2];
+        }
+    }
+    m->texel.resize(2 * size_t(points));
+    for (size_t p = 0; p < points; ++p) {
+        auto t = frame.to_texel(&m->rest[3 * p]);
+        m->texel[2 * p] = t[0], m->texel[2 * p + 1] = t[1];
+    }
+    if (opt.top_only && ground) {
+        const double tol = opt.top_tolerance > 0 ? opt.top_tolerance : 2 * frame.texel;
+        m->movable.assign(points, 1);
+        for (size_t p = 0; p < points; ++p) {
+            const int i = int(std::lround(m->texel[2 * p])), j = int(std::lround(m->texel[2 * p + 1]));
+            if (i < 0 || j < 0 || i >= ground->frame.width || j >= ground->frame.height) continue;
+            const float g = ground->at(i, j);
+            const double w = dot(D3{m->rest[3 * p], m->rest[3 * p + 1], m->rest[3 * p + 2]}, d3(frame.up));
+            if (!std::isnan(g) && w < double(g) - tol) m->movable[p] = 0;
+        }
+    }
+    m->tiles_x = (frame.width + Impl::kTile - 1) / Impl::kTile + 1;
+    m->tiles_y = (frame.height + Impl::kTile - 1) / Impl::kTile + 1;
+    const size_t tiles = size_t(m->tiles_x) * size_t(m->tiles_y);
+    m->tile_off.assign(tiles + 1, 0);
+    std::vector<uint32_t> tile_of(points);
+    for (size_t p = 0; p < points; ++p) {
+        tile_of[p] = uint32_t(m->tile_of(m->texel[2 * p + 1], m->tiles_y) * m->tiles_x + m->tile_of(m->texel[2 * p], m->tiles_x));
+        ++m->tile_off[size_t(tile_of[p]) + 1];
+    }
+    for (size_t k = 0; k < tiles; ++k) m->tile_off[k + 1] += m->tile_off[k];
+    m->tile_pts.resize(points);
+    {
+        std::vector<uint32_t> fill(m->tile_off.begin(), m->tile_off.end() - 1);
+        for (size_t p = 0; p < points; ++p) m->tile_pts[fill[tile_of[p]]++] = uint32_t(p);
+    }
+    m->cur = m->rest;
+    m->nrm.assign(3 * size_t(points), 0.0);
+    m->mark.assign(points, 0);
+    impl_ = std::move(m);
+    return Status::success();
+}
+
+size_t DisplacedGround::displace_all(const Heightmap& h, float* pos, float* nor) {
+    Impl& m = *impl_;
+    const size_t P = m.rest.size() / 3;
+    tbb::parallel_for(size_t(0), P, [&](size_t p) { m.displace(uint32_t(p), h); });
+    welded_normals(m.nrm.data(), m.cur, m.tris.data(), m.face_off, m.faces, nullptr, 0);
+    tbb::parallel_for(size_t(0), P, [&](size_t p) {
+        m.fix_normal(uint32_t(p));
+        m.write(uint32_t(p), pos, nor);
+    });
+    return P;
+}
+
+size_t DisplacedGround::update(const Heightmap& h, const TexelRect& dirty, float* pos, float* nor) {
+    Impl& m = *impl_;
+    if (dirty.empty() || m.rest.empty()) return 0;
+    // A point at (ti, tj) reads texels floor(ti) .. floor(ti) + 1: it is affected when that span meets the
+    // rectangle, i.e. ti in (x0 − 1, x1).
+    const int tx0 = std::clamp((dirty.x0 - 1) / Impl::kTile - 1, 0, m.tiles_x - 1), tx1 = std::clamp(dirty.x1 / Impl::kTile + 1, 0, m.tiles_x - 1);
+    const int ty0 = std::clamp((dirty.y0 - 1) / Impl::kTile - 1, 0, m.tiles_y - 1), ty1 = std::clamp(dirty.y1 / Impl::kTile + 1, 0, m.tiles_y - 1);
+    std::vector<uint32_t> moved;
+    for (int ty = ty0; ty <= ty1; ++ty)
+        for (int tx = tx0; tx <= tx1; ++tx) {
+            const size_t t = size_t(ty) * size_t(m.tiles_x) + size_t(tx);
+            for (uint32_t k = m.tile_off[t]; k < m.tile_off[t + 1]; ++k) {
+                const uint32_t p = m.tile_pts[k];
+                const double ti = m.texel[2 * size_t(p)], tj = m.texel[2 * size_t(p) + 1];
+                if (ti > dirty.x0 - 1 && ti < dirty.x1 && tj > dirty.y0 - 1 && tj < dirty.y1) moved.push_back(p);
+            }
+        }
+    if (moved.empty()) return 0;
+    std::sort(moved.begin(), moved.end());
+    tbb::parallel_for(size_t(0), moved.size(), [&](size_t k) { m.displace(moved[k], h); });
+    // Every point of a face around a moved point may get a new normal.
+    if (++m.epoch == 0) std::fill(m.mark.begin(), m.mark.end(), 0), m.epoch = 1;
+    std::vector<uint32_t> renorm;
+    for (uint32_t p : moved)
+        for (uint32_t k = m.face_off[p]; k < m.face_off[size_t(p) + 1]; ++k)
+            for (int c = 0; c < 3; ++c) {
+                const uint32_t q = m.tris[3 * size_t(m.faces[k]) + size_t(c)];
+                if (m.mark[q] != m.epoch) m.mark[q] = m.epoch, renorm.push_back(q);
+            }
+    for (uint32_t p : moved)
+        if (m.mark[p] != m.epoch) m.mark[p] = m.epoch, renorm.push_back(p); // isolated points
+    welded_normals(m.nrm.data(), m.cur, m.tris.data(), m.face_off, m.faces, renorm.data(), renorm.size());
+    tbb::parallel_for(size_t(0), renorm.size(), [&](size_t k) {
+        m.fix_normal(renorm[k]);
+        m.write(renorm[k], pos, nor);
+    });
+    return moved.size();
+}
+
+} // namespace furrow

@@ -1,0 +1,442 @@
+// SnowField: the stamping state — contact rays, min-composited stamps, refill, rim, dirty rectangles.
+//
+// References: Rise of the Tomb Raider's deformation snow (GDC 2016): a float map, deformers merged by min,
+// exponential refill; Batman: Arkham Origins (GDC 2014): per-frame refill of an ankle-high map; Blender
+// Dynamic Paint: substeps for fast brushes, dissolve over time. Layers per texel: undeformed ground height
+// (NaN = none), base (a loaded map), carve (base min stamps), rim (derived), output = carve + rim.
+//
+// Refill commutes with compositing: scaling by a positive factor preserves min, so decaying the field and
+// then stamping equals stamping every stamp pre-decayed by its own age — the result does not depend on the
+// order of stamps, only on their times. The rim is linear in the removed depth with a fixed receiver set,
+// so it decays with the same factor.
+#include "deform_internal.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+
+namespace furrow {
+
+using namespace detail;
+
+struct SnowField::Impl {
+    SnowOptions opt;
+    Heightmap ground, out;
+    std::vector<float> carve, rim, base;
+    GroundRaycaster rays;
+    double now = 0;
+    TexelRect carve_dirty, out_dirty, content;
+    bool all_dirty = false;
+    bool stamped = false;
+    double max_reach = 0;
+    size_t overhangs = 0;
+    mutable bool volumes_valid = false;
+    mutable double removed = 0, raised = 0;
+    double lost_rim = 0;
+
+    TexelRect full() const { return {0, 0, ground.frame.width, ground.frame.height}; }
+    double rim_width() const { return opt.rim_width > 0 ? opt.rim_width : (opt.conserve_volume ? 8 * ground.frame.texel : 0.0); }
+
+    LocalPose local(const ColliderPose& p) const {
+        auto t = ground.frame.to_texel(p.centre.data());
+        return {t[0] * ground.frame.texel, t[1] * ground.frame.texel, t[2], p.heading_degrees * kPi / 180.0, 0.0};
+    }
+
+    // Contact ray for a pose: sets penetration, returns whether the collider touches.
+    struct Contact {
+        bool hit = false, touching = false;
+        double penetration = 0;
+    };
+    Contact contact(const Collider& c, const LocalPose& p) const {
+        Contact r;
+        const double top = collider_top_offset(c), bottom = collider_bottom_offset(c);
+        const double lift = 2 * top + bottom + 2 * ground.frame.texel;
+        const D3 up = d3(ground.frame.up);
+        const D3 origin = d3(ground.frame.origin) + d3(ground.frame.axis_u) * p.u + d3(ground.frame.axis_v) * p.v + up * (p.w + lift);
+        const double t = rays.first_hit(origin, up * -1.0);
+        if (std::isnan(t)) return r;
+        r.hit = true;
+        const double g = p.w + lift - t;
+        r.penetration = g - (p.w - bottom);
+        r.touching = r.penetration > 0;
+        return r;
+    }
+};
+
+SnowField::SnowField() : impl_(std::make_unique<Impl>()) {}
+SnowField::~SnowField() = default;
+SnowField::SnowField(SnowField&&) noexcept = default;
+SnowField& SnowField::operator=(SnowField&&) noexcept = default;
+
+Status SnowField::create(const float* positions, size_t vertex_count, const uint32_t* indices, size_t index_count,
+                         const SnowOptions& o) {
+    auto bad = [](const std::string& m) { return Status::error(StatusCode::invalid_argument, m); };
+    auto finite_ge0 = [](double x) { return std::isfinite(x) && x >= 0; };
+    if (!finite_ge0(o.texel)) return bad("texel must be a finite number >= 0");
+    if (o.texel == 0 && (o.resolution < 2 || o.resolution > 1000000)) return bad("resolution must be in 2..1000000");
+    if (!finite_ge0(o.snow_depth)) return bad("snow depth must be a finite number >= 0");
+    if (!finite_ge0(o.rim_width)) return bad("rim width must be a finite number >= 0");
+    if (!finite_ge0(o.rim_height) || o.rim_height > 10) return bad("rim height must be in 0..10");
+    if (!(o.compaction >= 0 && o.compaction <= 1)) return bad("compaction must be in 0..1");
+    if (!finite_ge0(o.refill_rate)) return bad("refill rate must be a finite number >= 0");
+    if (!finite_ge0(o.margin)) return bad("margin must be a finite number >= 0");
+    const double upn = std::hypot(o.up[0], o.up[1], o.up[2]);
+    if (!(upn > 0) || !std::isfinite(upn)) return bad("up must be a finite non-zero vector");
+    if (!positions || !indices || index_count < 3) return Status::error(StatusCode::invalid_input, "the ground has no triangles");
+
+    auto impl = std::make_unique<Impl>();
+    impl->opt = o;
+    HeightmapFrame f;
+    frame_axes(o.up, f.axis_u, f.axis_v, f.up);
+    double lo_u = kInf, hi_u = -kInf, lo_v = kInf, hi_v = -kInf;
+    for (size_t k = 0; k < index_count; ++k) {
+        const uint32_t v = indices[k];
+        if (v >= vertex_count) return Status::error(StatusCode::invalid_input, "a ground index is out of range");
+        const D3 p{positions[3 * size_t(v)], positions[3 * size_t(v) + 1], positions[3 * size_t(v) + 2]};
+        if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
+            return Status::error(StatusCode::invalid_input, "the ground has a non-finite position");
+        const double u = dot(p, d3(f.axis_u)), w = dot(p, d3(f.axis_v));
+        lo_u = std::min(lo_u, u), hi_u = std::max(hi_u, u), lo_v = std::min(lo_v, w), hi_v = std::max(hi_v, w);
+    }
+    lo_u -= o.margin, lo_v -= o.margin, hi_u += o.margin, hi_v += o.margin;
+    const double ext = std::max(hi_u - lo_u, hi_v - lo_v);
+    if (!(ext > 0)) return Status::error(StatusCode::invalid_input, "the ground has no extent in the plane normal to up");
+    f.texel = o.texel > 0 ? o.texel : ext / double(o.resolution - 1);
+    const double wd = std::ceil((hi_u - lo_u) / f.texel - 1e-9) + 1, hd = std::ceil((hi_v - lo_v) / f.texel - 1e-9) + 1;
+    const double bytes = wd * hd * double(kBytesPerTexel);
+    if (!(bytes <= double(o.max_bytes)) || wd > 2e9 || hd > 2e9) {
+        char buf[320];
+        std::snprintf(buf, sizeof buf,
+                      "heightmap of %.0f x %.0f texels (texel %.4g m over %.4g x %.4g m) needs %.0f MiB, more than the %.0f MiB "
+                      "limit; use a larger --texel or a smaller --resolution",
+                      wd, hd, f.texel, hi_u - lo_u, hi_v - lo_v, bytes / 1048576.0, double(o.max_bytes) / 1048576.0);
+        return Status::error(StatusCode::out_of_memory, buf);
+    }
+    f.width = int(wd), f.height = int(hd);
+    f.origin = arr(d3(f.axis_u) * lo_u + d3(f.axis_v) * lo_v);
+    const size_t N = size_t(f.width) * size_t(f.height);
+    impl->ground.frame = f;
+    impl->ground.values.resize(N);
+    impl->out.frame = f;
+    impl->out.values.assign(N, 0.0f);
+    impl->carve.assign(N, 0.0f);
+    impl->rim.assign(N, 0.0f);
+    impl->overhangs = rasterize_ground(impl->ground.values.data(), f, positions, vertex_count, indices, index_count);
+    bool any = false;
+    for (float g : impl->ground.values)
+        if (!std::isnan(g)) {
+            any = true;
+            break;
+        }
+    if (!any) return Status::error(StatusCode::invalid_input, "no ground triangle covers a texel (the ground is edge-on to up?)");
+    impl->rays.build(positions, vertex_count, indices, index_count);
+    impl_ = std::move(impl);
+    return Status::success();
+}
+
+Status SnowField::set_base(const Heightmap& b) {
+    Impl& m = *impl_;
+    if (m.ground.values.empty()) return Status::error(StatusCode::invalid_argument, "create() the field first");
+    if (m.stamped) return Status::error(StatusCode::invalid_argument, "set_base() must come before the first stamp");
+    const int bw = b.frame.width, bh = b.frame.height;
+    if (bw <= 0 || bh <= 0 || b.values.size() != size_t(bw) * size_t(bh))
+        return Status::error(StatusCode::invalid_input, "the base heightmap is empty or its size does not match its frame");
+    const HeightmapFrame& f = m.ground.frame;
+    m.base.assign(m.carve.size(), 0.0f);
+    tbb::parallel_for(tbb::blocked_range<int>(0, f.height, 16), [&](const tbb::blocked_range<int>& r) {
+        for (int j = r.begin(); j != r.end(); ++j)
+            for (int i = 0; i < f.width; ++i) {
+                double v;
+                if (b.frame.texel > 0) {
+                    const D3 p = d3(f.origin) + d3(f.axis_u) * (i * f.texel) + d3(f.axis_v) * (j * f.texel);
+                    const double q[3] = {p.x, p.y, p.z};
+                    v = b.sample_world(q);
+                } else { // no frame: stretched over this grid
+                    v = b.sample(f.width > 1 ? double(i) * (bw - 1) / (f.width - 1) : 0.0,
+                                 f.height > 1 ? double(j) * (bh - 1) / (f.height - 1) : 0.0);
+                }
+                const size_t x = size_t(j) * size_t(f.width) + size_t(i);
+                if (std::isnan(m.ground.values[x])) v = 0;
+                m.base[x] = float(v);
+                m.carve[x] = float(v);
+            }
+    });
+    m.all_dirty = true;
+    m.content = m.full();
+    return Status::success();
+}
+
+namespace {
+
+struct Job {
+    const Collider* collider = nullptr;
+    LocalPose p0, p1;
+    double decay = 1;
+};
+
+} // namespace
+
+// Turns samples into stamp jobs: heading and time per sample, contact rays, refill sub-steps.
+static void collect_jobs(const SnowField::Impl& m, const Collider& c, std::vector<ColliderPose> poses, std::vector<Job>& jobs,
+                         StampStats& st) {
+    const size_t n = poses.size();
+    std::vector<LocalPose> lp(n);
+    std::vector<SnowField::Impl::Contact> hits(n);
+    for (size_t k = 0; k < n; ++k) lp[k] = m.local(poses[k]);
+    tbb::parallel_for(size_t(0), n, [&](size_t k) { hits[k] = m.contact(c, lp[k]); });
+    for (size_t k = 0; k < n; ++k) {
+        ++st.samples;
+        ++st.rays;
+        if (!hits[k].hit) ++st.missed_rays;
+        if (hits[k].touching) {
+            ++st.contacts;
+            st.deepest = std::max(st.deepest, hits[k].penetration);
+        }
+        lp[k].penetration = std::max(0.0, hits[k].penetration);
+    }
+    const double rate = m.opt.refill_rate;
+    auto decay_at = [&](double t) { return rate > 0 ? std::exp(-rate * std::max(0.0, m.now - t)) : 1.0; };
+    auto add = [&](const LocalPose& a, const LocalPose& b, double ta, double tb) {
+        int steps = 1;
+        if (rate > 0) steps = std::clamp(int(std::ceil(rate * (tb - ta) / 0.005)), 1, 10000);
+        for (int s = 0; s < steps; ++s) {
+            const double f0 = double(s) / steps, f1 = double(s + 1) / steps;
+            auto lerp = [&](double f) {
+                return LocalPose{a.u + (b.u - a.u) * f, a.v + (b.v - a.v) * f, a.w + (b.w - a.w) * f,
+                                 a.heading + (b.heading - a.heading) * f, a.penetration + (b.penetration - a.penetration) * f};
+            };
+            jobs.push_back({&c, lerp(f0), lerp(f1), decay_at(ta + (tb - ta) * f1)});
+        }
+    };
+    if (n == 1) {
+        if (hits[0].touching) add(lp[0], lp[0], poses[0].time, poses[0].time);
+        return;
+    }
+    for (size_t k = 1; k < n; ++k)
+        if (hits[k - 1].touching || hits[k].touching) add(lp[k - 1], lp[k], poses[k - 1].time, poses[k].time);
+}
+
+static StampStats run_jobs(SnowField::Impl& m, const std::vector<Job>& jobs, StampStats st) {
+    if (jobs.empty()) return st;
+    StampTarget T;
+    T.carve = m.carve.data();
+    T.ground = m.ground.values.data();
+    T.width = m.ground.frame.width, T.height = m.ground.frame.height;
+    T.texel = m.ground.frame.texel;
+    T.snow_depth = m.opt.snow_depth;
+    std::vector<StampResult> res(jobs.size());
+    tbb::parallel_for(size_t(0), jobs.size(), [&](size_t k) { res[k] = stamp_sweep(T, *jobs[k].collider, jobs[k].p0, jobs[k].p1, jobs[k].decay); });
+    for (const StampResult& r : res) {
+        ++st.stamps;
+        st.texels_written += r.written;
+        m.carve_dirty.unite(r.rect);
+        m.content.unite(r.rect);
+        m.max_reach = std::max(m.max_reach, r.reach);
+    }
+    m.stamped = true;
+    return st;
+}
+
+static double heading_of(const Collider& c, size_t k) {
+    if (!c.heading.empty()) return c.heading.size() == 1 ? c.heading[0] : c.heading[k];
+    const size_t n = c.path.size();
+    if (n < 2) return 0.0;
+    // Path direction: previous → next point (one-sided at the ends), its component in the ground plane is
+    // measured by the caller's frame; here in world x/z is not enough for any up, so the frame does it.
+    return std::numeric_limits<double>::quiet_NaN();
+}
+
+static std::vector<ColliderPose> poses_of(const SnowField::Impl& m, const Collider& c) {
+    std::vector<ColliderPose> poses;
+    const size_t n = c.path.size();
+    const HeightmapFrame& f = m.ground.frame;
+    auto planar = [&](const std::array<double, 3>& p) { return std::array<double, 2>{dot(d3(p), d3(f.axis_u)), dot(d3(p), d3(f.axis_v))}; };
+    double last_heading = 0;
+    std::vector<double> headings(n);
+    for (size_t k = 0; k < n; ++k) {
+        double h = heading_of(c, k);
+        if (std::isnan(h)) {
+            const auto a = planar(c.path[k == 0 ? 0 : k - 1]), b = planar(c.path[k + 1 == n ? k : k + 1]);
+            const double du = b[0] - a[0], dv = b[1] - a[1];
+            h = (du * du + dv * dv > 1e-24) ? std::atan2(du, dv) * 180.0 / kPi : last_heading;
+        }
+        // Unwrapped, so that interpolating between samples turns the short way.
+        if (k > 0) {
+            while (h - last_heading > 180) h -= 360;
+            while (h - last_heading < -180) h += 360;
+        }
+        headings[k] = last_heading = h;
+    }
+    for (size_t k = 0; k < n; ++k) {
+        const double t = c.time.empty() ? 0.0 : c.time[k];
+        if (t > m.now) {
+            if (k > 0) { // the segment that crosses now(): swept up to it
+                const double t0 = c.time[k - 1];
+                const double a = (m.now - t0) / (t - t0);
+                ColliderPose p;
+                for (int d = 0; d < 3; ++d) p.centre[size_t(d)] = c.path[k - 1][size_t(d)] + a * (c.path[k][size_t(d)] - c.path[k - 1][size_t(d)]);
+                p.heading_degrees = headings[k - 1] + a * (headings[k] - headings[k - 1]);
+                p.time = m.now;
+                if (a > 0) poses.push_back(p);
+            }
+            break;
+        }
+        poses.push_back({c.path[k], headings[k], t});
+    }
+    return poses;
+}
+
+Status SnowField::add_collider(const Collider& c, StampStats* stats) {
+    ColliderSet one;
+    one.up = impl_->opt.up;
+    one.colliders.push_back(c);
+    return add_colliders(one, stats);
+}
+
+Status SnowField::add_colliders(const ColliderSet& set, StampStats* stats) {
+    Impl& m = *impl_;
+    if (m.ground.values.empty()) return Status::error(StatusCode::invalid_argument, "create() the field first");
+    StampStats st;
+    std::vector<Job> jobs;
+    for (const Collider& c : set.colliders) {
+        if (c.shape == ColliderShape::image && !c.brush)
+            return Status::error(StatusCode::invalid_input, c.name + ": image collider without a decoded brush");
+        collect_jobs(m, c, poses_of(m, c), jobs, st);
+    }
+    st = run_jobs(m, jobs, st);
+    if (stats) *stats = st;
+    return Status::success();
+}
+
+Status SnowField::stamp(const Collider& shape, const ColliderPose& pose, const ColliderPose* previous, StampStats* stats) {
+    Impl& m = *impl_;
+    if (m.ground.values.empty()) return Status::error(StatusCode::invalid_argument, "create() the field first");
+    if (shape.shape == ColliderShape::image && !shape.brush)
+        return Status::error(StatusCode::invalid_input, shape.name + ": image collider without a decoded brush");
+    std::vector<ColliderPose> poses;
+    if (previous) poses.push_back(*previous);
+    poses.push_back(pose);
+    if (previous) { // turn the short way
+        double& h = poses[1].heading_degrees;
+        while (h - poses[0].heading_degrees > 180) h -= 360;
+        while (h - poses[0].heading_degrees < -180) h += 360;
+    }
+    StampStats st;
+    std::vector<Job> jobs;
+    collect_jobs(m, shape, poses, jobs, st);
+    st = run_jobs(m, jobs, st);
+    if (stats) *stats = st;
+    return Status::success();
+}
+
+void SnowField::set_time(double t) {
+    Impl& m = *impl_;
+    if (!(t > m.now)) return;
+    if (m.opt.refill_rate > 0 && !m.content.empty()) {
+        const float f = float(std::exp(-m.opt.refill_rate * (t - m.now)));
+        const int W = m.ground.frame.width;
+        const TexelRect c = m.content;
+        tbb::parallel_for(c.y0, c.y1, [&](int j) {
+            for (int i = c.x0; i < c.x1; ++i) {
+                const size_t x = size_t(j) * size_t(W) + size_t(i);
+                m.carve[x] *= f;
+                m.rim[x] *= f;
+                m.out.values[x] *= f;
+                if (!m.base.empty()) m.base[x] *= f;
+            }
+        });
+        m.out_dirty.unite(c);
+        m.volumes_valid = false;
+    }
+    m.now = t;
+}
+
+double SnowField::now() const { return impl_->now; }
+
+TexelRect SnowField::update() {
+    Impl& m = *impl_;
+    if (m.ground.values.empty()) return {};
+    const HeightmapFrame& f = m.ground.frame;
+    TexelRect D = m.all_dirty ? m.full() : m.carve_dirty;
+    TexelRect changed = m.out_dirty;
+    if (!D.empty()) {
+        TexelRect A = D;
+        const double rw = m.rim_width();
+        if (rw > 0) {
+            const int pad = int(std::ceil((rw + m.max_reach) / f.texel)) + 2;
+            auto grow = [&](TexelRect r, int p) {
+                return TexelRect{std::max(0, r.x0 - p), std::max(0, r.y0 - p), std::min(f.width, r.x1 + p), std::min(f.height, r.y1 + p)};
+            };
+            A = m.all_dirty ? m.full() : grow(D, pad);
+            const TexelRect window = m.all_dirty ? m.full() : grow(A, 2 * pad);
+            RimInput in;
+            in.carve = m.carve.data();
+            in.base = m.base.empty() ? nullptr : m.base.data();
+            in.ground = m.ground.values.data();
+            in.width = f.width, in.height = f.height;
+            in.texel = f.texel;
+            in.width_m = rw;
+            in.gather_m = m.max_reach;
+            in.height_ratio = m.opt.rim_height;
+            in.conserve = m.opt.conserve_volume;
+            in.compaction = m.opt.compaction;
+            m.lost_rim = compute_rim(m.rim.data(), in, window, A);
+            m.content.unite(A);
+        }
+        tbb::parallel_for(A.y0, A.y1, [&](int j) {
+            for (int i = A.x0; i < A.x1; ++i) {
+                const size_t x = size_t(j) * size_t(f.width) + size_t(i);
+                m.out.values[x] = m.carve[x] + m.rim[x];
+            }
+        });
+        changed.unite(A);
+        m.volumes_valid = false;
+    }
+    m.carve_dirty = {};
+    m.out_dirty = {};
+    m.all_dirty = false;
+    return changed;
+}
+
+const Heightmap& SnowField::heightmap() const { return impl_->out; }
+const Heightmap& SnowField::ground() const { return impl_->ground; }
+const HeightmapFrame& SnowField::frame() const { return impl_->ground.frame; }
+size_t SnowField::overhang_triangles() const { return impl_->overhangs; }
+
+static void volumes(const SnowField::Impl& m) {
+    if (m.volumes_valid) return;
+    double removed = 0, raised = 0;
+    const size_t N = m.carve.size();
+    for (size_t x = 0; x < N; ++x) {
+        const double b = m.base.empty() ? 0.0 : double(m.base[x]);
+        removed += std::max(0.0, b - double(m.carve[x]));
+        raised += double(m.rim[x]);
+    }
+    const double a = m.ground.frame.texel * m.ground.frame.texel;
+    m.removed = removed * a, m.raised = raised * a;
+    m.volumes_valid = true;
+}
+
+double SnowField::removed_volume() const {
+    volumes(*impl_);
+    return impl_->removed;
+}
+double SnowField::raised_volume() const {
+    volumes(*impl_);
+    return impl_->raised;
+}
+
+void SnowField::cast_down(double* out, const double* points, size_t count) const {
+    const Impl& m = *impl_;
+    const D3 up = d3(m.ground.frame.up);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, count, 256), [&](const tbb::blocked_range<size_t>& r) {
+        for (size_t k = r.begin(); k != r.end(); ++k) {
+            const D3 o{points[3 * k], points[3 * k + 1], points[3 * k + 2]};
+            const double t = m.rays.first_hit(o, up * -1.0);
+            out[k] = std::isnan(t) ? t : dot(o, up) - t;
+        }
+    });
+}
+
+} // namespace furrow

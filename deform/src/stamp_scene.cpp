@@ -1,0 +1,519 @@
+// The scene pipeline of `furrow stamp`: heightmap from colliders → adaptive tessellation of the ground where
+// the heightmap has detail → displacement with welded normals → primitives rebuilt with their materials.
+//
+// References: the seed technique ("Fancy Shaders part 3": tessellated ground displaced by a stamped
+// heightmap); OpenSubdiv Bfr tessellation (via furrow::tessellate, bilinear scheme so the ground keeps its
+// shape: the surface of a bilinear-subdivided triangle is the triangle itself); DiagSplit (M. Fisher et al.,
+// "DiagSplit: Parallel, Crack-free, Adaptive Tessellation for Micropolygon Rendering", SIGGRAPH Asia 2009)
+// for edge rates that depend on the edge alone — here the larger detail rate of the edge's two faces, so both
+// faces agree and no crack opens. The tessellation is a separate step (tessellate_ground) with a plain
+// triangles-in, triangles-out boundary.
+#include "deform_internal.h"
+
+#include <furrow/tessellate.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstring>
+#include <filesystem>
+#include <functional>
+#include <unordered_map>
+
+namespace furrow {
+
+using namespace detail;
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double seconds_since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+using Mat = std::array<double, 16>; // column-major
+
+D3 xform_point(const Mat& m, const D3& p) {
+    return {m[0] * p.x + m[4] * p.y + m[8] * p.z + m[12], m[1] * p.x + m[5] * p.y + m[9] * p.z + m[13],
+            m[2] * p.x + m[6] * p.y + m[10] * p.z + m[14]};
+}
+
+// Inverse of an affine matrix; false if singular.
+bool invert_affine(const Mat& m, Mat& out) {
+    const double a = m[0], b = m[4], c = m[8], d = m[1], e = m[5], f = m[9], g = m[2], h = m[6], i = m[10];
+    const double A = e * i - f * h, B = -(d * i - f * g), C = d * h - e * g;
+    const double det = a * A + b * B + c * C;
+    if (!(std::abs(det) > 1e-300) || !std::isfinite(det)) return false;
+    const double inv = 1.0 / det;
+    // Rows of the inverse 3x3.
+    const double r[9] = {A * inv, -(b * i - c * h) * inv, (b * f - c * e) * inv,
+                         B * inv, (a * i - c * g) * inv, -(a * f - c * d) * inv,
+                         C * inv, -(a * h - b * g) * inv, (a * e - b * d) * inv};
+    out = {r[0], r[3], r[6], 0, r[1], r[4], r[7], 0, r[2], r[5], r[8], 0, 0, 0, 0, 1};
+    const D3 t = xform_point(out, D3{m[12], m[13], m[14]});
+    out[12] = -t.x, out[13] = -t.y, out[14] = -t.z;
+    return true;
+}
+
+bool is_identity(const Mat& m) {
+    static const Mat id{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+    return m == id;
+}
+
+std::vector<uint32_t> triangle_indices(const Primitive& p) {
+    if (p.face_sizes.empty()) return p.indices;
+    Primitive q;
+    q.indices = p.indices;
+    q.face_sizes = p.face_sizes;
+    q.positions = p.positions;
+    triangulate(q);
+    return q.indices;
+}
+
+bool is_ground_primitive(const Primitive& p) { return p.mode == PrimitiveMode::triangles && p.positions.size() >= 9 && !p.indices.empty(); }
+
+// Nodes drawn by the default scene (all nodes when the scene lists no roots), each once.
+std::vector<int> drawn_nodes(const Scene& s) {
+    std::vector<int> out;
+    std::vector<uint8_t> seen(s.nodes.size(), 0);
+    std::vector<int> stack;
+    if (s.roots.empty())
+        for (size_t n = 0; n < s.nodes.size(); ++n) stack.push_back(int(n));
+    else
+        stack.assign(s.roots.rbegin(), s.roots.rend());
+    while (!stack.empty()) {
+        int n = stack.back();
+        stack.pop_back();
+        if (n < 0 || size_t(n) >= s.nodes.size() || seen[size_t(n)]) continue;
+        seen[size_t(n)] = 1;
+        out.push_back(n);
+        for (auto it = s.nodes[size_t(n)].children.rbegin(); it != s.nodes[size_t(n)].children.rend(); ++it) stack.push_back(*it);
+    }
+    return out;
+}
+
+// ---- the mesh being deformed, in world space, all its triangle primitives concatenated ------------------
+struct WorkMesh {
+    std::vector<float> positions;  // world
+    std::vector<uint32_t> indices; // triangles
+    std::vector<uint32_t> groups;  // per triangle: slot in `prims`
+    std::vector<float> uvs;        // uv0 if every primitive has it
+    struct Channel {
+        std::string name; // "uv1", "color", or a custom attribute's name
+        int components = 0;
+        std::vector<float> values;
+    };
+    std::vector<Channel> channels;
+};
+
+// Pairs of welded points -> the rate both faces of the edge agree on (DiagSplit: a function of the edge only).
+struct EdgeRates {
+    struct Key {
+        uint32_t bits[6];
+        bool operator==(const Key& o) const { return std::memcmp(bits, o.bits, sizeof bits) == 0; }
+    };
+    struct Hash {
+        size_t operator()(const Key& k) const {
+            uint64_t h = 1469598103934665603ull;
+            for (uint32_t b : k.bits) h = (h ^ b) * 1099511628211ull;
+            return size_t(h);
+        }
+    };
+    std::unordered_map<Key, int, Hash> rate;
+
+    static Key key(const float* a, const float* b) {
+        Key k;
+        float fa[3] = {a[0] + 0.0f, a[1] + 0.0f, a[2] + 0.0f}, fb[3] = {b[0] + 0.0f, b[1] + 0.0f, b[2] + 0.0f}; // −0 == +0
+        if (std::lexicographical_compare(fb, fb + 3, fa, fa + 3)) std::swap(fa, fb);
+        std::memcpy(k.bits, fa, 12);
+        std::memcpy(k.bits + 3, fb, 12);
+        return k;
+    }
+    void build(const float* P, const uint32_t* idx, size_t tris, const std::vector<int>& face_rate) {
+        rate.reserve(tris * 2);
+        for (size_t t = 0; t < tris; ++t) {
+            if (face_rate[t] <= 1) continue;
+            for (int c = 0; c < 3; ++c) {
+                const float* a = P + 3 * size_t(idx[3 * t + size_t(c)]);
+                const float* b = P + 3 * size_t(idx[3 * t + size_t((c + 1) % 3)]);
+                int& r = rate[key(a, b)];
+                r = std::max(r, face_rate[t]);
+            }
+        }
+    }
+    double operator()(const float* a, const float* b) const {
+        auto it = rate.find(key(a, b));
+        return it == rate.end() ? 1.0 : double(it->second);
+    }
+};
+
+// One tessellation pass with per-triangle rates; the result replaces `m`.
+Status tessellate_pass(WorkMesh& m, const std::vector<int>& face_rate, const StampOptions& o, StampReport& rep) {
+    EdgeRates edges;
+    edges.build(m.positions.data(), m.indices.data(), m.indices.size() / 3, face_rate);
+    if (edges.rate.empty()) return Status::success();
+    TessellateInput in;
+    in.positions = m.positions.data();
+    in.vertex_count = m.positions.size() / 3;
+    in.indices = m.indices.data();
+    in.index_count = m.indices.size();
+    in.face_groups = m.groups.data();
+    if (!m.uvs.empty()) in.uvs = m.uvs.data();
+    for (const auto& ch : m.channels) in.attributes.push_back({ch.values.data(), ch.components});
+    TessellateOptions to;
+    to.surface.scheme = SubdivisionScheme::bilinear;
+    to.surface.boundary = BoundaryInterpolation::edge_and_corner;
+    to.surface.uv_interpolation = UvInterpolation::linear;
+    to.rates.edge_rate = [&edges](const float* a, const float* b) { return edges(a, b); };
+    to.rates.max_rate = std::max(1, o.max_rate);
+    to.rates.max_triangles = o.max_triangles;
+    TessellateOutput out;
+    Status s = tessellate(out, in, to);
+    if (!s.ok()) return s;
+    for (const auto& w : out.stats.warnings) rep.warnings.push_back("tessellation: " + w);
+    WorkMesh next;
+    next.positions = std::move(out.positions);
+    next.indices = std::move(out.indices);
+    next.groups.resize(out.triangle_faces.size());
+    for (size_t t = 0; t < out.triangle_faces.size(); ++t) next.groups[t] = m.groups[out.triangle_faces[t]];
+    next.uvs = std::move(out.uvs);
+    for (size_t c = 0; c < m.channels.size(); ++c)
+        next.channels.push_back({m.channels[c].name, m.channels[c].components, std::move(out.attributes[c])});
+    m = std::move(next);
+    return Status::success();
+}
+
+} // namespace
+
+void scene_triangles(std::vector<float>& positions, std::vector<uint32_t>& indices, const Scene& scene) {
+    positions.clear();
+    indices.clear();
+    const auto world = scene.world_matrices();
+    for (int n : drawn_nodes(scene)) {
+        const Node& node = scene.nodes[size_t(n)];
+        if (node.mesh < 0 || size_t(node.mesh) >= scene.meshes.size()) continue;
+        const Mat& M = world[size_t(n)];
+        for (const Primitive& p : scene.meshes[size_t(node.mesh)].primitives) {
+            if (!is_ground_primitive(p)) continue;
+            const uint32_t base = uint32_t(positions.size() / 3);
+            for (size_t v = 0; v < p.vertex_count(); ++v) {
+                const D3 q = xform_point(M, D3{p.positions[3 * v], p.positions[3 * v + 1], p.positions[3 * v + 2]});
+                positions.insert(positions.end(), {float(q.x), float(q.y), float(q.z)});
+            }
+            for (uint32_t i : triangle_indices(p))
+                if (i < p.vertex_count()) indices.push_back(base + i);
+                else indices.push_back(base); // out of range: a degenerate corner, never a crash
+        }
+    }
+}
+
+namespace {
+
+// Deforms one mesh drawn with world matrix M.
+Status deform_mesh(Scene& scene, int mesh_index, const Mat& M, bool skinned, const SnowField& field, const StampOptions& o,
+                   StampReport& rep) {
+    Mesh& mesh = scene.meshes[size_t(mesh_index)];
+    Mat inv;
+    if (!invert_affine(M, inv)) {
+        rep.warnings.push_back("mesh '" + mesh.name + "' has a singular transform; not deformed");
+        return Status::success();
+    }
+    std::vector<size_t> slots;
+    for (size_t k = 0; k < mesh.primitives.size(); ++k)
+        if (is_ground_primitive(mesh.primitives[k])) slots.push_back(k);
+    if (slots.empty()) return Status::success();
+    bool morphed = false;
+    for (size_t k : slots) morphed = morphed || !mesh.primitives[k].targets.empty();
+    const bool tess = o.tessellate && !skinned && !morphed;
+    if (o.tessellate && !tess)
+        rep.warnings.push_back("mesh '" + mesh.name + "' is " + (skinned ? "skinned" : "morphed") +
+                               ": displaced without tessellation (its vertex layout is kept)");
+
+    // Gather in world space.
+    WorkMesh w;
+    std::vector<uint32_t> vbase;
+    bool all_uv = true, all_uv1 = true, all_col = true;
+    for (size_t k : slots) {
+        const Primitive& p = mesh.primitives[k];
+        all_uv = all_uv && !p.uv0.empty();
+        all_uv1 = all_uv1 && !p.uv1.empty();
+        all_col = all_col && !p.colors.empty();
+    }
+    // Custom attributes present with the same width in every primitive.
+    std::vector<std::pair<std::string, int>> customs;
+    for (const auto& c : mesh.primitives[slots[0]].custom) {
+        bool everywhere = true;
+        for (size_t k : slots) {
+            bool found = false;
+            for (const auto& d : mesh.primitives[k].custom) found = found || (d.name == c.name && d.components == c.components);
+            everywhere = everywhere && found;
+        }
+        if (everywhere) customs.push_back({c.name, c.components});
+    }
+    if (tess) {
+        if (all_uv1) w.channels.push_back({"uv1", 2, {}});
+        if (all_col) w.channels.push_back({"color", 4, {}});
+        for (const auto& c : customs) w.channels.push_back({c.first, c.second, {}});
+    }
+    for (size_t s = 0; s < slots.size(); ++s) {
+        const Primitive& p = mesh.primitives[slots[s]];
+        const uint32_t base = uint32_t(w.positions.size() / 3);
+        vbase.push_back(base);
+        const size_t nv = p.vertex_count();
+        for (size_t v = 0; v < nv; ++v) {
+            const D3 q = xform_point(M, D3{p.positions[3 * v], p.positions[3 * v + 1], p.positions[3 * v + 2]});
+            w.positions.insert(w.positions.end(), {float(q.x), float(q.y), float(q.z)});
+        }
+        if (tess && all_uv) w.uvs.insert(w.uvs.end(), p.uv0.begin(), p.uv0.begin() + long(2 * nv));
+        for (auto& ch : w.channels) {
+            const std::vector<float>* src = nullptr;
+            if (ch.name == "uv1") src = &p.uv1;
+            else if (ch.name == "color") src = &p.colors;
+            else
+                for (const auto& d : p.custom)
+                    if (d.name == ch.name && d.components == ch.components) src = &d.values;
+            ch.values.insert(ch.values.end(), src->begin(), src->begin() + long(size_t(ch.components) * nv));
+        }
+        for (uint32_t i : triangle_indices(p)) w.indices.push_back(base + std::min<uint32_t>(i, uint32_t(nv - 1)));
+        w.groups.insert(w.groups.end(), (w.indices.size() / 3) - w.groups.size(), uint32_t(s));
+    }
+    rep.triangles_in += w.indices.size() / 3;
+
+    const Heightmap& hm = field.heightmap();
+    const double texel = hm.frame.texel;
+    const double max_error = o.max_error > 0 ? o.max_error : 0.25 * texel;
+    if (tess) {
+        const auto t0 = Clock::now();
+        DetailRateOptions dr;
+        dr.max_error = max_error;
+        dr.min_spacing = 0.5 * texel;
+        dr.max_rate = 1 << 20;
+        dr.camera = o.camera;
+        // Pass 1: detailed triangles longer than 8 texels are cut to about that size first, so that the
+        // detail pass refines a neighbourhood of each stamp, not a whole large ground triangle.
+        std::vector<int> rates;
+        triangle_detail_rates(rates, hm, w.positions.data(), w.indices.data(), w.indices.size() / 3, dr);
+        const double coarse = 8 * texel;
+        bool split = false;
+        for (size_t t = 0; t < rates.size(); ++t) {
+            if (rates[t] <= 1) continue;
+            const uint32_t* c = &w.indices[3 * t];
+            auto P = [&](int k) { return D3{w.positions[3 * size_t(c[k])], w.positions[3 * size_t(c[k]) + 1], w.positions[3 * size_t(c[k]) + 2]}; };
+            const double longest = std::max({norm(P(1) - P(0)), norm(P(2) - P(1)), norm(P(0) - P(2))});
+            rates[t] = std::clamp(int(std::ceil(longest / coarse)), 1, std::max(1, o.max_rate));
+            split = split || rates[t] > 1;
+        }
+        Status s = Status::success();
+        if (split) s = tessellate_pass(w, rates, o, rep);
+        if (s.ok()) {
+            dr.max_rate = std::max(1, o.max_rate);
+            triangle_detail_rates(rates, hm, w.positions.data(), w.indices.data(), w.indices.size() / 3, dr);
+            s = tessellate_pass(w, rates, o, rep);
+        }
+        if (!s.ok()) return Status::error(s.code, "tessellation of mesh '" + mesh.name + "' failed: " + s.message);
+        rep.tessellate_seconds += seconds_since(t0);
+    }
+
+    // Displace in world space, welded.
+    const auto t1 = Clock::now();
+    DisplacedGround dg;
+    DisplaceOptions dopt;
+    dopt.along_up = o.along_up;
+    dopt.top_only = field.overhang_triangles() > 0;
+    Status s = dg.prepare(w.positions.data(), w.positions.size() / 3, w.indices.data(), w.indices.size(), hm.frame, dopt, &field.ground());
+    if (!s.ok()) return s;
+    std::vector<float> P(w.positions.size()), N(w.positions.size());
+    dg.displace_all(hm, P.data(), N.data());
+    rep.welded_points += dg.welded_count();
+    {
+        // Points that actually moved (for the report).
+        std::vector<uint32_t> remap(w.positions.size() / 3);
+        size_t moved = 0;
+        weld_positions(remap.data(), w.positions.data(), remap.size());
+        for (size_t v = 0; v < remap.size(); ++v)
+            if (remap[v] == v && (P[3 * v] != w.positions[3 * v] || P[3 * v + 1] != w.positions[3 * v + 1] || P[3 * v + 2] != w.positions[3 * v + 2]))
+                ++moved;
+        rep.displaced_points += moved;
+    }
+    rep.displace_seconds += seconds_since(t1);
+
+    // Back to object space, into the primitive slots.
+    const bool identity = is_identity(M);
+    const size_t V = P.size() / 3;
+    for (size_t v = 0; v < V; ++v) {
+        if (!identity) {
+            const D3 q = xform_point(inv, D3{P[3 * v], P[3 * v + 1], P[3 * v + 2]});
+            P[3 * v] = float(q.x), P[3 * v + 1] = float(q.y), P[3 * v + 2] = float(q.z);
+            // Normals transform by the inverse transpose: object normal = Mᵀ · world normal.
+            const D3 n{N[3 * v], N[3 * v + 1], N[3 * v + 2]};
+            D3 m{M[0] * n.x + M[1] * n.y + M[2] * n.z, M[4] * n.x + M[5] * n.y + M[6] * n.z, M[8] * n.x + M[9] * n.y + M[10] * n.z};
+            const double l = norm(m);
+            m = l > 0 ? m * (1.0 / l) : D3{0, 1, 0};
+            N[3 * v] = float(m.x), N[3 * v + 1] = float(m.y), N[3 * v + 2] = float(m.z);
+        }
+    }
+    if (!tess) {
+        // Same vertices: positions and normals replaced in place.
+        for (size_t s2 = 0; s2 < slots.size(); ++s2) {
+            Primitive& p = mesh.primitives[slots[s2]];
+            const size_t nv = p.vertex_count();
+            std::copy(P.begin() + long(3 * vbase[s2]), P.begin() + long(3 * (vbase[s2] + nv)), p.positions.begin());
+            p.normals.assign(N.begin() + long(3 * vbase[s2]), N.begin() + long(3 * (vbase[s2] + nv)));
+            if (!p.tangents.empty()) {
+                p.tangents.clear();
+                rep.warnings.push_back("mesh '" + mesh.name + "': tangents dropped (they no longer match the displaced normals)");
+            }
+            rep.triangles_out += p.triangle_count();
+        }
+        rep.meshes += 1;
+        rep.primitives += slots.size();
+        return Status::success();
+    }
+    bool dropped_tangents = false, dropped_attr = false;
+    for (size_t s2 = 0; s2 < slots.size(); ++s2) {
+        Primitive& p = mesh.primitives[slots[s2]];
+        Primitive q;
+        q.mode = PrimitiveMode::triangles;
+        q.material = p.material;
+        dropped_tangents = dropped_tangents || !p.tangents.empty();
+        dropped_attr = dropped_attr || (!all_uv && !p.uv0.empty()) || (!all_uv1 && !p.uv1.empty()) || (!all_col && !p.colors.empty()) ||
+                       p.custom.size() > customs.size() || !p.joints.empty();
+        std::vector<uint32_t> local(V, UINT32_MAX);
+        for (size_t t = 0; t < w.groups.size(); ++t) {
+            if (w.groups[t] != s2) continue;
+            for (int c = 0; c < 3; ++c) {
+                const uint32_t v = w.indices[3 * t + size_t(c)];
+                if (local[v] == UINT32_MAX) {
+                    local[v] = uint32_t(q.positions.size() / 3);
+                    q.positions.insert(q.positions.end(), {P[3 * size_t(v)], P[3 * size_t(v) + 1], P[3 * size_t(v) + 2]});
+                    q.normals.insert(q.normals.end(), {N[3 * size_t(v)], N[3 * size_t(v) + 1], N[3 * size_t(v) + 2]});
+                    if (!w.uvs.empty()) q.uv0.insert(q.uv0.end(), {w.uvs[2 * size_t(v)], w.uvs[2 * size_t(v) + 1]});
+                    for (const auto& ch : w.channels) {
+                        std::vector<float>* dst = nullptr;
+                        if (ch.name == "uv1") dst = &q.uv1;
+                        else if (ch.name == "color") dst = &q.colors;
+                        else {
+                            CustomAttribute* a = nullptr;
+                            for (auto& d : q.custom)
+                                if (d.name == ch.name) a = &d;
+                            if (!a) {
+                                q.custom.push_back({ch.name, ch.components, {}});
+                                a = &q.custom.back();
+                            }
+                            dst = &a->values;
+                        }
+                        const float* src = &ch.values[size_t(ch.components) * v];
+                        dst->insert(dst->end(), src, src + ch.components);
+                    }
+                }
+                q.indices.push_back(local[v]);
+            }
+        }
+        rep.triangles_out += q.indices.size() / 3;
+        p = std::move(q);
+    }
+    if (dropped_tangents) rep.warnings.push_back("mesh '" + mesh.name + "': tangents dropped (they no longer match the displaced normals)");
+    if (dropped_attr)
+        rep.warnings.push_back("mesh '" + mesh.name + "': attributes not present on every primitive (or skin data) were dropped");
+    rep.meshes += 1;
+    rep.primitives += slots.size();
+    return Status::success();
+}
+
+} // namespace
+
+Status stamp_scene(Scene& scene, const ColliderSet& colliders, const StampOptions& o, StampReport* report, Heightmap* heightmap_out) {
+    StampReport rep;
+    auto bad = [](const std::string& m) { return Status::error(StatusCode::invalid_argument, m); };
+    if (!(o.max_error >= 0) || !std::isfinite(o.max_error)) return bad("max error must be a finite number >= 0");
+    if (o.max_rate < 1 || o.max_rate > 4096) return bad("max rate must be in 1..4096");
+    if (o.time && !std::isfinite(*o.time)) return bad("time must be finite");
+    if (o.camera) {
+        if (!(o.camera->fov_degrees > 0 && o.camera->fov_degrees < 180)) return bad("camera field of view must be in (0, 180)");
+        if (o.camera->viewport_height < 1) return bad("camera viewport height must be >= 1");
+        if (!(o.camera->pixel_error > 0) || !std::isfinite(o.camera->pixel_error)) return bad("pixel error must be > 0");
+    }
+    const auto t0 = Clock::now();
+    std::vector<float> gp;
+    std::vector<uint32_t> gi;
+    scene_triangles(gp, gi, scene);
+    if (gi.empty()) return Status::error(StatusCode::invalid_input, "the ground has no triangles");
+    SnowOptions so = o.snow;
+    so.up = colliders.up;
+    SnowField field;
+    Status s = field.create(gp.data(), gp.size() / 3, gi.data(), gi.size(), so);
+    if (!s.ok()) return s;
+    rep.frame = field.frame();
+    rep.overhang_triangles = field.overhang_triangles();
+    if (rep.overhang_triangles)
+        rep.warnings.push_back(std::to_string(rep.overhang_triangles) +
+                               " ground triangles face away from up (overhangs or undersides): the snow follows the top surface "
+                               "only, and points below it are not displaced");
+    if (o.base) {
+        s = field.set_base(*o.base);
+        if (!s.ok()) return s;
+    }
+    double T = 0;
+    for (const Collider& c : colliders.colliders)
+        for (double t : c.time) T = std::max(T, t);
+    if (o.time) T = *o.time;
+    field.set_time(T);
+    s = field.add_colliders(colliders, &rep.stats);
+    if (!s.ok()) return s;
+    field.update();
+    rep.removed_volume = field.removed_volume();
+    rep.raised_volume = field.raised_volume();
+    const Heightmap& hm = field.heightmap();
+    bool changed = false;
+    for (float v : hm.values) {
+        rep.max_depth = std::max(rep.max_depth, double(-v));
+        rep.max_rim = std::max(rep.max_rim, double(v));
+        changed = changed || v != 0.0f;
+    }
+    if (rep.stats.missed_rays)
+        rep.warnings.push_back(std::to_string(rep.stats.missed_rays) + " contact rays found no ground below their collider");
+    rep.stamp_seconds = seconds_since(t0);
+    if (heightmap_out) *heightmap_out = hm;
+    rep.changed = changed;
+    if (changed) {
+        const auto world = scene.world_matrices();
+        // Each drawing node gets its own mesh (copied from the undeformed original), then each is deformed.
+        std::vector<int> mesh_user(scene.meshes.size(), -1);
+        std::vector<std::pair<int, int>> work; // node, mesh
+        const size_t originals = scene.meshes.size();
+        for (int n : drawn_nodes(scene)) {
+            Node& node = scene.nodes[size_t(n)];
+            if (node.mesh < 0 || size_t(node.mesh) >= originals) continue;
+            int m = node.mesh;
+            if (mesh_user[size_t(m)] >= 0) {
+                scene.meshes.push_back(scene.meshes[size_t(m)]);
+                m = int(scene.meshes.size() - 1);
+                node.mesh = m;
+                rep.warnings.push_back("mesh '" + scene.meshes[size_t(m)].name + "' is drawn by several nodes: copied for node '" +
+                                       node.name + "'");
+            } else {
+                mesh_user[size_t(m)] = n;
+            }
+            work.push_back({n, m});
+        }
+        for (const auto& [n, m] : work) {
+            s = deform_mesh(scene, m, world[size_t(n)], scene.nodes[size_t(n)].skin >= 0, field, o, rep);
+            if (!s.ok()) return s;
+        }
+    }
+    if (report) *report = std::move(rep);
+    return Status::success();
+}
+
+Status stamp_files(Scene& out, const std::string& ground_path, const std::string& colliders_path, const StampOptions& o,
+                   StampReport* report) {
+    Scene scene;
+    Status s = load_scene(scene, ground_path);
+    if (!s.ok()) return Status::error(s.code, ground_path + ": " + s.message);
+    ColliderSet set;
+    s = load_colliders(set, colliders_path);
+    if (!s.ok()) return Status::error(s.code, colliders_path + ": " + s.message);
+    s = stamp_scene(scene, set, o, report);
+    if (!s.ok()) return s;
+    out = std::move(scene);
+    return Status::success();
+}
+
+} // namespace furrow

@@ -1,0 +1,695 @@
+// Fur on a whole scene: shells (and fins, and LOD levels) as glTF a stock viewer can show.
+//
+// Reference: Lengyel et al., "Real-Time Fur over Arbitrary Surfaces" (I3D 2001): shells with an alpha-tested
+// strand texture, fins near silhouettes, fewer shells at a distance; NVIDIA, "Fur (using Shells and Fins)"
+// (2007 SDK white paper): fins faded by the angle between view and surface. What is specific here is how
+// that maps onto core glTF 2.0 with no custom shader:
+//   - alpha test = MASK with alphaCutoff = the shell's height fraction, one material per shell, the strand
+//     texture on TEXCOORD_1 (so TEXCOORD_0 keeps the model's own UVs);
+//   - shading = COLOR_0 × strand texture: the base albedo is sampled at each vertex (base colour factor ×
+//     texture × vertex colour) and darkened toward the roots, a cheap stand-in for self-shadowing;
+//   - LOD levels live on nodes outside the default scene, so a viewer shows level 0 only;
+//   - everything an animated model needs rides along: JOINTS_0/WEIGHTS_0 and morph deltas are copied from
+//     the base vertex, and the shells stay in the base's mesh, so its node, skin and weights apply.
+// Lengths are given in world units and converted per mesh with the scale of its (bind-pose) world matrix,
+// so `--length 0.02` means 2 cm on the 0.01-scaled Duck as on the creature.
+#include "shells_internal.h"
+
+#include <furrow/render.h>
+#include <furrow/shells.h>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <unordered_map>
+
+namespace furrow {
+namespace {
+
+using Mat4 = std::array<double, 16>; // column-major
+
+Mat4 mul(const Mat4& a, const Mat4& b) {
+    Mat4 r{};
+    for (int c = 0; c < 4; ++c)
+        for (int rr = 0; rr < 4; ++rr) {
+            double s = 0;
+            for (int k = 0; k < 4; ++k) s += a[size_t(k * 4 + rr)] * b[size_t(c * 4 + k)];
+            r[size_t(c * 4 + rr)] = s;
+        }
+    return r;
+}
+
+double det3(const Mat4& m) {
+    return m[0] * (m[5] * m[10] - m[9] * m[6]) - m[4] * (m[1] * m[10] - m[9] * m[2]) + m[8] * (m[1] * m[6] - m[5] * m[2]);
+}
+
+// Solves M·x = b for the linear part of M (Cramer); returns b if M is singular.
+std::array<double, 3> solve3(const Mat4& m, const std::array<double, 3>& b) {
+    double d = det3(m);
+    if (!(std::abs(d) > 1e-300) || !std::isfinite(d)) return b;
+    auto col = [&](int c) { return std::array<double, 3>{m[size_t(4 * c)], m[size_t(4 * c + 1)], m[size_t(4 * c + 2)]}; };
+    auto det_cols = [](const std::array<double, 3>& a, const std::array<double, 3>& bb, const std::array<double, 3>& c) {
+        return a[0] * (bb[1] * c[2] - bb[2] * c[1]) - bb[0] * (a[1] * c[2] - a[2] * c[1]) + c[0] * (a[1] * bb[2] - a[2] * bb[1]);
+    };
+    return {det_cols(b, col(1), col(2)) / d, det_cols(col(0), b, col(2)) / d, det_cols(col(0), col(1), b) / d};
+}
+
+template <class F>
+void parallel(size_t n, size_t grain, F&& f) {
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, n, grain), [&](const tbb::blocked_range<size_t>& r) {
+        for (size_t i = r.begin(); i != r.end(); ++i) f(i);
+    });
+}
+
+// How one mesh sits in the world: object units per world unit and gravity in object space.
+struct Placement {
+    double scale = 1.0; // world units per object unit
+    std::array<double, 3> gravity{0, -1, 0};
+    int node = -1;
+};
+
+Placement placement_of(const Scene& scene, const std::vector<Mat4>& world, int node_index, const std::array<double, 3>& g) {
+    Placement pl;
+    pl.node = node_index;
+    const Node& node = scene.nodes[size_t(node_index)];
+    Mat4 m = world[size_t(node_index)];
+    // A skinned mesh is placed by its joints: in bind pose, a vertex goes through world(joint) × inverse bind
+    // matrix of its joints. The first weighted joint of the first skinned vertex stands for the whole mesh.
+    if (node.skin >= 0 && node.skin < int(scene.skins.size()) && node.mesh >= 0) {
+        const Skin& skin = scene.skins[size_t(node.skin)];
+        for (const Primitive& p : scene.meshes[size_t(node.mesh)].primitives) {
+            if (p.joints.size() < 4 || p.weights.size() < 4) continue;
+            int best = 0;
+            for (int k = 1; k < 4; ++k)
+                if (p.weights[size_t(k)] > p.weights[size_t(best)]) best = k;
+            size_t j = p.joints[size_t(best)];
+            if (j < skin.joints.size() && skin.joints[j] >= 0 && skin.joints[j] < int(world.size())) {
+                Mat4 ibm{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+                if (skin.inverse_bind_matrices.size() >= 16 * (j + 1))
+                    for (size_t k = 0; k < 16; ++k) ibm[k] = skin.inverse_bind_matrices[16 * j + k];
+                m = mul(world[size_t(skin.joints[j])], ibm);
+            }
+            break;
+        }
+    }
+    double d = det3(m);
+    pl.scale = std::isfinite(d) && std::abs(d) > 1e-300 ? std::cbrt(std::abs(d)) : 1.0;
+    std::array<double, 3> go = solve3(m, g);
+    double len = std::sqrt(go[0] * go[0] + go[1] * go[1] + go[2] * go[2]);
+    if (len > 0 && std::isfinite(len)) pl.gravity = {go[0] / len, go[1] / len, go[2] / len};
+    return pl;
+}
+
+int add_texture(Scene& scene, const std::string& name, const std::vector<uint8_t>& rgba, int w, int h, int wrap_t) {
+    Image im;
+    im.name = name;
+    im.mime_type = "image/png";
+    im.encoded = encode_png_rgba8(rgba.data(), w, h);
+    scene.images.push_back(std::move(im));
+    Sampler s;
+    s.mag_filter = 9729;  // LINEAR
+    s.min_filter = 9987;  // LINEAR_MIPMAP_LINEAR
+    s.wrap_s = 10497;     // REPEAT: the textures tile
+    s.wrap_t = wrap_t;
+    scene.samplers.push_back(s);
+    Texture t;
+    t.image = int(scene.images.size()) - 1;
+    t.sampler = int(scene.samplers.size()) - 1;
+    scene.textures.push_back(t);
+    return int(scene.textures.size()) - 1;
+}
+
+int add_material(Scene& scene, const std::string& name, int texture, int texcoord, float cutoff, bool double_sided) {
+    Material m;
+    m.name = name;
+    m.base_color_texture.texture = texture;
+    m.base_color_texture.texcoord = texcoord;
+    m.metallic = 0.0f; // fur is a dielectric; glTF's default metallic 1 would render it almost black
+    m.roughness = 0.85f;
+    m.alpha_mode = AlphaMode::mask;
+    m.alpha_cutoff = cutoff;
+    m.double_sided = double_sided;
+    scene.materials.push_back(m);
+    return int(scene.materials.size()) - 1;
+}
+
+// Decoded base-colour textures, by image index (decoded once per call).
+struct TextureCache {
+    std::map<int, ImageF> images;
+    const ImageF* get(const Scene& scene, int texture) {
+        if (texture < 0 || texture >= int(scene.textures.size())) return nullptr;
+        int image = scene.textures[size_t(texture)].image;
+        if (image < 0 || image >= int(scene.images.size())) return nullptr;
+        auto it = images.find(image);
+        if (it == images.end()) {
+            ImageF im;
+            const auto& bytes = scene.images[size_t(image)].encoded;
+            if (bytes.empty() || !decode_image(im, bytes.data(), bytes.size()).ok()) im = ImageF{};
+            it = images.emplace(image, std::move(im)).first;
+        }
+        return it->second.width > 0 ? &it->second : nullptr;
+    }
+};
+
+// Linear RGB albedo per vertex: baseColorFactor × baseColorTexture (sRGB-decoded) × COLOR_0.
+std::vector<float> vertex_albedo(const Scene& scene, const Primitive& p, TextureCache& cache) {
+    const size_t n = p.vertex_count();
+    std::array<float, 4> factor{1, 1, 1, 1};
+    const ImageF* image = nullptr;
+    const std::vector<float>* uv = nullptr;
+    int wrap_s = 10497, wrap_t = 10497;
+    if (p.material >= 0 && p.material < int(scene.materials.size())) {
+        const Material& m = scene.materials[size_t(p.material)];
+        factor = m.base_color;
+        image = cache.get(scene, m.base_color_texture.texture);
+        uv = m.base_color_texture.texcoord == 1 ? &p.uv1 : &p.uv0;
+        if (uv->size() != 2 * n) image = nullptr;
+        if (image) {
+            int s = scene.textures[size_t(m.base_color_texture.texture)].sampler;
+            if (s >= 0 && s < int(scene.samplers.size())) wrap_s = scene.samplers[size_t(s)].wrap_s, wrap_t = scene.samplers[size_t(s)].wrap_t;
+        }
+    }
+    std::vector<float> rgb(3 * n);
+    parallel(n, 2048, [&](size_t v) {
+        for (int c = 0; c < 3; ++c) {
+            float x = factor[size_t(c)];
+            if (image) {
+                int ch = image->channels >= 3 ? c : 0;
+                x *= srgb_to_linear(detail::sample_bilinear(*image, ch, (*uv)[2 * v], (*uv)[2 * v + 1], wrap_s, wrap_t));
+            }
+            if (p.colors.size() == 4 * n) x *= p.colors[4 * v + size_t(c)];
+            rgb[3 * v + size_t(c)] = std::clamp(x, 0.0f, 1.0f);
+        }
+    });
+    return rgb;
+}
+
+// The shell vertex set: which base vertex each output vertex copies, and its strand-texture UV (TEXCOORD_1).
+struct ShellVertices {
+    std::vector<uint32_t> src;
+    std::vector<float> uv0, uv1; // uv0 only when the base has none (box projection)
+    std::vector<uint32_t> indices; // kept triangles, in output vertex indices
+};
+
+ShellVertices shell_vertices(const Primitive& p, const std::vector<uint32_t>& tris, const std::vector<uint8_t>& keep,
+                             double tile_obj) {
+    ShellVertices sv;
+    const size_t n = p.vertex_count(), T = tris.size() / 3;
+    auto pos = [&](uint32_t v, int k) { return double(p.positions[3 * size_t(v) + size_t(k)]); };
+    // World-to-texture scale from the UV layout: object units per UV unit, as the root of the area ratio.
+    double a3 = 0, auv = 0;
+    if (p.uv0.size() == 2 * n) {
+        for (size_t f = 0; f < T; ++f) {
+            uint32_t a = tris[3 * f], b = tris[3 * f + 1], c = tris[3 * f + 2];
+            double e1[3], e2[3];
+            for (int k = 0; k < 3; ++k) e1[k] = pos(b, k) - pos(a, k), e2[k] = pos(c, k) - pos(a, k);
+            double cx = e1[1] * e2[2] - e1[2] * e2[1], cy = e1[2] * e2[0] - e1[0] * e2[2], cz = e1[0] * e2[1] - e1[1] * e2[0];
+            a3 += 0.5 * std::sqrt(cx * cx + cy * cy + cz * cz);
+            double u1 = double(p.uv0[2 * b]) - p.uv0[2 * a], v1 = double(p.uv0[2 * b + 1]) - p.uv0[2 * a + 1];
+            double u2 = double(p.uv0[2 * c]) - p.uv0[2 * a], v2 = double(p.uv0[2 * c + 1]) - p.uv0[2 * a + 1];
+            auv += 0.5 * std::abs(u1 * v2 - u2 * v1);
+        }
+    }
+    if (auv > 0 && a3 > 0 && std::isfinite(auv) && std::isfinite(a3)) {
+        const double k = std::sqrt(a3 / auv) / tile_obj;
+        std::vector<uint32_t> map(n, UINT32_MAX);
+        for (size_t f = 0; f < T; ++f) {
+            if (!keep[f]) continue;
+            for (int c = 0; c < 3; ++c) {
+                uint32_t v = tris[3 * f + size_t(c)];
+                if (map[v] == UINT32_MAX) {
+                    map[v] = uint32_t(sv.src.size());
+                    sv.src.push_back(v);
+                    sv.uv1.push_back(float(double(p.uv0[2 * v]) * k));
+                    sv.uv1.push_back(float(double(p.uv0[2 * v + 1]) * k));
+                }
+                sv.indices.push_back(map[v]);
+            }
+        }
+        return sv;
+    }
+    // No usable UVs: box projection, each triangle onto the plane its normal faces most; a vertex used by
+    // triangles of different planes is split (positions stay identical, so no crack).
+    std::map<std::pair<uint32_t, int>, uint32_t> map;
+    for (size_t f = 0; f < T; ++f) {
+        if (!keep[f]) continue;
+        uint32_t a = tris[3 * f], b = tris[3 * f + 1], c = tris[3 * f + 2];
+        double e1[3], e2[3];
+        for (int k = 0; k < 3; ++k) e1[k] = pos(b, k) - pos(a, k), e2[k] = pos(c, k) - pos(a, k);
+        double nrm[3] = {std::abs(e1[1] * e2[2] - e1[2] * e2[1]), std::abs(e1[2] * e2[0] - e1[0] * e2[2]),
+                         std::abs(e1[0] * e2[1] - e1[1] * e2[0])};
+        int axis = nrm[0] >= nrm[1] && nrm[0] >= nrm[2] ? 0 : nrm[1] >= nrm[2] ? 1 : 2;
+        for (uint32_t v : {a, b, c}) {
+            auto [it, fresh] = map.emplace(std::make_pair(v, axis), uint32_t(sv.src.size()));
+            if (fresh) {
+                sv.src.push_back(v);
+                int i0 = (axis + 1) % 3, i1 = (axis + 2) % 3;
+                float u = float(pos(v, i0) / tile_obj), w = float(pos(v, i1) / tile_obj);
+                sv.uv1.push_back(u);
+                sv.uv1.push_back(w);
+                sv.uv0.push_back(u);
+                sv.uv0.push_back(w);
+            }
+            sv.indices.push_back(it->second);
+        }
+    }
+    return sv;
+}
+
+// Everything per base primitive that every shell, fin and LOD level reads.
+struct Grown {
+    size_t mesh = 0, prim = 0;
+    ShellFrame frame;
+    ShellVertices sv;
+    std::vector<float> albedo; // per base vertex
+    std::vector<uint32_t> tris;
+    size_t dropped = 0;
+};
+
+// Copies the per-vertex attributes that follow the base vertex (normals, UVs, skin, morph deltas).
+void copy_attributes(Primitive& out, const Primitive& base, const std::vector<uint32_t>& src, const std::vector<float>& uv0_override) {
+    const size_t m = src.size();
+    auto gather = [&](std::vector<float>& dst, const std::vector<float>& from, size_t per) {
+        if (from.size() != per * base.vertex_count()) return;
+        dst.resize(per * m);
+        for (size_t i = 0; i < m; ++i)
+            for (size_t k = 0; k < per; ++k) dst[per * i + k] = from[per * size_t(src[i]) + k];
+    };
+    gather(out.normals, base.normals, 3);
+    if (!uv0_override.empty()) out.uv0 = uv0_override;
+    else gather(out.uv0, base.uv0, 2);
+    gather(out.weights, base.weights, 4);
+    if (base.joints.size() == 4 * base.vertex_count() && !out.weights.empty()) {
+        out.joints.resize(4 * m);
+        for (size_t i = 0; i < m; ++i)
+            for (size_t k = 0; k < 4; ++k) out.joints[4 * i + k] = base.joints[4 * size_t(src[i]) + k];
+    }
+    out.targets.resize(base.targets.size());
+    for (size_t t = 0; t < base.targets.size(); ++t) {
+        gather(out.targets[t].position_deltas, base.targets[t].position_deltas, 3);
+        if (!out.normals.empty()) gather(out.targets[t].normal_deltas, base.targets[t].normal_deltas, 3);
+    }
+}
+
+} // namespace
+
+Status add_fur_shells(Scene& scene, const FurOptions& opt, FurReport* report) {
+    FurReport local;
+    FurReport& rep = report ? *report : local;
+    rep = FurReport{};
+    auto bad = [](const std::string& m) { return Status::error(StatusCode::invalid_argument, m); };
+
+    // --- options (the frame function checks ShellOptions; run it on nothing to fail before any change)
+    {
+        ShellFrame probe;
+        if (Status s = compute_shell_frame(probe, nullptr, 0, nullptr, 0, nullptr, nullptr, opt.shells); !s.ok()) return s;
+    }
+    const ShellOptions& so = opt.shells;
+    if (!std::isfinite(opt.tile_size) || opt.tile_size < 0) return bad("tile size must be a finite number >= 0");
+    if (!(opt.root_shade >= 0 && opt.root_shade <= 1)) return bad("root shade must be in 0..1");
+    const bool has_mask = !opt.mask.pixels.empty();
+    if (has_mask) {
+        const ImageF& m = opt.mask;
+        if (m.width <= 0 || m.height <= 0 || m.channels <= 0 || m.pixels.size() != size_t(m.width) * size_t(m.height) * size_t(m.channels))
+            return bad("the mask image is malformed");
+        if (opt.mask_channel < 0 || opt.mask_channel >= m.channels)
+            return bad("the mask has " + std::to_string(m.channels) + " channel(s); channel " + std::to_string(opt.mask_channel) +
+                       " does not exist");
+    }
+    const bool has_comb = !opt.comb.pixels.empty();
+    if (has_comb && (opt.comb.channels < 2 || opt.comb.pixels.size() != size_t(opt.comb.width) * size_t(opt.comb.height) * size_t(opt.comb.channels)))
+        return bad("the comb map needs at least 2 channels (r = along u, g = up the image)");
+
+    // --- which meshes: those of nodes reachable from the scene roots, each placed by its first such node
+    std::vector<int> roots = scene.roots;
+    if (roots.empty()) {
+        std::vector<uint8_t> is_child(scene.nodes.size(), 0);
+        for (const Node& nd : scene.nodes)
+            for (int c : nd.children)
+                if (c >= 0 && c < int(scene.nodes.size())) is_child[size_t(c)] = 1;
+        for (size_t i = 0; i < scene.nodes.size(); ++i)
+            if (!is_child[i]) roots.push_back(int(i));
+    }
+    std::vector<uint8_t> reached(scene.nodes.size(), 0);
+    std::vector<int> stack = roots;
+    while (!stack.empty()) {
+        int i = stack.back();
+        stack.pop_back();
+        if (i < 0 || i >= int(scene.nodes.size()) || reached[size_t(i)]) continue;
+        reached[size_t(i)] = 1;
+        for (int c : scene.nodes[size_t(i)].children) stack.push_back(c);
+    }
+    const std::vector<Mat4> world = scene.world_matrices();
+    std::vector<int> mesh_node(scene.meshes.size(), -1);
+    for (size_t i = 0; i < scene.nodes.size(); ++i) {
+        int m = scene.nodes[i].mesh;
+        if (reached[i] && m >= 0 && m < int(scene.meshes.size()) && mesh_node[size_t(m)] < 0) mesh_node[size_t(m)] = int(i);
+    }
+
+    // --- work list and input checks (before anything is added to the scene)
+    std::vector<std::pair<size_t, size_t>> work;
+    for (size_t mi = 0; mi < scene.meshes.size(); ++mi) {
+        if (mesh_node[mi] < 0) continue;
+        const Mesh& mesh = scene.meshes[mi];
+        for (size_t pi = 0; pi < mesh.primitives.size(); ++pi) {
+            const Primitive& p = mesh.primitives[pi];
+            if (p.mode != PrimitiveMode::triangles || p.vertex_count() == 0 || p.triangle_count() == 0) continue;
+            if ((has_mask || has_comb) && p.uv0.size() != 2 * p.vertex_count())
+                return bad("mesh " + std::to_string(mi) + (mesh.name.empty() ? "" : " ('" + mesh.name + "')") + " primitive " +
+                           std::to_string(pi) + " has no TEXCOORD_0; " + (has_mask ? "a fur mask" : "a comb map") +
+                           " is sampled at the UVs");
+            work.emplace_back(mi, pi);
+        }
+    }
+    if (work.empty()) return Status::error(StatusCode::invalid_input, "no triangles to grow fur on");
+
+    // --- grow: the frame and the vertex set per base primitive
+    std::vector<Grown> grown(work.size());
+    std::vector<Placement> placement(scene.meshes.size());
+    for (size_t mi = 0; mi < scene.meshes.size(); ++mi)
+        if (mesh_node[mi] >= 0) placement[mi] = placement_of(scene, world, mesh_node[mi], so.gravity);
+    TextureCache cache;
+    for (size_t wi = 0; wi < work.size(); ++wi) {
+        Grown& g = grown[wi];
+        g.mesh = work[wi].first;
+        g.prim = work[wi].second;
+        const Primitive& p = scene.meshes[g.mesh].primitives[g.prim];
+        const Placement& pl = placement[g.mesh];
+        const size_t n = p.vertex_count();
+        if (!p.face_sizes.empty()) {
+            Primitive t;
+            t.indices = p.indices;
+            t.face_sizes = p.face_sizes;
+            triangulate(t);
+            g.tris = std::move(t.indices);
+        } else {
+            g.tris = p.indices;
+        }
+        for (uint32_t i : g.tris)
+            if (i >= n) return Status::error(StatusCode::invalid_input, "mesh " + std::to_string(g.mesh) + ": index out of range");
+        std::vector<float> mask, comb;
+        if (has_mask) {
+            mask.resize(n);
+            parallel(n, 2048, [&](size_t v) {
+                mask[v] = detail::sample_bilinear(opt.mask, opt.mask_channel, p.uv0[2 * v], p.uv0[2 * v + 1]);
+            });
+        }
+        if (has_comb) {
+            // The comb's (x, y) lives in UV space: carry it to object space with the UV gradients of the
+            // triangles around each copy (dp/du, dp/dv), as a tangent frame would.
+            std::vector<double> du(3 * n, 0.0), dv(3 * n, 0.0);
+            for (size_t f = 0; f + 3 <= g.tris.size(); f += 3) {
+                uint32_t a = g.tris[f], b = g.tris[f + 1], c = g.tris[f + 2];
+                double e1[3], e2[3];
+                for (int k = 0; k < 3; ++k)
+                    e1[k] = double(p.positions[3 * b + k]) - p.positions[3 * a + k], e2[k] = double(p.positions[3 * c + k]) - p.positions[3 * a + k];
+                double u1 = double(p.uv0[2 * b]) - p.uv0[2 * a], v1 = double(p.uv0[2 * b + 1]) - p.uv0[2 * a + 1];
+                double u2 = double(p.uv0[2 * c]) - p.uv0[2 * a], v2 = double(p.uv0[2 * c + 1]) - p.uv0[2 * a + 1];
+                double det = u1 * v2 - u2 * v1;
+                if (!(std::abs(det) > 1e-20)) continue;
+                for (uint32_t v : {a, b, c})
+                    for (int k = 0; k < 3; ++k) {
+                        du[3 * v + k] += (e1[k] * v2 - e2[k] * v1) / det;
+                        dv[3 * v + k] += (e2[k] * u1 - e1[k] * u2) / det;
+                    }
+            }
+            comb.resize(3 * n);
+            for (size_t v = 0; v < n; ++v) {
+                double cx = 2.0 * detail::sample_bilinear(opt.comb, 0, p.uv0[2 * v], p.uv0[2 * v + 1]) - 1.0;
+                double cy = 2.0 * detail::sample_bilinear(opt.comb, 1, p.uv0[2 * v], p.uv0[2 * v + 1]) - 1.0;
+                double lu = std::sqrt(du[3 * v] * du[3 * v] + du[3 * v + 1] * du[3 * v + 1] + du[3 * v + 2] * du[3 * v + 2]);
+                double lv = std::sqrt(dv[3 * v] * dv[3 * v] + dv[3 * v + 1] * dv[3 * v + 1] + dv[3 * v + 2] * dv[3 * v + 2]);
+                for (int k = 0; k < 3; ++k) {
+                    double x = (lu > 0 ? cx * du[3 * v + k] / lu : 0) - (lv > 0 ? cy * dv[3 * v + k] / lv : 0); // "up" = −v
+                    comb[3 * v + k] = float(x);
+                }
+            }
+        }
+        ShellOptions o = so;
+        o.length = so.length / pl.scale;
+        o.gravity = pl.gravity;
+        Status s = compute_shell_frame(g.frame, p.positions.data(), n, g.tris.data(), g.tris.size(),
+                                       has_mask ? mask.data() : nullptr, has_comb ? comb.data() : nullptr, o);
+        if (!s.ok()) return Status::error(s.code, "mesh " + std::to_string(g.mesh) + " primitive " + std::to_string(g.prim) + ": " + s.message);
+        // Model only what is there: a triangle whose three corners are bald would sit on the skin.
+        const size_t T = g.tris.size() / 3;
+        std::vector<uint8_t> keep(T, 0);
+        for (size_t f = 0; f < T; ++f)
+            keep[f] = g.frame.length[g.tris[3 * f]] > 0 || g.frame.length[g.tris[3 * f + 1]] > 0 || g.frame.length[g.tris[3 * f + 2]] > 0;
+        g.dropped = T - size_t(std::count(keep.begin(), keep.end(), uint8_t(1)));
+        const double tile_world = opt.tile_size > 0 ? opt.tile_size : 4.0 * std::max(so.length, 1e-12);
+        g.sv = shell_vertices(p, g.tris, keep, tile_world / pl.scale);
+        g.albedo = vertex_albedo(scene, p, cache);
+        if (opt.keep_frames) rep.frames.push_back(FurFrame{g.mesh, g.prim, o.length, g.tris, g.frame});
+        rep.primitives += 1;
+        rep.base_triangles += T;
+        rep.welded_vertices += g.frame.welded_vertices;
+        rep.clamped_vertices += g.frame.clamped_vertices;
+        rep.clamped_by_ray += g.frame.clamped_by_ray;
+        rep.clamped_by_fold += g.frame.clamped_by_fold;
+        rep.clamped_by_even_cap += g.frame.clamped_by_even_cap;
+        rep.bald_vertices += g.frame.bald_vertices;
+    }
+
+    // --- textures and materials (appended: existing indices stay valid)
+    const StrandTextureOptions& st = opt.strands;
+    const int tex_size = std::clamp(st.size, 16, 4096);
+    const int density_tex = add_texture(scene, "fur_strands", make_strand_texture(st), tex_size, tex_size, 10497);
+    int fin_material = -1;
+    if (opt.fins) {
+        const int fin_tex = add_texture(scene, "fur_fins", make_fin_texture(st), tex_size, std::max(8, tex_size / 2), 33071);
+        fin_material = add_material(scene, "fur_fins", fin_tex, 0, 0.5f, true);
+    }
+    const int N = so.layers;
+    const int levels = so.lod_levels;
+    auto layers_of = [&](int k) { return std::max(1, N >> k); };
+    // Shell i of a level with n shells sits at s(i/n) and stands for the slab of strands between its
+    // neighbours. Its cutoff shows the strands' cross-section at the middle of the lowest full-resolution
+    // layer of that slab: s((i − 1/2)/N) with all N shells (so the top shell still shows the tips), and with
+    // fewer, thicker slabs the wider, lower part of each cone, which keeps a coarse level as dense as the
+    // full one (strand thickness compensated).
+    auto cutoff_of = [&](int i, int n) {
+        double t = double(i - 1) / double(n) + 0.5 / double(N);
+        return float(std::clamp(std::pow(t, so.spacing_power), 1.0 / 255.0, 1.0));
+    };
+    std::vector<std::vector<int>> shell_material{size_t(levels)};
+    int engine_material = -1;
+    if (opt.layout == ShellLayout::viewer) {
+        for (int k = 0; k < levels; ++k)
+            for (int i = 1; i <= layers_of(k); ++i)
+                shell_material[size_t(k)].push_back(add_material(
+                    scene, "fur_shell_" + (levels > 1 ? "lod" + std::to_string(k) + "_" : std::string()) + std::to_string(i), density_tex, 1,
+                    cutoff_of(i, layers_of(k)), false));
+    } else {
+        engine_material = add_material(scene, "fur_shells_engine", density_tex, 1, 0.5f, false);
+    }
+
+    // --- build the primitives of every level
+    const size_t original_meshes = scene.meshes.size();
+    std::vector<std::vector<Primitive>> added(size_t(levels) * original_meshes); // [level][mesh]
+    for (const Grown& g : grown) {
+        const Primitive& base = scene.meshes[g.mesh].primitives[g.prim];
+        const size_t m = g.sv.src.size();
+        if (m == 0) continue;
+        Primitive proto;
+        copy_attributes(proto, base, g.sv.src, g.sv.uv0);
+        proto.uv1 = g.sv.uv1;
+        std::vector<float> dir(3 * m), len(m);
+        for (size_t i = 0; i < m; ++i) {
+            uint32_t v = g.sv.src[i];
+            for (int k = 0; k < 3; ++k) dir[3 * i + k] = g.frame.direction[3 * v + k];
+            len[i] = g.frame.length[v];
+        }
+        auto make_shell = [&](int layer, int layers, Primitive& out) {
+            const double t = double(layer) / layers, s = std::pow(t, so.spacing_power), t3 = t * t * t;
+            const float shade = float(opt.root_shade + (1.0 - opt.root_shade) * s);
+            out.positions.resize(3 * m);
+            out.colors.resize(4 * m);
+            for (size_t i = 0; i < m; ++i) {
+                const uint32_t v = g.sv.src[i];
+                const double h = g.frame.length[v];
+                for (int k = 0; k < 3; ++k) {
+                    const size_t j = 3 * size_t(v) + size_t(k);
+                    // Same expression as shell_positions: copies of a position land on the same float.
+                    out.positions[3 * i + k] = float(double(base.positions[j]) + h * (s * double(g.frame.direction[j]) + s * double(g.frame.lean[j]) +
+                                                                                     t3 * double(g.frame.sag[j])));
+                    out.colors[4 * i + k] = g.albedo[3 * v + k] * shade;
+                }
+                out.colors[4 * i + 3] = 1.0f;
+            }
+        };
+        for (int k = 0; k < levels; ++k) {
+            const int n_k = layers_of(k);
+            std::vector<Primitive>& dst = added[size_t(k) * original_meshes + g.mesh];
+            if (opt.layout == ShellLayout::viewer) {
+                std::vector<Primitive> shells(size_t(n_k), proto);
+                parallel(size_t(n_k), 1, [&](size_t i) {
+                    make_shell(int(i) + 1, n_k, shells[i]);
+                    shells[i].indices = g.sv.indices;
+                    shells[i].material = shell_material[size_t(k)][i];
+                });
+                for (auto& s : shells) {
+                    rep.shell_triangles += s.indices.size() / 3;
+                    dst.push_back(std::move(s));
+                }
+            } else {
+                std::vector<Primitive> shells{size_t(n_k)};
+                parallel(size_t(n_k), 1, [&](size_t i) { make_shell(int(i) + 1, n_k, shells[i]); });
+                Primitive all;
+                all.material = engine_material;
+                auto repeat = [&](std::vector<float>& dst_v, const std::vector<float>& src_v) {
+                    dst_v.clear();
+                    for (int i = 0; i < n_k; ++i) dst_v.insert(dst_v.end(), src_v.begin(), src_v.end());
+                };
+                repeat(all.normals, proto.normals);
+                repeat(all.uv0, proto.uv0);
+                repeat(all.uv1, proto.uv1);
+                repeat(all.weights, proto.weights);
+                for (int i = 0; i < n_k; ++i) all.joints.insert(all.joints.end(), proto.joints.begin(), proto.joints.end());
+                all.targets.resize(proto.targets.size());
+                for (size_t t = 0; t < proto.targets.size(); ++t) {
+                    repeat(all.targets[t].position_deltas, proto.targets[t].position_deltas);
+                    repeat(all.targets[t].normal_deltas, proto.targets[t].normal_deltas);
+                }
+                CustomAttribute layer{"_FUR_LAYER", 1, {}}, length{"_FUR_LENGTH", 1, {}}, direction{"_FUR_DIRECTION", 3, {}};
+                for (int i = 0; i < n_k; ++i) {
+                    const uint32_t offset = uint32_t(size_t(i) * m);
+                    all.positions.insert(all.positions.end(), shells[size_t(i)].positions.begin(), shells[size_t(i)].positions.end());
+                    all.colors.insert(all.colors.end(), shells[size_t(i)].colors.begin(), shells[size_t(i)].colors.end());
+                    for (uint32_t x : g.sv.indices) all.indices.push_back(offset + x);
+                    layer.values.insert(layer.values.end(), m, float(shell_height_fraction(i + 1, n_k, so.spacing_power)));
+                    length.values.insert(length.values.end(), len.begin(), len.end());
+                    direction.values.insert(direction.values.end(), dir.begin(), dir.end());
+                }
+                all.custom = {std::move(layer), std::move(length), std::move(direction)};
+                rep.shell_triangles += all.indices.size() / 3;
+                dst.push_back(std::move(all));
+            }
+            rep.dropped_triangles += g.dropped * size_t(n_k);
+        }
+
+        // Fins: a quad standing on every manifold edge of the welded mesh, from the base to the tips.
+        if (opt.fins) {
+            const size_t n = base.vertex_count();
+            std::vector<uint32_t> remap(n);
+            weld_positions(remap.data(), base.positions.data(), n);
+            std::map<std::pair<uint32_t, uint32_t>, std::vector<std::pair<size_t, int>>> edges; // welded edge -> (face, corner)
+            const size_t T = g.tris.size() / 3;
+            for (size_t f = 0; f < T; ++f)
+                for (int c = 0; c < 3; ++c) {
+                    uint32_t a = remap[g.tris[3 * f + c]], b = remap[g.tris[3 * f + (c + 1) % 3]];
+                    if (a == b) continue;
+                    edges[{std::min(a, b), std::max(a, b)}].push_back({f, c});
+                }
+            Primitive fins;
+            fins.material = fin_material;
+            std::vector<uint32_t> src;
+            std::vector<float> fin_uv, fin_normal;
+            std::vector<uint8_t> is_tip;
+            auto face_normal = [&](size_t f) {
+                const float* p0 = &base.positions[3 * size_t(g.tris[3 * f])];
+                const float* p1 = &base.positions[3 * size_t(g.tris[3 * f + 1])];
+                const float* p2 = &base.positions[3 * size_t(g.tris[3 * f + 2])];
+                double e1[3] = {double(p1[0]) - p0[0], double(p1[1]) - p0[1], double(p1[2]) - p0[2]};
+                double e2[3] = {double(p2[0]) - p0[0], double(p2[1]) - p0[1], double(p2[2]) - p0[2]};
+                std::array<double, 3> c{e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]};
+                double l = std::sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]);
+                if (l > 0) c = {c[0] / l, c[1] / l, c[2] / l};
+                return c;
+            };
+            const double fin_span = 2.0 * std::max(so.length / placement[g.mesh].scale, 1e-12); // object units per texture width
+            for (const auto& [key, uses] : edges) {
+                if (uses.size() != 2) continue;
+                const auto [f, c] = uses[0];
+                uint32_t a = g.tris[3 * f + size_t(c)], b = g.tris[3 * f + size_t((c + 1) % 3)];
+                if (!(g.frame.length[a] > 0 || g.frame.length[b] > 0)) continue;
+                double el = 0;
+                for (int k = 0; k < 3; ++k) el += std::pow(double(base.positions[3 * b + k]) - base.positions[3 * a + k], 2);
+                el = std::sqrt(el);
+                // A per-edge offset along the texture, from the edge's welded ids, so neighbouring fins differ.
+                const double u0 = double((uint64_t(key.first) * 2654435761ULL + key.second * 40503ULL) % 1024ULL) / 1024.0;
+                const double u1 = u0 + el / fin_span;
+                auto n0 = face_normal(f), n1 = face_normal(uses[1].first);
+                std::array<double, 3> fnrm{n0[0] + n1[0], n0[1] + n1[1], n0[2] + n1[2]};
+                double fl = std::sqrt(fnrm[0] * fnrm[0] + fnrm[1] * fnrm[1] + fnrm[2] * fnrm[2]);
+                if (fl > 0) fnrm = {fnrm[0] / fl, fnrm[1] / fl, fnrm[2] / fl};
+                const uint32_t first = uint32_t(src.size());
+                const uint32_t corners[4] = {a, b, b, a};
+                const double us[4] = {u0, u1, u1, u0}, vs[4] = {1, 1, 0, 0};
+                for (int q = 0; q < 4; ++q) {
+                    src.push_back(corners[q]);
+                    is_tip.push_back(q >= 2);
+                    fin_uv.push_back(float(us[q]));
+                    fin_uv.push_back(float(vs[q]));
+                    for (int k = 0; k < 3; ++k) fin_normal.push_back(float(fnrm[size_t(k)]));
+                }
+                // Both windings are drawn (double-sided material); this one faces the first face's side.
+                fins.indices.insert(fins.indices.end(), {first, first + 1, first + 2, first, first + 2, first + 3});
+                ++rep.fin_quads;
+            }
+            if (!src.empty()) {
+                copy_attributes(fins, base, src, fin_uv);
+                fins.uv0 = fin_uv;
+                const size_t fm = src.size();
+                fins.positions.resize(3 * fm);
+                fins.colors.resize(4 * fm);
+                for (size_t i = 0; i < fm; ++i) {
+                    const uint32_t v = src[i];
+                    const double h = is_tip[i] ? g.frame.length[v] : 0.0;
+                    for (int k = 0; k < 3; ++k) {
+                        const size_t j = 3 * size_t(v) + size_t(k);
+                        fins.positions[3 * i + k] =
+                            float(double(base.positions[j]) + h * (double(g.frame.direction[j]) + double(g.frame.lean[j]) + double(g.frame.sag[j])));
+                        fins.colors[4 * i + k] = g.albedo[3 * v + k] * float(is_tip[i] ? 1.0 : opt.root_shade);
+                    }
+                    fins.colors[4 * i + 3] = 1.0f;
+                }
+                fins.custom.push_back(CustomAttribute{"_FUR_FIN_NORMAL", 3, fin_normal});
+                for (int k = 0; k < levels; ++k) {
+                    added[size_t(k) * original_meshes + g.mesh].push_back(fins);
+                    rep.shell_triangles += fins.indices.size() / 3;
+                }
+            }
+        }
+    }
+
+    // --- attach: level 0 into the meshes themselves; level k >= 1 into copies on nodes outside the scene
+    for (size_t mi = 0; mi < original_meshes; ++mi) {
+        auto& lvl0 = added[mi];
+        if (lvl0.empty()) continue;
+        std::vector<Primitive> base_prims = scene.meshes[mi].primitives;
+        for (auto& p : lvl0) {
+            scene.meshes[mi].primitives.push_back(std::move(p));
+            ++rep.shell_primitives;
+        }
+        for (int k = 1; k < levels; ++k) {
+            Mesh lod;
+            lod.name = scene.meshes[mi].name + "_fur_lod" + std::to_string(k);
+            lod.weights = scene.meshes[mi].weights;
+            lod.primitives = base_prims;
+            for (auto& p : added[size_t(k) * original_meshes + mi]) {
+                lod.primitives.push_back(std::move(p));
+                ++rep.shell_primitives;
+            }
+            scene.meshes.push_back(std::move(lod));
+            const Node& src = scene.nodes[size_t(mesh_node[mi])];
+            Node node;
+            node.name = (src.name.empty() ? "mesh" + std::to_string(mi) : src.name) + "_fur_lod" + std::to_string(k);
+            node.mesh = int(scene.meshes.size()) - 1;
+            node.skin = src.skin;
+            node.weights = src.weights;
+            if (src.skin < 0) { // a skinned mesh ignores its node's transform (glTF 2.0, 3.7.3.3)
+                node.has_matrix = true;
+                node.matrix = world[size_t(mesh_node[mi])];
+            }
+            scene.nodes.push_back(std::move(node));
+            rep.lod_nodes.push_back(int(scene.nodes.size()) - 1);
+        }
+    }
+    return Status::success();
+}
+
+} // namespace furrow

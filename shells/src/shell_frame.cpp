@@ -1,0 +1,518 @@
+// The per-vertex fur frame: where each shell vertex goes, with no cracks and no self-intersection.
+//
+// References:
+//   - J. Lengyel, E. Praun, A. Finkelstein, H. Hoppe, "Real-Time Fur over Arbitrary Surfaces", I3D 2001
+//     (shells offset along the normal, height fraction per shell);
+//   - G. Thürmer, C. A. Wüthrich, "Computing Vertex Normals from Polygonal Facets", JGT 3(1), 1998, and
+//     J. A. Bærentzen, H. Aanæs, "Signed Distance Computation Using the Angle Weighted Pseudonormal",
+//     IEEE TVCG 11(3), 2005 (the extrusion direction);
+//   - Blender's Solidify modifier (MOD_solidify_extrude.c, "even thickness"): scale each offset so that the
+//     incident face planes move by the requested distance. Here the factor is exact rather than Solidify's
+//     angle-weighted mean of 1/cos: the distance from p + d to the vertex's own faces (planar sectors at p)
+//     scales with the offset, so its inverse puts every shell vertex at the requested distance from the
+//     surface, 1 at convex vertices (whose nearest point is the vertex itself), 1/cos at creases and
+//     concave corners.
+//
+// Why each step:
+//   - Everything is computed on the position-welded mesh and copied back to every split copy: a direction
+//     or length computed per copy (from split normals or a mask sampled on both sides of a UV seam) opens a
+//     crack along every seam and hard edge.
+//   - The mask is reconciled by the maximum over the copies: a seam then never shortens the furrier side,
+//     and a bald region (mask 0 on every copy) stays bald.
+//   - Feature clamp: a ray along the direction (and along the bent tip direction when combing or droop
+//     bend the strand) measures the free space in front of the vertex; the offset keeps within
+//     safe_fraction (< 1/2) of it, so two facing surfaces (a thin gap, a torus hole, a groove) each take
+//     less than half of the gap and never meet.
+//   - Fold clamp: at concave edges and corners the offsets of neighbouring vertices converge and an offset
+//     triangle turns over (the "spikes" and "shells intersecting in concave areas" of existing tools).
+//     For each triangle, its signed area along the base normal is a quadratic in a common scale k of its
+//     three offsets; the largest k that keeps it >= min_area_ratio × the base area (for every layer when
+//     droop makes the path curved) limits its corners. Vertices take the minimum over their triangles;
+//     this is repeated until nothing folds (a vertex's reduction changes its neighbours' triangles).
+//   - Droop and comb only move the shells along the surface (their normal component is removed): the
+//     classic P += g·t³ pushes the tips into the skin wherever gravity points into it.
+//
+// Determinism: every parallel loop writes only its own entries, every sum runs in a fixed order, the
+// iterations are Jacobi-style (a pass reads the previous pass's lengths only).
+#include "shells_internal.h"
+
+#include <furrow/shells.h>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <set>
+
+namespace furrow {
+namespace {
+
+struct V3 {
+    double x = 0, y = 0, z = 0;
+};
+V3 operator+(V3 a, V3 b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
+V3 operator-(V3 a, V3 b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
+V3 operator*(double s, V3 a) { return {s * a.x, s * a.y, s * a.z}; }
+double dot(V3 a, V3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+V3 cross(V3 a, V3 b) { return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x}; }
+double norm(V3 a) { return std::sqrt(dot(a, a)); }
+
+template <class F>
+void parallel(size_t n, size_t grain, F&& f) {
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, n, grain), [&](const tbb::blocked_range<size_t>& r) {
+        for (size_t i = r.begin(); i != r.end(); ++i) f(i);
+    });
+}
+
+Status check_options(const ShellOptions& o) {
+    auto bad = [](const std::string& m) { return Status::error(StatusCode::invalid_argument, m); };
+    if (o.layers < 1 || o.layers > 256) return bad("layers must be in 1..256, got " + std::to_string(o.layers));
+    if (!std::isfinite(o.length) || o.length < 0) return bad("length must be a finite number >= 0");
+    if (!(o.spacing_power >= 0.1 && o.spacing_power <= 10)) return bad("spacing power must be in 0.1..10");
+    if (!(o.droop >= 0 && o.droop <= 4)) return bad("droop must be in 0..4");
+    if (!(o.comb_strength >= 0 && o.comb_strength <= 10)) return bad("comb strength must be in 0..10");
+    for (double g : o.gravity)
+        if (!std::isfinite(g)) return bad("gravity must be finite");
+    if (o.lod_levels < 1 || o.lod_levels > 8) return bad("LOD levels must be in 1..8");
+    if (!(o.max_even_thickness >= 1 && o.max_even_thickness <= 100)) return bad("max even thickness must be in 1..100");
+    if (!(o.safe_fraction > 0 && o.safe_fraction <= 1)) return bad("safe fraction must be in (0, 1]");
+    if (!(o.min_area_ratio >= 0 && o.min_area_ratio < 1)) return bad("min area ratio must be in [0, 1)");
+    return Status::success();
+}
+
+// Smallest k in (0, 1] with a + b·k + c·k² = 0 where the quadratic falls below 0 (it starts at a > 0);
+// 1 if it stays >= 0 on [0, 1].
+double first_root_in_unit(double a, double b, double c) {
+    if (a <= 0) return 0;
+    auto q = [&](double k) { return a + b * k + c * k * k; };
+    if (q(1) >= 0) {
+        // Still possible to dip in between: a minimum inside (0,1) with a negative value.
+        if (c > 0) {
+            double km = -b / (2 * c);
+            if (!(km > 0 && km < 1 && q(km) < 0)) return 1;
+        } else {
+            return 1;
+        }
+    }
+    // Bisection: robust for every sign combination, 60 steps reach double resolution.
+    double lo = 0, hi = 1;
+    if (q(1) >= 0) hi = -b / (2 * c); // the dip: the root lies before the minimum
+    for (int i = 0; i < 60; ++i) {
+        double mid = 0.5 * (lo + hi);
+        (q(mid) >= 0 ? lo : hi) = mid;
+    }
+    return lo;
+}
+
+} // namespace
+
+double shell_height_fraction(int layer, int layers, double spacing_power) {
+    if (layers <= 0) return 0;
+    double t = double(layer) / double(layers);
+    return spacing_power == 1.0 ? t : std::pow(t, spacing_power);
+}
+
+Status compute_shell_frame(ShellFrame& out, const float* positions, size_t vertex_count, const uint32_t* indices,
+                           size_t index_count, const float* mask, const float* comb, const ShellOptions& o) {
+    out = ShellFrame{};
+    if (Status s = check_options(o); !s.ok()) return s;
+    if (index_count % 3 != 0) return Status::error(StatusCode::invalid_argument, "index count is not a multiple of 3");
+    if (vertex_count > 0 && !positions) return Status::error(StatusCode::invalid_argument, "no positions");
+    for (size_t i = 0; i < index_count; ++i)
+        if (indices[i] >= vertex_count)
+            return Status::error(StatusCode::invalid_argument, "index " + std::to_string(indices[i]) + " out of range");
+    const size_t n = vertex_count;
+    out.direction.assign(3 * n, 0.0f);
+    out.length.assign(n, 0.0f);
+    out.requested.assign(n, 0.0f);
+    out.lean.assign(3 * n, 0.0f);
+    out.sag.assign(3 * n, 0.0f);
+    out.flags.assign(n, 0);
+    if (n == 0) return Status::success();
+
+    // --- weld by exact position; welded ids in order of first appearance
+    std::vector<uint32_t> remap(n);
+    weld_positions(remap.data(), positions, n);
+    std::vector<uint32_t> wid(n);
+    std::vector<uint32_t> rep; // welded id -> first vertex
+    for (size_t v = 0; v < n; ++v) {
+        if (remap[v] == v) {
+            wid[v] = uint32_t(rep.size());
+            rep.push_back(uint32_t(v));
+        } else {
+            wid[v] = wid[remap[v]];
+        }
+    }
+    const size_t W = rep.size();
+    out.welded_vertices = W;
+    std::vector<V3> P(W);
+    std::vector<uint8_t> finite(W, 1);
+    double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
+    for (size_t w = 0; w < W; ++w) {
+        const float* p = positions + 3 * size_t(rep[w]);
+        P[w] = {p[0], p[1], p[2]};
+        finite[w] = std::isfinite(P[w].x) && std::isfinite(P[w].y) && std::isfinite(P[w].z);
+        if (!finite[w]) continue;
+        double c[3] = {P[w].x, P[w].y, P[w].z};
+        for (int k = 0; k < 3; ++k) lo[k] = std::min(lo[k], c[k]), hi[k] = std::max(hi[k], c[k]);
+    }
+    double diag2 = 0;
+    for (int k = 0; k < 3; ++k)
+        if (hi[k] >= lo[k]) diag2 += (hi[k] - lo[k]) * (hi[k] - lo[k]);
+    // Same zero-area threshold as check_primitive and compute_vertex_normals: such a face has no normal.
+    const double min_double_area = 2.0 * CheckOptions{}.zero_area_relative * diag2;
+
+    // --- valid welded faces, their unit normals and corner angles
+    const size_t F = index_count / 3;
+    std::vector<std::array<uint32_t, 3>> tri;
+    std::vector<V3> fn;
+    std::vector<std::array<double, 3>> angle;
+    tri.reserve(F);
+    for (size_t f = 0; f < F; ++f) {
+        std::array<uint32_t, 3> t{wid[indices[3 * f]], wid[indices[3 * f + 1]], wid[indices[3 * f + 2]]};
+        if (t[0] == t[1] || t[1] == t[2] || t[2] == t[0]) continue;
+        if (!finite[t[0]] || !finite[t[1]] || !finite[t[2]]) continue;
+        V3 nrm = cross(P[t[1]] - P[t[0]], P[t[2]] - P[t[0]]);
+        double a2 = norm(nrm);
+        if (!(a2 > min_double_area) || !std::isfinite(a2)) continue;
+        std::array<double, 3> ang{};
+        for (int k = 0; k < 3; ++k) {
+            V3 e1 = P[t[(k + 1) % 3]] - P[t[k]], e2 = P[t[(k + 2) % 3]] - P[t[k]];
+            ang[k] = std::atan2(a2, dot(e1, e2)); // accurate near 0 and pi, unlike acos
+        }
+        tri.push_back(t);
+        fn.push_back((1.0 / a2) * nrm);
+        angle.push_back(ang);
+    }
+    const size_t T = tri.size();
+
+    // --- vertex -> faces (CSR, faces in ascending order: fixed summation order)
+    std::vector<uint32_t> start(W + 1, 0), vf(3 * T);
+    for (const auto& t : tri)
+        for (uint32_t v : t) ++start[v + 1];
+    for (size_t w = 0; w < W; ++w) start[w + 1] += start[w];
+    {
+        std::vector<uint32_t> fill(start.begin(), start.end() - 1);
+        for (size_t f = 0; f < T; ++f)
+            for (uint32_t v : tri[f]) vf[fill[v]++] = uint32_t(f);
+    }
+    auto corner = [&](size_t f, uint32_t v) { return tri[f][0] == v ? 0 : tri[f][1] == v ? 1 : 2; };
+
+    // --- mask (max over copies) and comb (mean over copies)
+    std::vector<double> m(W, mask ? 0.0 : 1.0);
+    if (mask)
+        for (size_t v = 0; v < n; ++v) {
+            double x = std::isfinite(mask[v]) ? std::clamp(double(mask[v]), 0.0, 1.0) : 0.0;
+            m[wid[v]] = std::max(m[wid[v]], x);
+        }
+    std::vector<V3> combw;
+    if (comb) {
+        combw.assign(W, V3{});
+        std::vector<uint32_t> copies(W, 0);
+        for (size_t v = 0; v < n; ++v) {
+            V3 c{comb[3 * v], comb[3 * v + 1], comb[3 * v + 2]};
+            if (!std::isfinite(c.x) || !std::isfinite(c.y) || !std::isfinite(c.z)) c = {};
+            combw[wid[v]] = combw[wid[v]] + c;
+            ++copies[wid[v]];
+        }
+        for (size_t w = 0; w < W; ++w) combw[w] = (1.0 / std::max<uint32_t>(copies[w], 1)) * combw[w];
+    }
+
+    // --- direction, even-thickness factor, initial length, lean and sag per welded vertex
+    V3 g{o.gravity[0], o.gravity[1], o.gravity[2]};
+    if (norm(g) > 0) g = (1.0 / norm(g)) * g;
+    std::vector<V3> D(W), lean(W), sag(W);
+    std::vector<double> H(W, 0.0), even_factor(W, 1.0);
+    std::vector<uint8_t> flags(W, 0);
+    const double cos_floor = 1.0 / o.max_even_thickness;
+    parallel(W, 1024, [&](size_t w) {
+        V3 s{};
+        for (uint32_t i = start[w]; i < start[w + 1]; ++i) {
+            size_t f = vf[i];
+            s = s + angle[f][corner(f, uint32_t(w))] * fn[f];
+        }
+        double len = norm(s);
+        if (!(len > 0) || !std::isfinite(len)) {
+            flags[w] |= clamp_no_normal;
+            return;
+        }
+        V3 d = (1.0 / len) * s;
+        D[w] = d;
+        // Even thickness: how far is p + d from the vertex's own faces? Near p each face is the planar
+        // sector between its two edges at p, and the distance to sectors scales with the offset, so
+        // 1 / (distance of p + d) is exactly the factor that puts the offset at the requested distance from
+        // the surface: 1 where the vertex is convex (the nearest point is p itself), 1/cos at creases and
+        // concave corners (Solidify's even thickness, where it uses an angle-weighted mean of 1/cos).
+        double nearest = 1.0;
+        for (uint32_t i = start[w]; i < start[w + 1]; ++i) {
+            const size_t f = vf[i];
+            const int c = corner(f, uint32_t(w));
+            V3 e1 = P[tri[f][(c + 1) % 3]] - P[w], e2 = P[tri[f][(c + 2) % 3]] - P[w];
+            e1 = (1.0 / norm(e1)) * e1;
+            e2 = (1.0 / norm(e2)) * e2;
+            const V3 n = fn[f];
+            const double h = dot(d, n);
+            const V3 proj = d - h * n;
+            double dist;
+            if (dot(cross(e1, proj), n) >= 0 && dot(cross(proj, e2), n) >= 0) {
+                dist = std::abs(h);
+            } else {
+                auto ray = [&](V3 e) { return norm(d - std::max(0.0, dot(d, e)) * e); };
+                dist = std::min(ray(e1), ray(e2));
+            }
+            nearest = std::min(nearest, dist);
+        }
+        double even = nearest > cos_floor ? 1.0 / nearest : o.max_even_thickness;
+        if (even >= o.max_even_thickness * 0.999) flags[w] |= clamp_even_cap;
+        even = std::min(even, o.max_even_thickness);
+        even_factor[w] = even;
+        H[w] = o.length * m[w] * even;
+        // Along the surface: off the direction, and (at creases and corners, where the direction is no face's
+        // normal) not into any incident face's plane.
+        auto along_surface = [&](V3 v) {
+            v = v - dot(v, d) * d;
+            for (int pass = 0; pass < 2; ++pass)
+                for (uint32_t i = start[w]; i < start[w + 1]; ++i) {
+                    const V3 n = fn[vf[i]];
+                    const double into = dot(v, n);
+                    if (into < 0) v = v - into * n;
+                }
+            return v;
+        };
+        if (comb) lean[w] = o.comb_strength * along_surface(combw[w]);
+        if (o.droop > 0) sag[w] = o.droop * along_surface(g);
+    });
+
+    // --- feature clamp: rays along the direction, and along the bent tip when comb/droop bend it
+    if (o.feature_clamp && T > 0) {
+        std::vector<uint32_t> qv;
+        std::vector<double> qd;
+        std::vector<double> qneed; // length of the path per unit H along this ray
+        for (size_t w = 0; w < W; ++w) {
+            if (!(H[w] > 0)) continue;
+            qv.push_back(uint32_t(w));
+            qd.insert(qd.end(), {D[w].x, D[w].y, D[w].z});
+            qneed.push_back(1.0);
+            V3 tip = D[w] + lean[w] + sag[w];
+            if (norm(lean[w]) + norm(sag[w]) > 1e-9) {
+                double tl = norm(tip);
+                qv.push_back(uint32_t(w));
+                qd.insert(qd.end(), {tip.x / tl, tip.y / tl, tip.z / tl});
+                qneed.push_back(tl);
+            }
+        }
+        std::vector<double> pts(3 * W);
+        for (size_t w = 0; w < W; ++w) pts[3 * w] = P[w].x, pts[3 * w + 1] = P[w].y, pts[3 * w + 2] = P[w].z;
+        std::vector<double> dist(qv.size());
+        detail::free_distances(dist.data(), pts, tri, qv.data(), qd.data(), qv.size());
+        for (size_t q = 0; q < qv.size(); ++q) {
+            uint32_t w = qv[q];
+            double allowed = o.safe_fraction * dist[q] / qneed[q];
+            if (allowed < H[w]) {
+                H[w] = allowed;
+                flags[w] |= clamp_ray;
+            }
+        }
+        // The ray only sees what lies straight ahead. Two walls meeting at an inner corner never cross the
+        // other's ray, yet their fur meets on the bisector: keep each offset point nearer to its own
+        // vertex's faces than to anything else (the medial axis), with the same safety fraction (x2: the
+        // medial axis is already half of the free distance between two facing surfaces).
+        qv.clear();
+        qd.clear();
+        std::vector<double> ql;
+        for (size_t w = 0; w < W; ++w) {
+            if (!(H[w] > 0)) continue;
+            qv.push_back(uint32_t(w));
+            qd.insert(qd.end(), {D[w].x, D[w].y, D[w].z});
+            ql.push_back(H[w] / (2.0 * o.safe_fraction));
+        }
+        // 2 % slack: on a curved surface the offset point's nearest point drifts off the 1-ring a little.
+        std::vector<double> owned(qv.size());
+        detail::owned_lengths(owned.data(), pts, tri, start.data(), vf.data(), qv.data(), qd.data(), ql.data(), 0.98, qv.size());
+        for (size_t q = 0; q < qv.size(); ++q) {
+            uint32_t w = qv[q];
+            double allowed = 2.0 * o.safe_fraction * owned[q];
+            if (allowed < H[w] * (1 - 1e-12)) {
+                H[w] = allowed;
+                flags[w] |= clamp_ray;
+            }
+        }
+        // A sideways bend (comb, droop) must not carry a tip toward another part of the surface (a wall's
+        // drooping fur into the floor's, a plate's rim into the next plate's): a bend may never bring a tip
+        // nearer to the mesh than the straight tip was (sliding along a flat or convex surface keeps or
+        // gains clearance); where it would, the bend (not the length) is scaled down.
+        qv.clear();
+        std::vector<double> straight, bent;
+        for (size_t w = 0; w < W; ++w) {
+            if (!(H[w] > 0) || norm(lean[w]) + norm(sag[w]) <= 1e-9) continue;
+            qv.push_back(uint32_t(w));
+            V3 a = H[w] * D[w], b = H[w] * (D[w] + lean[w] + sag[w]);
+            straight.insert(straight.end(), {a.x, a.y, a.z});
+            bent.insert(bent.end(), {b.x, b.y, b.z});
+        }
+        std::vector<double> sigma(qv.size());
+        detail::bend_limits(sigma.data(), pts, tri, start.data(), vf.data(), qv.data(), straight.data(), bent.data(), 0.995, qv.size());
+        for (size_t q = 0; q < qv.size(); ++q)
+            if (sigma[q] < 1.0) {
+                const uint32_t w = qv[q];
+                lean[w] = (0.9 * sigma[q]) * lean[w];
+                sag[w] = (0.9 * sigma[q]) * sag[w];
+                flags[w] |= clamp_ray;
+            }
+    }
+
+    // --- fold clamp (Jacobi iterations of per-triangle limits)
+    if (T > 0) {
+        std::vector<double> ts; // layer fractions t = i/N_k of every LOD level the shells will be made for
+        const bool curved = o.droop > 0;
+        if (curved) {
+            std::set<std::pair<int, int>> seen; // reduced fractions, so that 1/2 and 2/4 count once
+            for (int k = 0; k < o.lod_levels; ++k) {
+                int nk = std::max(1, o.layers >> k);
+                for (int i = 1; i <= nk; ++i) {
+                    const int d = std::gcd(i, nk);
+                    if (seen.insert({i / d, nk / d}).second) ts.push_back(double(i) / double(nk));
+                }
+            }
+            std::sort(ts.begin(), ts.end());
+        } else {
+            ts.push_back(1.0); // straight paths: scaling the tip offset by k sweeps every layer
+        }
+        auto path = [&](size_t w, double t) {
+            double s = o.spacing_power == 1.0 ? t : std::pow(t, o.spacing_power);
+            return H[w] * ((s * D[w] + s * lean[w]) + (t * t * t) * sag[w]);
+        };
+        // Direction in which the layer at t moves as t grows (d path / dt): the sweep from shell to shell.
+        auto velocity = [&](size_t w, double t) {
+            double ds = o.spacing_power == 1.0 ? 1.0 : o.spacing_power * std::pow(t, o.spacing_power - 1);
+            return H[w] * ((ds * D[w] + ds * lean[w]) + (3 * t * t) * sag[w]);
+        };
+        std::vector<double> limit(T, 1.0);
+        std::vector<uint8_t> active(T, 1);
+        const double r = o.min_area_ratio;
+        // `seed`: only triangles around these vertices can have changed (null: all of them).
+        auto fold_pass = [&](const std::vector<uint8_t>* seed) {
+            if (!seed) std::fill(active.begin(), active.end(), uint8_t(1));
+            else {
+                std::fill(active.begin(), active.end(), uint8_t(0));
+                for (size_t w = 0; w < W; ++w)
+                    if ((*seed)[w])
+                        for (uint32_t i = start[w]; i < start[w + 1]; ++i) active[vf[i]] = 1;
+            }
+            for (int iteration = 0; iteration < 200; ++iteration) {
+                parallel(T, 512, [&](size_t f) {
+                    limit[f] = 1.0;
+                    if (!active[f]) return;
+                    const auto& t = tri[f];
+                    if (!(H[t[0]] > 0 || H[t[1]] > 0 || H[t[2]] > 0)) return;
+                    const V3 e1 = P[t[1]] - P[t[0]], e2 = P[t[2]] - P[t[0]];
+                    const V3 n0 = fn[f];
+                    const double a = dot(cross(e1, e2), n0);
+                    for (double tt : ts) {
+                        V3 u0 = path(t[0], tt), u1 = path(t[1], tt), u2 = path(t[2], tt);
+                        V3 d1 = u1 - u0, d2 = u2 - u0;
+                        const V3 nb = cross(e1, d2) + cross(d1, e2), nc = cross(d1, d2);
+                        double k = first_root_in_unit(a - r * a, dot(nb, n0), dot(nc, n0));
+                        // Shells of one triangle must not cross each other either: the sweep from layer to layer
+                        // is one-to-one while every corner keeps moving to the front side of the scaled triangle
+                        // (the Jacobian of (barycentrics, t) -> point is linear in the barycentrics).
+                        for (uint32_t j : t) {
+                            const V3 v = velocity(j, tt);
+                            const double a0 = dot(cross(e1, e2), v);
+                            if (a0 > 0) k = std::min(k, first_root_in_unit(a0 - r * a0, dot(nb, v), dot(nc, v)));
+                        }
+                        // A factor just under 1 is rounding: accept it rather than iterate forever.
+                        if (k < 1.0 - 1e-9) limit[f] = std::min(limit[f], k * 0.999);
+                    }
+                });
+                bool any = false;
+                for (size_t f = 0; f < T && !any; ++f) any = limit[f] < 1.0;
+                if (!any) break;
+                std::vector<double> scale(W, 1.0);
+                parallel(W, 1024, [&](size_t w) {
+                    for (uint32_t i = start[w]; i < start[w + 1]; ++i) scale[w] = std::min(scale[w], limit[vf[i]]);
+                });
+                // After many passes a stubborn configuration is resolved the blunt way: no fur there.
+                const bool last_resort = iteration >= 100;
+                std::fill(active.begin(), active.end(), 0);
+                for (size_t w = 0; w < W; ++w) {
+                    if (scale[w] >= 1.0) continue;
+                    H[w] = last_resort ? 0.0 : H[w] * scale[w];
+                    flags[w] |= clamp_fold;
+                    for (uint32_t i = start[w]; i < start[w + 1]; ++i) active[vf[i]] = 1;
+                }
+            }
+        };
+        fold_pass(nullptr);
+
+        // Verification: the local limits above do not see two distant parts of one shell meeting (both sides
+        // of a thin ear, fur across a crevice). Intersect the outermost shell with itself and with the base
+        // (exact predicates); shorten the fur at every vertex of an offending shell triangle and repeat.
+        std::vector<double> top(3 * W), base_pts(3 * W);
+        for (size_t w = 0; w < W; ++w) base_pts[3 * w] = P[w].x, base_pts[3 * w + 1] = P[w].y, base_pts[3 * w + 2] = P[w].z;
+        std::vector<double> last_h(H);
+        std::vector<uint8_t> changed;
+        for (int round = 0; round < 8; ++round) {
+            std::vector<uint8_t> moving(W);
+            for (size_t w = 0; w < W; ++w) {
+                const V3 q = P[w] + path(w, 1.0);
+                top[3 * w] = q.x, top[3 * w + 1] = q.y, top[3 * w + 2] = q.z;
+                moving[w] = H[w] > 0;
+            }
+            std::vector<uint8_t> hit(W, 0);
+            if (detail::crossing_vertices(hit.data(), base_pts, top, moving, tri, round ? &changed : nullptr) == 0) break;
+            for (size_t w = 0; w < W; ++w)
+                if (hit[w] && H[w] > 0) {
+                    H[w] = round < 6 ? 0.5 * H[w] : 0.0;
+                    flags[w] |= clamp_fold;
+                }
+            changed.assign(W, 0);
+            for (size_t w = 0; w < W; ++w) changed[w] = H[w] != last_h[w];
+            fold_pass(&changed);
+            for (size_t w = 0; w < W; ++w) changed[w] = H[w] != last_h[w];
+            last_h = H;
+        }
+    }
+
+    // --- copy back to every split copy
+    for (size_t w = 0; w < W; ++w) {
+        if (!(H[w] > 0) || !std::isfinite(H[w])) H[w] = 0;
+        if (flags[w] & (clamp_ray | clamp_fold | clamp_even_cap)) {
+            ++out.clamped_vertices;
+            if (flags[w] & clamp_ray) ++out.clamped_by_ray;
+            if (flags[w] & clamp_fold) ++out.clamped_by_fold;
+            if (flags[w] & clamp_even_cap) ++out.clamped_by_even_cap;
+        }
+        if (H[w] == 0) ++out.bald_vertices;
+    }
+    for (size_t v = 0; v < n; ++v) {
+        const uint32_t w = wid[v];
+        out.direction[3 * v] = float(D[w].x), out.direction[3 * v + 1] = float(D[w].y), out.direction[3 * v + 2] = float(D[w].z);
+        out.lean[3 * v] = float(lean[w].x), out.lean[3 * v + 1] = float(lean[w].y), out.lean[3 * v + 2] = float(lean[w].z);
+        out.sag[3 * v] = float(sag[w].x), out.sag[3 * v + 1] = float(sag[w].y), out.sag[3 * v + 2] = float(sag[w].z);
+        out.length[v] = float(H[w]);
+        out.requested[v] = float(o.length * m[w]);
+        out.flags[v] = flags[w];
+    }
+    return Status::success();
+}
+
+void shell_positions(float* out, const ShellFrame& frame, const float* positions, size_t vertex_count, int layer,
+                     int layers, double spacing_power) {
+    const double t = layers > 0 ? double(layer) / double(layers) : 0.0;
+    const double s = shell_height_fraction(layer, layers, spacing_power);
+    const double t3 = t * t * t;
+    parallel(vertex_count, 4096, [&](size_t v) {
+        const double h = frame.length[v];
+        for (int k = 0; k < 3; ++k) {
+            const size_t i = 3 * v + size_t(k);
+            // In double, from per-copy inputs that are bit-identical: every copy lands on the same float.
+            out[i] = float(double(positions[i]) +
+                           h * (s * double(frame.direction[i]) + s * double(frame.lean[i]) + t3 * double(frame.sag[i])));
+        }
+    });
+}
+
+} // namespace furrow

@@ -1,0 +1,388 @@
+// Crack-free evaluation of a Bfr tessellation with shared points.
+//
+// Reference: OpenSubdiv 3.5, Bfr tutorial 2.2 ("tessellate watertight"): Tessellation lists the boundary
+// coordinates first, vertex 0, the points of edge 0, vertex 1, ...; each point on a base vertex or edge is
+// evaluated once by one face and the neighbours reuse it, walking the edge in reverse
+// (TransformFacetCoordIndices remaps the facets). Rates alone leave floating-point gaps (OpenSubdiv issue
+// 1316): shared points are what makes the output watertight.
+//
+// Here the sharing is made deterministic and parallel: every point has an owner decided beforehand (the
+// first smooth face around it, see build_surfaces.cpp), the output index of every point is known from prefix
+// sums over the rates before anything is evaluated, and each face writes only what it owns. Smooth faces
+// run first; faces tessellated linearly run second, interpolating the (already evaluated) limit positions of
+// their corners, so a fallback face stays attached to its smooth neighbours. Normals are evaluated by every
+// face at its own boundary points and averaged per normal sector afterwards, which is exact where the limit
+// surface is smooth and gives split normals across creases.
+#include "tessellate_internal.h"
+
+#include <opensubdiv/bfr/tessellation.h>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+
+namespace furrow::tess {
+namespace {
+
+void normalise(float* n) {
+    double l = std::sqrt(double(n[0]) * n[0] + double(n[1]) * n[1] + double(n[2]) * n[2]);
+    if (l > 0 && std::isfinite(l)) {
+        n[0] = float(n[0] / l);
+        n[1] = float(n[1] / l);
+        n[2] = float(n[2] / l);
+    } else {
+        n[0] = n[1] = n[2] = 0.0f;
+    }
+}
+
+bool is_zero(const float* n) { return n[0] == 0.0f && n[1] == 0.0f && n[2] == 0.0f; }
+
+// Per-thread buffers, reused from face to face.
+struct Scratch {
+    std::vector<int> rates, bidx, facets;
+    std::vector<float> coords, patch_v, patch_a, P, Du, Dv, w;
+    std::vector<const float*> corner_data, control;
+};
+
+struct Layout {
+    std::vector<uint32_t> face_interior, face_out, face_tri; // per face: interior count, first interior output, first triangle
+    std::vector<uint32_t> edge_out;                          // unsplit edges: first output of their points
+    std::vector<uint32_t> side_out;                          // split edges: first output per side
+    std::vector<uint32_t> side_slot;                         // every side: first normal slot
+    size_t vertices = 0, triangles = 0, slots = 0;
+};
+
+} // namespace
+
+Status evaluate_tessellation(TessellateOutput& out, const PreparedMesh& m, const std::vector<int>& rates,
+                             bool keep_parameters) {
+    const size_t F = m.face_count(), E = m.edges.size(), C = m.corner_input.size();
+    const size_t G = m.group_value.size();
+    const int W = m.W, K = m.K;
+    Layout L;
+    L.face_interior.resize(F);
+    std::vector<uint32_t> face_facets(F);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, F, 512), [&](const tbb::blocked_range<size_t>& range) {
+        std::vector<int> r;
+        for (size_t f = range.begin(); f != range.end(); ++f) {
+            const int nr = face_rates(m, f, rates, r);
+            osd::Bfr::Tessellation t(m.parameterization(f), nr, r.data());
+            L.face_interior[f] = uint32_t(t.GetNumInteriorCoords());
+            face_facets[f] = uint32_t(t.GetNumFacets());
+        }
+    });
+    size_t cursor = G, slots = 0, tris = 0;
+    L.edge_out.assign(E, none);
+    L.side_out.assign(m.side_corner.size(), none);
+    L.side_slot.assign(m.side_corner.size(), 0);
+    for (size_t e = 0; e < E; ++e) {
+        const size_t n = size_t(rates[e] - 1);
+        if (!m.edge_split[e]) {
+            L.edge_out[e] = uint32_t(cursor);
+            cursor += n;
+        }
+        for (uint32_t s = m.edge_side_begin[e]; s < m.edge_side_begin[e + 1]; ++s) {
+            if (m.edge_split[e]) {
+                L.side_out[s] = uint32_t(cursor);
+                cursor += n;
+            }
+            L.side_slot[s] = uint32_t(slots);
+            slots += n;
+        }
+        if (cursor > 0xfffffff0u) return Status::error(StatusCode::out_of_memory, "more than 4 billion output vertices");
+    }
+    L.face_out.resize(F);
+    L.face_tri.resize(F);
+    for (size_t f = 0; f < F; ++f) {
+        L.face_out[f] = uint32_t(cursor);
+        cursor += L.face_interior[f];
+        L.face_tri[f] = uint32_t(tris);
+        tris += face_facets[f];
+        if (cursor > 0xfffffff0u || tris * 3 > 0xfffffff0u)
+            return Status::error(StatusCode::out_of_memory, "more than 4 billion output indices or vertices");
+    }
+    const size_t V = cursor;
+
+    std::vector<float> data(V * size_t(W)), attrs(V * size_t(K));
+    out.normals.assign(V * 3, 0.0f);
+    if (m.has_skin) {
+        out.joints.assign(V * 4, 0);
+        out.weights.assign(V * 4, 0.0f);
+    }
+    out.indices.assign(tris * 3, 0);
+    out.triangle_faces.assign(tris, 0);
+    out.triangle_patches.clear();
+    out.triangle_coords.clear();
+    if (keep_parameters) {
+        out.triangle_patches.assign(tris, 0);
+        out.triangle_coords.assign(tris * 6, 0.0f);
+    }
+    std::vector<float> corner_normal(C * 3, 0.0f), side_normal(slots * 3, 0.0f);
+    float* N = out.normals.data();
+
+    // limit_corners: linear faces read their corners' limit positions (only once all smooth faces are done).
+    auto process = [&](size_t f, bool smooth, bool limit_corners, Surface& vtx, Surface& fvar, Scratch& x) {
+        const uint32_t c0 = m.face_offset[f];
+        const int n = int(m.face_size(f));
+        const auto param = m.parameterization(f);
+        const int nr = face_rates(m, f, rates, x.rates);
+        const int* fr = x.rates.data();
+        osd::Bfr::Tessellation tess(param, nr, fr, osd::Bfr::Tessellation::Options().SetFacetSize(3));
+        const int ncoords = tess.GetNumCoords(), nb = tess.GetNumBoundaryCoords();
+        x.coords.resize(size_t(ncoords) * 2);
+        tess.GetCoords(x.coords.data());
+        const std::vector<float>& coords = x.coords;
+        x.bidx.resize(size_t(nb));
+        std::vector<int>& bidx = x.bidx;
+        x.P.resize(size_t(W));
+        x.Du.resize(size_t(W));
+        x.Dv.resize(size_t(W));
+        x.w.resize(size_t(n));
+        x.corner_data.resize(size_t(n));
+        std::vector<float>&P = x.P, &Du = x.Du, &Dv = x.Dv, &w = x.w, &patch_v = x.patch_v, &patch_a = x.patch_a;
+        std::vector<const float*>& corner_data = x.corner_data;
+        float face_normal[3] = {0, 0, 1};
+        if (smooth) {
+            patch_v.resize(size_t(vtx.GetNumPatchPoints()) * size_t(W));
+            vtx.PreparePatchPoints(m.refiner_data.data(), W, patch_v.data(), W);
+            if (K > 0) {
+                patch_a.resize(size_t(fvar.GetNumPatchPoints()) * size_t(K));
+                fvar.PreparePatchPoints(m.refiner_fvar.data(), K, patch_a.data(), K);
+            }
+        } else {
+            for (int k = 0; k < n; ++k) {
+                const uint32_t c = c0 + uint32_t(k), p = m.corner_point[c];
+                corner_data[size_t(k)] = limit_corners && m.smooth(m.corner_face[m.point_owner[p]])
+                                             ? &data[size_t(m.point_group_begin[p]) * size_t(W)]
+                                             : &m.welded_data[size_t(m.corner_welded[c]) * size_t(W)];
+            }
+            auto nn = newell_normal(corner_data.data(), size_t(n));
+            face_normal[0] = float(nn[0]);
+            face_normal[1] = float(nn[1]);
+            face_normal[2] = float(nn[2]);
+            normalise(face_normal);
+        }
+        // The control polygon's normal: the fallback where the surface's derivatives vanish.
+        auto control_normal = [&](float* nrm) {
+            x.control.resize(size_t(n));
+            for (int k = 0; k < n; ++k)
+                x.control[size_t(k)] = &m.welded_data[size_t(m.corner_welded[c0 + uint32_t(k)]) * size_t(W)];
+            auto nn = newell_normal(x.control.data(), size_t(n));
+            nrm[0] = float(nn[0]);
+            nrm[1] = float(nn[1]);
+            nrm[2] = float(nn[2]);
+            normalise(nrm);
+        };
+        // Position (+ vertex data) and unit normal at uv.
+        auto eval_point = [&](const float* uv, float* nrm) {
+            if (smooth) {
+                vtx.Evaluate(uv, patch_v.data(), W, P.data(), Du.data(), Dv.data());
+                nrm[0] = Du[1] * Dv[2] - Du[2] * Dv[1];
+                nrm[1] = Du[2] * Dv[0] - Du[0] * Dv[2];
+                nrm[2] = Du[0] * Dv[1] - Du[1] * Dv[0];
+                normalise(nrm);
+                if (is_zero(nrm)) control_normal(nrm);
+            } else {
+                linear_weights(param, uv, w.data());
+                std::fill(P.begin(), P.end(), 0.0f);
+                for (int k = 0; k < n; ++k)
+                    for (int j = 0; j < W; ++j) P[size_t(j)] += w[size_t(k)] * corner_data[size_t(k)][j];
+                std::copy(face_normal, face_normal + 3, nrm);
+            }
+        };
+        auto eval_attrs = [&](const float* uv, size_t o) {
+            if (K > 0) {
+                float* a = &attrs[o * size_t(K)];
+                if (smooth) {
+                    fvar.Evaluate(uv, patch_a.data(), K, a);
+                } else {
+                    linear_weights(param, uv, w.data());
+                    std::fill(a, a + K, 0.0f);
+                    for (int k = 0; k < n; ++k) {
+                        const float* v = &m.value_attrs[size_t(m.corner_value[c0 + uint32_t(k)]) * size_t(K)];
+                        for (int j = 0; j < K; ++j) a[j] += w[size_t(k)] * v[j];
+                    }
+                }
+            }
+            if (m.has_skin) {
+                linear_weights(param, uv, w.data());
+                SkinAccumulator acc;
+                for (int k = 0; k < n; ++k) {
+                    const size_t v = m.corner_value[c0 + uint32_t(k)];
+                    acc.add(&m.value_joints[v * 4], &m.value_weights[v * 4], w[size_t(k)]);
+                }
+                acc.finish(&out.joints[o * 4], &out.weights[o * 4]);
+            }
+        };
+        auto write_data = [&](size_t o) { std::copy(P.begin(), P.end(), &data[o * size_t(W)]); };
+
+        int b = 0;
+        for (int k = 0; k < n; ++k) {
+            const uint32_t c = c0 + uint32_t(k), g = m.corner_group[c], p = m.corner_point[c];
+            const float* uv = &coords[size_t(b) * 2];
+            eval_point(uv, &corner_normal[size_t(c) * 3]);
+            if (m.point_owner[p] == c)
+                for (uint32_t q = m.point_group_begin[p]; q < m.point_group_begin[p + 1]; ++q) write_data(q);
+            if (m.group_attr_owner[g] == c && K > 0) {
+                // Groups of one (point, value) differ only by normal sector: one evaluation for all of them.
+                eval_attrs(uv, g);
+                for (uint32_t q = m.point_group_begin[p]; q < m.point_group_begin[p + 1]; ++q)
+                    if (q != g && m.group_value[q] == m.group_value[g])
+                        std::copy_n(&attrs[size_t(g) * size_t(K)], K, &attrs[size_t(q) * size_t(K)]);
+            }
+            bidx[size_t(b++)] = int(g);
+            const uint32_t e = m.corner_edge[c], s = m.corner_side[c];
+            const int np = fr[k] - 1;
+            if (np <= 0) continue;
+            const bool forward = p == m.edges[e][0];
+            const bool split = m.edge_split[e] != 0, owner = m.edge_owner[e] == s;
+            for (int j = 0; j < np; ++j) {
+                const float* puv = &coords[size_t(b + j) * 2];
+                const uint32_t q = uint32_t(forward ? j : np - 1 - j);
+                eval_point(puv, &side_normal[(size_t(L.side_slot[s]) + q) * 3]);
+                if (owner) {
+                    if (split) {
+                        for (uint32_t t = m.edge_side_begin[e]; t < m.edge_side_begin[e + 1]; ++t) write_data(L.side_out[t] + q);
+                    } else {
+                        write_data(L.edge_out[e] + q);
+                    }
+                }
+                const uint32_t o = split ? L.side_out[s] + q : L.edge_out[e] + q;
+                if (split || owner) eval_attrs(puv, o);
+                bidx[size_t(b + j)] = int(o);
+            }
+            b += np;
+        }
+        const uint32_t interior = L.face_out[f];
+        for (int i = nb; i < ncoords; ++i) {
+            const float* uv = &coords[size_t(i) * 2];
+            const size_t o = interior + uint32_t(i - nb);
+            eval_point(uv, &N[o * 3]);
+            write_data(o);
+            eval_attrs(uv, o);
+        }
+        const int nfacets = tess.GetNumFacets();
+        x.facets.resize(size_t(nfacets) * 3);
+        std::vector<int>& facets = x.facets;
+        tess.GetFacets(facets.data());
+        const size_t t0 = L.face_tri[f];
+        if (keep_parameters)
+            for (int t = 0; t < nfacets; ++t) {
+                out.triangle_patches[t0 + size_t(t)] = uint32_t(f);
+                for (int k = 0; k < 3; ++k) {
+                    const int local = facets[size_t(t) * 3 + size_t(k)];
+                    out.triangle_coords[(t0 + size_t(t)) * 6 + size_t(k) * 2] = coords[size_t(local) * 2];
+                    out.triangle_coords[(t0 + size_t(t)) * 6 + size_t(k) * 2 + 1] = coords[size_t(local) * 2 + 1];
+                }
+            }
+        tess.TransformFacetCoordIndices(facets.data(), bidx.data(), int(interior) - nb);
+        for (int t = 0; t < nfacets; ++t) {
+            out.triangle_faces[t0 + size_t(t)] = m.face_source[f];
+            for (int k = 0; k < 3; ++k) out.indices[(t0 + size_t(t)) * 3 + size_t(k)] = uint32_t(facets[size_t(t) * 3 + size_t(k)]);
+        }
+    };
+
+    for (int pass = 0; pass < 2; ++pass) {
+        const bool smooth_pass = pass == 0;
+        tbb::parallel_for(tbb::blocked_range<size_t>(0, F, 16), [&](const tbb::blocked_range<size_t>& range) {
+            Surface vtx, fvar;
+            Scratch scratch;
+            for (size_t f = range.begin(); f != range.end(); ++f) {
+                if (m.smooth(f) != smooth_pass) continue;
+                if (smooth_pass) {
+                    // Surfaces were checked in build_surfaces; a failure here would be a bug, but it must not
+                    // become a crash or a crack: such a face would keep its (already shared) boundary points.
+                    bool ok = m.factory->InitVertexSurface(m.face_refiner[f], &vtx);
+                    if (ok && K > 0) ok = m.factory->InitFaceVaryingSurface(m.face_refiner[f], &fvar);
+                    process(f, ok, false, vtx, fvar, scratch);
+                } else {
+                    process(f, false, true, vtx, fvar, scratch);
+                }
+            }
+        });
+    }
+
+    // ---- normals at shared points: averaged per sector (groups) and across non-crease edges
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, G, 1024), [&](const tbb::blocked_range<size_t>& range) {
+        for (size_t g = range.begin(); g != range.end(); ++g) {
+            const uint32_t s = m.group_sector[g];
+            float sum[3] = {0, 0, 0};
+            for (uint32_t i = m.sector_begin[s]; i < m.sector_begin[s + 1]; ++i)
+                for (int k = 0; k < 3; ++k) sum[k] += corner_normal[size_t(m.sector_corners[i]) * 3 + size_t(k)];
+            normalise(sum);
+            if (is_zero(sum)) std::copy_n(&corner_normal[size_t(m.sector_corners[m.sector_begin[s]]) * 3], 3, sum);
+            if (is_zero(sum)) sum[2] = 1.0f;
+            std::copy_n(sum, 3, &N[g * 3]);
+            if (m.has_skin) {
+                const size_t v = m.group_value[g];
+                SkinAccumulator acc;
+                acc.add(&m.value_joints[v * 4], &m.value_weights[v * 4], 1.0f);
+                acc.finish(&out.joints[g * 4], &out.weights[g * 4]);
+            }
+        }
+    });
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, E, 1024), [&](const tbb::blocked_range<size_t>& range) {
+        for (size_t e = range.begin(); e != range.end(); ++e) {
+            const int np = rates[e] - 1;
+            for (int q = 0; q < np; ++q) {
+                auto slot = [&](uint32_t s) { return &side_normal[(size_t(L.side_slot[s]) + size_t(q)) * 3]; };
+                if (m.edge_split[e] & 2) {
+                    for (uint32_t s = m.edge_side_begin[e]; s < m.edge_side_begin[e + 1]; ++s) {
+                        float* dst = &N[(size_t(L.side_out[s]) + size_t(q)) * 3];
+                        std::copy_n(slot(s), 3, dst);
+                        if (is_zero(dst)) dst[2] = 1.0f;
+                    }
+                    continue;
+                }
+                float sum[3] = {0, 0, 0};
+                for (uint32_t s = m.edge_side_begin[e]; s < m.edge_side_begin[e + 1]; ++s)
+                    for (int k = 0; k < 3; ++k) sum[k] += slot(s)[k];
+                normalise(sum);
+                if (is_zero(sum)) std::copy_n(slot(m.edge_side_begin[e]), 3, sum);
+                if (is_zero(sum)) sum[2] = 1.0f;
+                if (m.edge_split[e]) {
+                    for (uint32_t s = m.edge_side_begin[e]; s < m.edge_side_begin[e + 1]; ++s)
+                        std::copy_n(sum, 3, &N[(size_t(L.side_out[s]) + size_t(q)) * 3]);
+                } else {
+                    std::copy_n(sum, 3, &N[(size_t(L.edge_out[e]) + size_t(q)) * 3]);
+                }
+            }
+        }
+    });
+    for (size_t i = 0; i < V; ++i)
+        if (is_zero(&N[i * 3])) N[i * 3 + 2] = 1.0f;
+
+    // ---- de-interleave
+    out.positions.resize(V * 3);
+    for (size_t v = 0; v < V; ++v) std::copy_n(&data[v * size_t(W)], 3, &out.positions[v * 3]);
+    out.vertex_data.assign(m.vertex_data_components.size(), {});
+    int offset = 3;
+    for (size_t a = 0; a < m.vertex_data_components.size(); ++a) {
+        const int nc = m.vertex_data_components[a];
+        out.vertex_data[a].resize(V * size_t(nc));
+        for (size_t v = 0; v < V; ++v)
+            std::copy_n(&data[v * size_t(W) + size_t(offset)], nc, &out.vertex_data[a][v * size_t(nc)]);
+        offset += nc;
+    }
+    offset = 0;
+    out.uvs.clear();
+    if (m.has_uv) {
+        out.uvs.resize(V * 2);
+        for (size_t v = 0; v < V; ++v) std::copy_n(&attrs[v * size_t(K)], 2, &out.uvs[v * 2]);
+        offset = 2;
+    }
+    out.attributes.assign(m.attribute_components.size(), {});
+    for (size_t a = 0; a < m.attribute_components.size(); ++a) {
+        const int nc = m.attribute_components[a];
+        out.attributes[a].resize(V * size_t(nc));
+        for (size_t v = 0; v < V; ++v)
+            std::copy_n(&attrs[v * size_t(K) + size_t(offset)], nc, &out.attributes[a][v * size_t(nc)]);
+        offset += nc;
+    }
+    out.stats.vertices = V;
+    out.stats.triangles = tris;
+    return Status::success();
+}
+
+} // namespace furrow::tess

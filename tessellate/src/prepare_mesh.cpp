@@ -1,0 +1,642 @@
+// Preparing a polygon mesh for crack-free tessellation: weld, repair, classify.
+//
+// The sharing scheme is the one of OpenSubdiv's Bfr tutorial 2.2 (shared points on base vertices and edges,
+// evaluated once) and of DiagSplit (M. Fisher, K. Fatahalian, S. Boulos, K. Akeley, W. R. Mark, P. Hanrahan,
+// "DiagSplit: parallel, crack-free, adaptive tessellation for micropolygon rendering", ACM TOG 28(5), 2009):
+// one integer rate per edge. What this file adds is the topology those two need to be well defined on real
+// meshes (definitions as in T. Ju, "Fixing geometric errors on polygonal models: a survey", 2009):
+//   - positions are welded, so UV seams do not become cracks; attributes become face-varying *values*
+//     (one per distinct attribute vector at a welded position), split only where they really differ;
+//   - polygons that visit a welded vertex twice are split there, what has no area left is dropped;
+//   - faces on edges with more than two faces or with opposite orientations, and faces around interior
+//     vertices of valence 2 (a fold OpenSubdiv 3.5 mishandles: PRs 1301, 1336, 1353) are kept out of the
+//     refiner and tessellated linearly;
+//   - a *point* (shared tessellation vertex) exists per welded position and edge-connected fan of faces, so
+//     bowtie vertices split into one point per fan and every edge's two ends are the same points for all of
+//     its faces; the refiner gets the fans of the smooth faces only, so it never sees a non-manifold vertex;
+//   - normal *sectors* around each point are separated by creases and non-manifold edges.
+// Every classification is a sort or a union-find over corners in index order: deterministic, O(n log n).
+#include "tessellate_internal.h"
+
+#include <algorithm>
+#include <cstring>
+#include <numeric>
+#include <string>
+
+namespace furrow::tess {
+namespace {
+
+struct DisjointSets {
+    std::vector<uint32_t> parent;
+    explicit DisjointSets(size_t n) : parent(n) { std::iota(parent.begin(), parent.end(), 0u); }
+    uint32_t find(uint32_t x) {
+        while (parent[x] != x) {
+            parent[x] = parent[parent[x]];
+            x = parent[x];
+        }
+        return x;
+    }
+    // The smaller root wins, so roots are the lowest corner of each class whatever the union order.
+    void unite(uint32_t a, uint32_t b) {
+        a = find(a);
+        b = find(b);
+        if (a == b) return;
+        if (a < b) parent[b] = a;
+        else parent[a] = b;
+    }
+};
+
+uint32_t float_bits(float f) {
+    if (f == 0.0f) f = 0.0f; // -0 and +0 are the same value
+    uint32_t u;
+    std::memcpy(&u, &f, sizeof u);
+    return u;
+}
+
+std::string str(size_t n) { return std::to_string(n); }
+
+Status check_options(const SurfaceOptions& o) {
+    if (int(o.scheme) < 0 || int(o.scheme) > 2) return Status::error(StatusCode::invalid_argument, "unknown scheme");
+    if (int(o.boundary) < 0 || int(o.boundary) > 1)
+        return Status::error(StatusCode::invalid_argument, "unknown boundary interpolation");
+    if (int(o.uv_interpolation) < 0 || int(o.uv_interpolation) > 5)
+        return Status::error(StatusCode::invalid_argument, "unknown UV interpolation");
+    if (!(o.crease_angle_degrees >= 0.0) || !std::isfinite(o.crease_angle_degrees))
+        return Status::error(StatusCode::invalid_argument, "crease angle must be a finite angle >= 0 degrees");
+    if (o.accuracy < 1 || o.accuracy > 10)
+        return Status::error(StatusCode::invalid_argument,
+                             "accuracy must be 1..10, got " + std::to_string(o.accuracy));
+    if (!(o.weld_tolerance >= 0.0) || !std::isfinite(o.weld_tolerance))
+        return Status::error(StatusCode::invalid_argument, "weld tolerance must be finite and >= 0");
+    return Status::success();
+}
+
+Status check_input(const TessellateInput& in, const SurfaceOptions& o) {
+    if (in.vertex_count && !in.positions) return Status::error(StatusCode::invalid_input, "no positions");
+    if (in.index_count && !in.indices) return Status::error(StatusCode::invalid_input, "no indices");
+    if (in.vertex_count > size_t(0x7fffffff)) return Status::error(StatusCode::out_of_memory, "too many vertices");
+    if (in.face_sizes) {
+        size_t sum = 0;
+        for (size_t f = 0; f < in.face_count; ++f) sum += in.face_sizes[f];
+        if (sum != in.index_count)
+            return Status::error(StatusCode::invalid_input, "face sizes add up to " + str(sum) + " corners but there are " +
+                                                                str(in.index_count) + " indices");
+    } else if (in.index_count % 3) {
+        return Status::error(StatusCode::invalid_input,
+                             str(in.index_count) + " indices do not make whole triangles (give face sizes)");
+    }
+    if (in.index_count > size_t(0x7fffffff)) return Status::error(StatusCode::out_of_memory, "too many indices");
+    for (size_t i = 0; i < in.index_count; ++i) {
+        uint32_t v = in.indices[i];
+        if (v >= in.vertex_count)
+            return Status::error(StatusCode::invalid_input, "index " + str(i) + " refers to vertex " + str(v) +
+                                                                " but there are " + str(in.vertex_count) + " vertices");
+        const float* p = in.positions + size_t(v) * 3;
+        if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2]))
+            return Status::error(StatusCode::invalid_input, "vertex " + str(v) + " has a non-finite position");
+    }
+    if (o.scheme == SubdivisionScheme::loop && in.face_sizes) {
+        for (size_t f = 0; f < in.face_count; ++f)
+            if (in.face_sizes[f] != 3)
+                return Status::error(StatusCode::unsupported, "loop subdivision needs triangles; face " + str(f) + " has " +
+                                                                  str(in.face_sizes[f]) + " corners (use catmark)");
+    }
+    int k = in.uvs ? 2 : 0;
+    for (const auto& a : in.attributes) {
+        if (a.components < 1 || a.components > 16)
+            return Status::error(StatusCode::invalid_argument, "attribute components must be 1..16");
+        if (!a.values && in.vertex_count) return Status::error(StatusCode::invalid_input, "attribute without values");
+        k += a.components;
+    }
+    if (k > 64) return Status::error(StatusCode::invalid_argument, "more than 64 attribute floats per vertex");
+    int w = 3;
+    for (const auto& a : in.vertex_data) {
+        if (a.components < 1 || a.components > 16)
+            return Status::error(StatusCode::invalid_argument, "vertex data components must be 1..16");
+        if (!a.values && in.vertex_count) return Status::error(StatusCode::invalid_input, "vertex data without values");
+        w += a.components;
+    }
+    if (w > 256) return Status::error(StatusCode::invalid_argument, "more than 253 vertex data floats per vertex");
+    if (bool(in.joints) != bool(in.weights))
+        return Status::error(StatusCode::invalid_input, "joints and weights must be given together");
+    return Status::success();
+}
+
+// Splits a polygon (welded ids with their corners) at its first repeated vertex, recursively; pieces of fewer
+// than 3 corners have no area and are dropped.
+void split_polygon(std::vector<std::vector<uint32_t>>& pieces, std::vector<uint32_t> corners,
+                   const std::vector<uint32_t>& welded_of_corner) {
+    auto w = [&](uint32_t c) { return welded_of_corner[c]; };
+    std::vector<std::vector<uint32_t>> stack{std::move(corners)};
+    while (!stack.empty()) {
+        std::vector<uint32_t> poly = std::move(stack.back());
+        stack.pop_back();
+        // Consecutive duplicates (cyclically) only shorten the polygon.
+        std::vector<uint32_t> clean;
+        for (uint32_t c : poly)
+            if (clean.empty() || w(clean.back()) != w(c)) clean.push_back(c);
+        while (clean.size() > 1 && w(clean.front()) == w(clean.back())) clean.pop_back();
+        if (clean.size() < 3) continue;
+        size_t i = 0, j = 0;
+        bool repeated = false;
+        for (i = 0; i < clean.size() && !repeated; ++i)
+            for (j = i + 1; j < clean.size(); ++j)
+                if (w(clean[i]) == w(clean[j])) {
+                    repeated = true;
+                    break;
+                }
+        if (!repeated) {
+            pieces.push_back(std::move(clean));
+            continue;
+        }
+        --i; // the loop incremented it once more
+        std::vector<uint32_t> a(clean.begin() + long(i), clean.begin() + long(j));
+        std::vector<uint32_t> b(clean.begin() + long(j), clean.end());
+        b.insert(b.end(), clean.begin(), clean.begin() + long(i));
+        // Processed in order a, b (stack: push b first).
+        stack.push_back(std::move(b));
+        stack.push_back(std::move(a));
+    }
+}
+
+// Edges of the welded mesh: sides (corners whose outgoing edge it is) grouped by sorted endpoint pair.
+void build_edges(PreparedMesh& m) {
+    const size_t C = m.corner_input.size();
+    std::vector<uint32_t> half(C);
+    std::iota(half.begin(), half.end(), 0u);
+    auto ekey = [&](uint32_t c) {
+        uint32_t a = m.corner_welded[c], b = m.corner_welded[m.next_corner(c)];
+        return std::array<uint32_t, 2>{std::min(a, b), std::max(a, b)};
+    };
+    std::sort(half.begin(), half.end(), [&](uint32_t a, uint32_t b) {
+        auto ka = ekey(a), kb = ekey(b);
+        return ka != kb ? ka < kb : a < b;
+    });
+    m.edge_side_begin.assign(1, 0);
+    m.side_corner.clear();
+    m.corner_edge.assign(C, none);
+    m.corner_side.assign(C, none);
+    for (size_t i = 0; i < C; ++i) {
+        if (i && ekey(half[i]) != ekey(half[i - 1])) m.edge_side_begin.push_back(uint32_t(i));
+        m.side_corner.push_back(half[i]);
+    }
+    if (C) m.edge_side_begin.push_back(uint32_t(C));
+    const size_t E = m.edge_side_begin.size() - 1;
+    for (size_t e = 0; e < E; ++e)
+        for (uint32_t s = m.edge_side_begin[e]; s < m.edge_side_begin[e + 1]; ++s) {
+            m.corner_edge[m.side_corner[s]] = uint32_t(e);
+            m.corner_side[m.side_corner[s]] = s;
+        }
+}
+
+// Consistent orientation per connected component (through edges with two faces), by a breadth-first walk
+// from each component's lowest face; the orientation most of the component's faces already have is kept.
+// Components that cannot be oriented (Moebius-like) are left alone: their inconsistent edges are reported.
+// Returns the number of faces flipped (their corner order reversed, corner 0 kept).
+size_t orient_faces(PreparedMesh& m) {
+    const size_t F = m.face_count();
+    const size_t E = m.edge_side_begin.size() - 1;
+    std::vector<int8_t> flip(F, -1);
+    std::vector<uint32_t> queue, component;
+    std::vector<uint8_t> to_flip(F, 0);
+    size_t flipped = 0;
+    for (size_t seed = 0; seed < F; ++seed) {
+        if (flip[seed] >= 0) continue;
+        flip[seed] = 0;
+        queue.assign(1, uint32_t(seed));
+        component.clear();
+        bool orientable = true;
+        for (size_t qi = 0; qi < queue.size(); ++qi) {
+            const uint32_t f = queue[qi];
+            component.push_back(f);
+            for (uint32_t c = m.face_offset[f]; c < m.face_offset[f + 1]; ++c) {
+                const uint32_t e = m.corner_edge[c];
+                if (e >= E || m.edge_side_begin[e + 1] - m.edge_side_begin[e] != 2) continue;
+                const uint32_t s0 = m.side_corner[m.edge_side_begin[e]], s1 = m.side_corner[m.edge_side_begin[e] + 1];
+                const uint32_t other = s0 == c ? s1 : s0;
+                const uint32_t g = m.corner_face[other];
+                if (g == f) continue;
+                // Same direction along the edge: the two faces disagree as they stand.
+                const bool same = m.corner_welded[c] == m.corner_welded[other];
+                const int8_t want = int8_t(flip[f] ^ int8_t(same));
+                if (flip[g] < 0) {
+                    flip[g] = want;
+                    queue.push_back(g);
+                } else if (flip[g] != want) {
+                    orientable = false;
+                }
+            }
+        }
+        if (!orientable) continue;
+        size_t n = 0;
+        for (uint32_t f : component) n += size_t(flip[f]);
+        const bool invert = 2 * n > component.size();
+        for (uint32_t f : component) {
+            to_flip[f] = uint8_t(flip[f] != int8_t(invert));
+            flipped += to_flip[f];
+        }
+    }
+    if (!flipped) return 0;
+    for (size_t f = 0; f < F; ++f) {
+        if (!to_flip[f]) continue;
+        std::reverse(m.corner_input.begin() + m.face_offset[f] + 1, m.corner_input.begin() + m.face_offset[f + 1]);
+        std::reverse(m.corner_welded.begin() + m.face_offset[f] + 1, m.corner_welded.begin() + m.face_offset[f + 1]);
+    }
+    return flipped;
+}
+
+} // namespace
+
+Status prepare_mesh(PreparedMesh& m, const TessellateInput& in, const SurfaceOptions& o) {
+    if (Status s = check_options(o); !s.ok()) return s;
+    if (Status s = check_input(in, o); !s.ok()) return s;
+    m = PreparedMesh{};
+    m.options = o;
+    m.scheme = o.scheme == SubdivisionScheme::loop       ? osd::Sdc::SCHEME_LOOP
+               : o.scheme == SubdivisionScheme::bilinear ? osd::Sdc::SCHEME_BILINEAR
+                                                         : osd::Sdc::SCHEME_CATMARK;
+    TessellateStats& st = m.stats;
+    const size_t nv = in.vertex_count;
+    m.input_vertex_count = nv;
+
+    // ---- weld
+    std::vector<uint32_t> remap(nv);
+    if (nv) weld_positions(remap.data(), in.positions, nv, 3, o.weld_tolerance);
+    std::vector<uint32_t> welded_of(nv, none);
+    for (size_t v = 0; v < nv; ++v)
+        if (remap[v] == v) {
+            welded_of[v] = uint32_t(m.welded_input.size());
+            m.welded_input.push_back(uint32_t(v));
+        }
+    for (size_t v = 0; v < nv; ++v) welded_of[v] = welded_of[remap[v]];
+    m.W = 3;
+    for (const auto& a : in.vertex_data) {
+        m.vertex_data_components.push_back(a.components);
+        m.W += a.components;
+    }
+    m.welded_data.resize(m.welded_input.size() * size_t(m.W));
+    for (size_t w = 0; w < m.welded_input.size(); ++w) {
+        const size_t v = m.welded_input[w];
+        float* d = &m.welded_data[w * size_t(m.W)];
+        std::copy(in.positions + v * 3, in.positions + v * 3 + 3, d);
+        int k = 3;
+        for (const auto& a : in.vertex_data) {
+            std::copy(a.values + v * size_t(a.components), a.values + (v + 1) * size_t(a.components), d + k);
+            k += a.components;
+        }
+    }
+
+    // ---- faces: repair
+    const size_t nf_in = in.face_sizes ? in.face_count : in.index_count / 3;
+    st.input_faces = nf_in;
+    std::vector<uint32_t> welded_of_index(in.index_count);
+    for (size_t i = 0; i < in.index_count; ++i) welded_of_index[i] = welded_of[in.indices[i]];
+    m.face_offset.push_back(0);
+    std::vector<uint32_t> face_group_of;
+    size_t split_polygons = 0;
+    {
+        size_t first = 0;
+        std::vector<std::vector<uint32_t>> pieces;
+        for (size_t f = 0; f < nf_in; ++f) {
+            const size_t n = in.face_sizes ? in.face_sizes[f] : 3;
+            std::vector<uint32_t> corners(n);
+            std::iota(corners.begin(), corners.end(), uint32_t(first));
+            first += n;
+            pieces.clear();
+            split_polygon(pieces, std::move(corners), welded_of_index);
+            if (pieces.empty()) ++st.dropped_faces;
+            if (pieces.size() > 1) ++split_polygons;
+            for (const auto& piece : pieces) {
+                for (uint32_t idx : piece) {
+                    m.corner_input.push_back(in.indices[idx]);
+                    m.corner_welded.push_back(welded_of_index[idx]);
+                    m.corner_face.push_back(uint32_t(m.face_source.size()));
+                }
+                m.face_source.push_back(uint32_t(f));
+                face_group_of.push_back(in.face_groups ? in.face_groups[f] : 0u);
+                m.face_offset.push_back(uint32_t(m.corner_input.size()));
+            }
+        }
+    }
+    const size_t F = m.face_source.size();
+    const size_t C = m.corner_input.size();
+    st.faces = F;
+    if (o.refuse_bad_topology && st.dropped_faces)
+        return Status::error(StatusCode::invalid_input, str(st.dropped_faces) + " degenerate faces (a repeated vertex)");
+    if (o.refuse_bad_topology && split_polygons)
+        return Status::error(StatusCode::invalid_input, str(split_polygons) + " faces that visit a vertex twice");
+    m.face_linear.assign(F, 0);
+    build_edges(m);
+    st.flipped_faces = orient_faces(m);
+    if (st.flipped_faces && o.refuse_bad_topology)
+        return Status::error(StatusCode::invalid_input, str(st.flipped_faces) + " faces oriented against their neighbours");
+
+    // ---- attribute values
+    m.has_uv = in.uvs != nullptr;
+    m.has_skin = in.joints != nullptr;
+    m.K = in.uvs ? 2 : 0;
+    for (const auto& a : in.attributes) {
+        m.attribute_components.push_back(a.components);
+        m.K += a.components;
+    }
+    const int K = m.K;
+    auto attr_vector = [&](size_t v, float* out) {
+        int k = 0;
+        if (in.uvs) {
+            out[k++] = in.uvs[v * 2];
+            out[k++] = in.uvs[v * 2 + 1];
+        }
+        for (const auto& a : in.attributes)
+            for (int c = 0; c < a.components; ++c) out[k++] = a.values[v * size_t(a.components) + size_t(c)];
+    };
+    // Attribute class of each input vertex: equal attribute vectors (bitwise) and skins share a class.
+    std::vector<uint32_t> attr_class(nv, 0);
+    if (K > 0 || m.has_skin) {
+        const size_t key_len = size_t(K) + (m.has_skin ? 8 : 0);
+        std::vector<uint32_t> keys(nv * key_len);
+        std::vector<float> tmp(static_cast<size_t>(K));
+        for (size_t v = 0; v < nv; ++v) {
+            uint32_t* key = &keys[v * key_len];
+            attr_vector(v, tmp.data());
+            for (int k = 0; k < K; ++k) key[k] = float_bits(tmp[size_t(k)]);
+            if (m.has_skin)
+                for (int j = 0; j < 4; ++j) {
+                    key[K + j] = in.joints[v * 4 + size_t(j)];
+                    key[K + 4 + j] = float_bits(in.weights[v * 4 + size_t(j)]);
+                }
+        }
+        std::vector<uint32_t> order(nv);
+        std::iota(order.begin(), order.end(), 0u);
+        auto less = [&](uint32_t a, uint32_t b) {
+            int c = std::memcmp(&keys[a * key_len], &keys[b * key_len], key_len * sizeof(uint32_t));
+            return c != 0 ? c < 0 : a < b;
+        };
+        std::sort(order.begin(), order.end(), less);
+        uint32_t cls = 0;
+        for (size_t i = 0; i < nv; ++i) {
+            if (i && std::memcmp(&keys[order[i] * key_len], &keys[order[i - 1] * key_len], key_len * sizeof(uint32_t)))
+                ++cls;
+            attr_class[order[i]] = cls;
+        }
+    }
+    // Values: distinct (welded position, face group, attribute class) over the corners.
+    m.corner_value.assign(C, 0);
+    {
+        std::vector<uint32_t> order(C);
+        std::iota(order.begin(), order.end(), 0u);
+        auto key = [&](uint32_t c) {
+            return std::array<uint32_t, 3>{m.corner_welded[c], face_group_of[m.corner_face[c]], attr_class[m.corner_input[c]]};
+        };
+        std::sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) {
+            auto ka = key(a), kb = key(b);
+            return ka != kb ? ka < kb : a < b;
+        });
+        uint32_t value = 0;
+        std::vector<float> tmp(static_cast<size_t>(K));
+        for (size_t i = 0; i < C; ++i) {
+            const uint32_t c = order[i];
+            if (i && key(c) != key(order[i - 1])) ++value;
+            if (i == 0 || key(c) != key(order[i - 1])) {
+                const size_t v = m.corner_input[c];
+                attr_vector(v, tmp.data());
+                m.value_attrs.insert(m.value_attrs.end(), tmp.begin(), tmp.end());
+                if (m.has_skin) {
+                    m.value_joints.insert(m.value_joints.end(), in.joints + v * 4, in.joints + v * 4 + 4);
+                    m.value_weights.insert(m.value_weights.end(), in.weights + v * 4, in.weights + v * 4 + 4);
+                }
+            }
+            m.corner_value[c] = value;
+        }
+    }
+
+    // ---- edges over welded positions (again if faces were flipped)
+    if (st.flipped_faces) build_edges(m);
+    const size_t E = m.edge_side_begin.size() - 1;
+    st.edges = E;
+    auto sides = [&](size_t e) { return m.edge_side_begin[e + 1] - m.edge_side_begin[e]; };
+    auto consistent = [&](size_t e) { // for two sides: they traverse the edge in opposite directions
+        uint32_t c1 = m.side_corner[m.edge_side_begin[e]], c2 = m.side_corner[m.edge_side_begin[e] + 1];
+        return m.corner_welded[c1] == m.corner_welded[m.next_corner(c2)];
+    };
+    std::vector<uint8_t> bad_edge(E, 0);
+    for (size_t e = 0; e < E; ++e) {
+        if (sides(e) > 2) {
+            bad_edge[e] = 1;
+            ++st.non_manifold_edges;
+        } else if (sides(e) == 2 && !consistent(e)) {
+            bad_edge[e] = 2;
+            ++st.inconsistent_edges;
+        }
+        if (bad_edge[e])
+            for (uint32_t s = m.edge_side_begin[e]; s < m.edge_side_begin[e + 1]; ++s)
+                m.face_linear[m.corner_face[m.side_corner[s]]] = 1;
+    }
+    if (o.refuse_bad_topology) {
+        if (st.non_manifold_edges)
+            return Status::error(StatusCode::invalid_input, str(st.non_manifold_edges) + " non-manifold edges");
+        if (st.inconsistent_edges)
+            return Status::error(StatusCode::invalid_input,
+                                 str(st.inconsistent_edges) + " edges with inconsistently oriented faces");
+    }
+
+    // ---- fans of the smooth faces (the refiner's vertices); interior valence-2 vertices leave the refiner
+    std::vector<uint32_t> smooth_class(C, none);
+    for (;;) {
+        DisjointSets ds(C);
+        std::vector<uint32_t> join_sites;
+        for (size_t e = 0; e < E; ++e) {
+            if (sides(e) != 2 || bad_edge[e]) continue;
+            uint32_t c1 = m.side_corner[m.edge_side_begin[e]], c2 = m.side_corner[m.edge_side_begin[e] + 1];
+            if (m.face_linear[m.corner_face[c1]] || m.face_linear[m.corner_face[c2]]) continue;
+            ds.unite(c1, m.next_corner(c2));
+            ds.unite(m.next_corner(c1), c2);
+            join_sites.push_back(c1);
+            join_sites.push_back(m.next_corner(c1));
+        }
+        std::vector<uint32_t> corners_in(C, 0), joins_in(C, 0);
+        for (uint32_t c = 0; c < C; ++c)
+            if (!m.face_linear[m.corner_face[c]]) ++corners_in[ds.find(c)];
+        for (uint32_t c : join_sites) ++joins_in[ds.find(c)];
+        size_t found = 0;
+        for (uint32_t c = 0; c < C; ++c) {
+            if (m.face_linear[m.corner_face[c]]) continue;
+            uint32_t r = ds.find(c);
+            if (corners_in[r] == 2 && joins_in[r] == 2) {
+                m.face_linear[m.corner_face[c]] = 1;
+                if (r == c) ++found;
+            }
+        }
+        if (!found) {
+            for (uint32_t c = 0; c < C; ++c)
+                if (!m.face_linear[m.corner_face[c]]) smooth_class[c] = ds.find(c);
+            break;
+        }
+        st.valence2_vertices += found;
+        if (o.refuse_bad_topology)
+            return Status::error(StatusCode::invalid_input, str(found) + " interior vertices of valence 2");
+    }
+    // Refiner vertices numbered by their first corner.
+    {
+        std::vector<uint32_t> id(C, none);
+        uint32_t next = 0;
+        m.corner_refiner_vertex.assign(C, none);
+        for (uint32_t c = 0; c < C; ++c) {
+            if (smooth_class[c] == none) continue;
+            uint32_t& r = id[smooth_class[c]];
+            if (r == none) {
+                r = next++;
+                m.refiner_vertex_welded.push_back(m.corner_welded[c]);
+            }
+            m.corner_refiner_vertex[c] = r;
+        }
+    }
+
+    // ---- points: welded positions split into edge-connected fans of all faces
+    {
+        DisjointSets ds(C);
+        for (size_t e = 0; e < E; ++e) {
+            if (sides(e) < 2) continue;
+            const uint32_t c0 = m.side_corner[m.edge_side_begin[e]];
+            for (uint32_t s = m.edge_side_begin[e] + 1; s < m.edge_side_begin[e + 1]; ++s) {
+                const uint32_t c = m.side_corner[s];
+                if (m.corner_welded[c] == m.corner_welded[c0]) {
+                    ds.unite(c, c0);
+                    ds.unite(m.next_corner(c), m.next_corner(c0));
+                } else {
+                    ds.unite(c, m.next_corner(c0));
+                    ds.unite(m.next_corner(c), c0);
+                }
+            }
+        }
+        std::vector<uint32_t> id(C, none);
+        std::vector<uint32_t> points_of_welded(m.welded_input.size(), 0);
+        m.corner_point.assign(C, none);
+        for (uint32_t c = 0; c < C; ++c) {
+            uint32_t& p = id[ds.find(c)];
+            if (p == none) {
+                p = uint32_t(m.point_welded.size());
+                m.point_welded.push_back(m.corner_welded[c]);
+                ++points_of_welded[m.corner_welded[c]];
+            }
+            m.corner_point[c] = p;
+        }
+        for (uint32_t n : points_of_welded) st.split_vertices += n > 1;
+    }
+    const size_t P = m.point_welded.size();
+    m.edges.resize(E);
+    for (size_t e = 0; e < E; ++e) {
+        const uint32_t c0 = m.side_corner[m.edge_side_begin[e]];
+        uint32_t a = m.corner_point[c0], b = m.corner_point[m.next_corner(c0)];
+        m.edges[e] = {std::min(a, b), std::max(a, b)};
+    }
+
+    // ---- creases, seams, normal sectors
+    std::vector<std::array<double, 3>> face_normal(F);
+    for (size_t f = 0; f < F; ++f) {
+        std::vector<const float*> pts;
+        for (uint32_t c = m.face_offset[f]; c < m.face_offset[f + 1]; ++c)
+            pts.push_back(&m.welded_data[size_t(m.corner_welded[c]) * size_t(m.W)]);
+        face_normal[f] = newell_normal(pts.data(), pts.size());
+    }
+    const bool creases = o.crease_angle_degrees < 180.0;
+    const double cos_crease = std::cos(o.crease_angle_degrees * 3.14159265358979323846 / 180.0);
+    m.edge_split.assign(E, 0);
+    m.edge_crease.assign(E, 0);
+    for (size_t e = 0; e < E; ++e) {
+        if (sides(e) == 1) continue;
+        if (bad_edge[e]) {
+            m.edge_split[e] = 3;
+            continue;
+        }
+        const uint32_t c1 = m.side_corner[m.edge_side_begin[e]], c2 = m.side_corner[m.edge_side_begin[e] + 1];
+        if (creases) {
+            const auto& n1 = face_normal[m.corner_face[c1]];
+            const auto& n2 = face_normal[m.corner_face[c2]];
+            double l = length3(n1) * length3(n2);
+            if (l > 0 && (n1[0] * n2[0] + n1[1] * n2[1] + n1[2] * n2[2]) / l < cos_crease) {
+                m.edge_split[e] |= 2;
+                m.edge_crease[e] = 1;
+                ++st.crease_edges;
+            }
+        }
+        if (m.corner_value[c1] != m.corner_value[m.next_corner(c2)] || m.corner_value[m.next_corner(c1)] != m.corner_value[c2])
+            m.edge_split[e] |= 1;
+    }
+    std::vector<uint32_t> sector_root(C);
+    {
+        DisjointSets ds(C);
+        for (size_t e = 0; e < E; ++e) {
+            if (sides(e) != 2 || (m.edge_split[e] & 2)) continue;
+            uint32_t c1 = m.side_corner[m.edge_side_begin[e]], c2 = m.side_corner[m.edge_side_begin[e] + 1];
+            ds.unite(c1, m.next_corner(c2));
+            ds.unite(m.next_corner(c1), c2);
+        }
+        for (uint32_t c = 0; c < C; ++c) sector_root[c] = ds.find(c);
+    }
+
+    // ---- groups: output vertices at points, one per (point, value, sector)
+    {
+        std::vector<uint32_t> order(C);
+        std::iota(order.begin(), order.end(), 0u);
+        auto key = [&](uint32_t c) {
+            return std::array<uint32_t, 3>{m.corner_point[c], m.corner_value[c], sector_root[c]};
+        };
+        std::sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) {
+            auto ka = key(a), kb = key(b);
+            return ka != kb ? ka < kb : a < b;
+        });
+        m.corner_group.assign(C, none);
+        m.point_group_begin.assign(P + 1, 0);
+        for (size_t i = 0; i < C; ++i) {
+            const uint32_t c = order[i];
+            if (i == 0 || key(c) != key(order[i - 1])) {
+                m.group_point.push_back(m.corner_point[c]);
+                m.group_value.push_back(m.corner_value[c]);
+                m.group_sector.push_back(sector_root[c]); // a corner for now, a sector index below
+                ++m.point_group_begin[m.corner_point[c] + 1];
+            }
+            m.corner_group[c] = uint32_t(m.group_value.size() - 1);
+        }
+        for (size_t p = 0; p < P; ++p) m.point_group_begin[p + 1] += m.point_group_begin[p];
+        const size_t G = m.group_value.size();
+        m.group_attr_end.assign(G, 0);
+        for (size_t g = G; g-- > 0;) {
+            const bool same_next = g + 1 < G && m.group_point[g + 1] == m.group_point[g] &&
+                                   m.group_value[g + 1] == m.group_value[g];
+            m.group_attr_end[g] = same_next ? m.group_attr_end[g + 1] : uint32_t(g + 1);
+        }
+        // Sectors: runs of (point, sector root) over the corners.
+        std::vector<uint32_t> sorder(C);
+        std::iota(sorder.begin(), sorder.end(), 0u);
+        auto skey = [&](uint32_t c) { return std::array<uint32_t, 2>{m.corner_point[c], sector_root[c]}; };
+        std::sort(sorder.begin(), sorder.end(), [&](uint32_t a, uint32_t b) {
+            auto ka = skey(a), kb = skey(b);
+            return ka != kb ? ka < kb : a < b;
+        });
+        std::vector<uint32_t> sector_of_root(C, none);
+        for (size_t i = 0; i < C; ++i) {
+            const uint32_t c = sorder[i];
+            if (i == 0 || skey(c) != skey(sorder[i - 1])) {
+                sector_of_root[sector_root[c]] = uint32_t(m.sector_begin.size());
+                m.sector_begin.push_back(uint32_t(i));
+            }
+            m.sector_corners.push_back(c);
+        }
+        m.sector_begin.push_back(uint32_t(C));
+        for (auto& s : m.group_sector) s = sector_of_root[s];
+    }
+
+    // ---- bounding box
+    bool any = false;
+    for (uint32_t w : m.corner_welded) {
+        const float* p = &m.welded_data[size_t(w) * size_t(m.W)];
+        for (int k = 0; k < 3; ++k) {
+            m.bbox_min[k] = any ? std::min(m.bbox_min[k], double(p[k])) : double(p[k]);
+            m.bbox_max[k] = any ? std::max(m.bbox_max[k], double(p[k])) : double(p[k]);
+        }
+        any = true;
+    }
+    return Status::success();
+}
+
+} // namespace furrow::tess

@@ -1,0 +1,145 @@
+// DisplacedGround: displacement once per welded point, incremental updates equal to a full pass.
+#include "deform_test_util.h"
+#include "test_support.h"
+
+#include <map>
+#include <random>
+
+using namespace furrow;
+using namespace furrow::test;
+
+namespace {
+
+struct Prepared {
+    Primitive ground;
+    SnowField field;
+    DisplacedGround dg;
+};
+
+void prepare(Prepared& p, const DisplaceOptions& o = {}) {
+    SnowOptions so;
+    so.texel = 0.02;
+    so.rim_width = 0.06;
+    p.field = make_field(p.ground, so);
+    Status s = p.dg.prepare(p.ground.positions.data(), p.ground.vertex_count(), p.ground.indices.data(), p.ground.indices.size(),
+                            p.field.frame(), o, &p.field.ground());
+    ASSERT_TRUE(s.ok()) << s.message;
+}
+
+} // namespace
+
+TEST(DisplacedGround, IncrementalUpdatesEqualAFullPass) {
+    Prepared p;
+    p.ground = hill_ground(4, 100);
+    prepare(p);
+    const size_t n = p.ground.positions.size();
+    std::vector<float> pos(n), nor(n), full_pos(n), full_nor(n);
+    p.field.update();
+    p.dg.displace_all(p.field.heightmap(), pos.data(), nor.data());
+    std::mt19937 rng(11);
+    std::uniform_real_distribution<double> U(-1.6, 1.6);
+    size_t moved_total = 0;
+    for (int frame = 0; frame < 20; ++frame) {
+        const double x = U(rng), z = U(rng);
+        ASSERT_TRUE(p.field.stamp(sphere(0.15, {}), ColliderPose{{x, hill_height(x, z) + 0.1, z}, 0, 0}).ok());
+        const TexelRect r = p.field.update();
+        const size_t moved = p.dg.update(p.field.heightmap(), r, pos.data(), nor.data());
+        EXPECT_GT(moved, 0u);
+        EXPECT_LT(moved, p.dg.welded_count() / 4);
+        moved_total += moved;
+    }
+    DisplacedGround fresh;
+    ASSERT_TRUE(fresh.prepare(p.ground.positions.data(), p.ground.vertex_count(), p.ground.indices.data(), p.ground.indices.size(),
+                              p.field.frame())
+                    .ok());
+    fresh.displace_all(p.field.heightmap(), full_pos.data(), full_nor.data());
+    EXPECT_EQ(pos, full_pos);
+    EXPECT_EQ(nor, full_nor);
+    EXPECT_GT(moved_total, 100u);
+}
+
+TEST(DisplacedGround, SeamCopiesMoveTogether) {
+    Prepared p;
+    p.ground = seam_ground(4, 40);
+    prepare(p);
+    ASSERT_TRUE(p.field.add_collider(sphere(0.4, {{0.0, 0.3, -1}, {0.0, 0.3, 1}})).ok()); // along the seam
+    p.field.update();
+    const size_t n = p.ground.positions.size();
+    std::vector<float> pos(n), nor(n);
+    p.dg.displace_all(p.field.heightmap(), pos.data(), nor.data());
+    EXPECT_EQ(p.dg.welded_count(), size_t(41 * 41));
+    // Every seam copy has exactly the position and normal of its original.
+    const size_t grid = 41 * 41;
+    size_t moved = 0;
+    for (size_t c = grid; c < p.ground.vertex_count(); ++c) {
+        const size_t j = c - grid, v = j * 41 + 20;
+        for (int d = 0; d < 3; ++d) {
+            EXPECT_EQ(pos[3 * c + size_t(d)], pos[3 * v + size_t(d)]);
+            EXPECT_EQ(nor[3 * c + size_t(d)], nor[3 * v + size_t(d)]);
+        }
+        moved += pos[3 * v + 1] < -0.01f;
+    }
+    EXPECT_GT(moved, 10u);
+    // Welded, the displaced mesh is still one open sheet with one boundary.
+    Primitive out = p.ground;
+    out.positions = pos;
+    out.normals = nor;
+    CheckReport r = check_primitive(out);
+    EXPECT_EQ(r.boundary_loops, 1u);
+    EXPECT_EQ(r.non_manifold_edges, 0u);
+    EXPECT_EQ(r.components, 1u);
+    EXPECT_EQ(r.boundary_edges, size_t(4 * 40));
+}
+
+TEST(DisplacedGround, AlongUpMatchesTheHeightmapExactly) {
+    Prepared p;
+    p.ground = hill_ground(4, 80);
+    DisplaceOptions o;
+    o.along_up = true;
+    prepare(p, o);
+    ASSERT_TRUE(p.field.add_collider(sphere(0.3, {{0.5, hill_height(0.5, 0.5) + 0.2, 0.5}})).ok());
+    p.field.update();
+    const size_t n = p.ground.positions.size();
+    std::vector<float> pos(n), nor(n);
+    p.dg.displace_all(p.field.heightmap(), pos.data(), nor.data());
+    for (size_t v = 0; v < p.ground.vertex_count(); ++v) {
+        EXPECT_EQ(pos[3 * v], p.ground.positions[3 * v]);
+        EXPECT_EQ(pos[3 * v + 2], p.ground.positions[3 * v + 2]);
+        const double q[3] = {p.ground.positions[3 * v], 0, p.ground.positions[3 * v + 2]};
+        EXPECT_NEAR(pos[3 * v + 1] - p.ground.positions[3 * v + 1], p.field.heightmap().sample_world(q), 1e-6);
+        const double len = std::hypot(nor[3 * v], nor[3 * v + 1], nor[3 * v + 2]);
+        EXPECT_NEAR(len, 1.0, 1e-6);
+    }
+}
+
+TEST(DisplacedGround, NormalsAreThoseOfTheMeshLibrary) {
+    Prepared p;
+    p.ground = hill_ground(4, 60);
+    prepare(p);
+    ASSERT_TRUE(p.field.add_collider(box({0.5, 0.3, 0.5}, 10, {{-0.4, hill_height(-0.4, 0.2) + 0.1, 0.2}})).ok());
+    p.field.update();
+    const size_t n = p.ground.positions.size();
+    std::vector<float> pos(n), nor(n), ref(n);
+    p.dg.displace_all(p.field.heightmap(), pos.data(), nor.data());
+    compute_vertex_normals(ref.data(), pos.data(), p.ground.vertex_count(), p.ground.indices.data(), p.ground.indices.size());
+    for (size_t k = 0; k < n; ++k) EXPECT_NEAR(nor[k], ref[k], 1e-5);
+}
+
+TEST(DisplacedGround, TopOnlyLeavesTheUndersideAlone) {
+    // A flat ground with a small roof above it: stamping the roof region must not move the floor below.
+    Primitive g = flat_ground(4, 40);
+    const uint32_t b = uint32_t(g.vertex_count());
+    // Roof at y = 0.5 over [-0.5, 0.5]², facing up, stamped by a sphere resting on it.
+    g.positions.insert(g.positions.end(), {-0.5f, 0.5f, -0.5f, -0.5f, 0.5f, 0.5f, 0.5f, 0.5f, 0.5f, 0.5f, 0.5f, -0.5f});
+    g.indices.insert(g.indices.end(), {b, b + 1, b + 2, b, b + 2, b + 3});
+    Prepared p;
+    p.ground = g;
+    DisplaceOptions o;
+    o.top_only = true;
+    prepare(p, o);
+    ASSERT_TRUE(p.field.add_collider(sphere(0.2, {{0, 0.65, 0}})).ok());
+    p.field.update();
+    std::vector<float> pos(g.positions.size()), nor(g.positions.size());
+    p.dg.displace_all(p.field.heightmap(), pos.data(), nor.data());
+    for (size_t v = 0; v < b; ++v) EXPECT_EQ(pos[3 * v + 1], 0.0f) << v; // the floor under the roof is untouched
+}

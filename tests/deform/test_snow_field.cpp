@@ -1,0 +1,399 @@
+// SnowField: analytic imprints, sweeps, compositing, refill, rim volume, dirty rectangles, guards.
+#include "deform_test_util.h"
+#include "test_support.h"
+
+#include <algorithm>
+#include <random>
+
+using namespace furrow;
+using namespace furrow::test;
+
+namespace {
+
+SnowOptions fine(double texel = 0.01) {
+    SnowOptions o;
+    o.texel = texel;
+    return o;
+}
+
+} // namespace
+
+TEST(SnowField, SphereImprintMatchesTheAnalyticCap) {
+    const double r = 0.35, p = 0.12;
+    for (double texel : {0.02, 0.01}) {
+        SnowField f = make_field(flat_ground(4, 1), fine(texel));
+        StampStats st;
+        ASSERT_TRUE(f.add_collider(sphere(r, {{0.1, r - p, -0.2}}), &st).ok());
+        EXPECT_EQ(st.contacts, 1u);
+        EXPECT_NEAR(st.deepest, p, 1e-9);
+        f.update();
+        const Heightmap& h = f.heightmap();
+        double worst = 0;
+        for (int j = 0; j < h.frame.height; ++j)
+            for (int i = 0; i < h.frame.width; ++i) {
+                auto xz = texel_xz(h.frame, i, j);
+                const double rho = std::hypot(xz[0] - 0.1, xz[1] + 0.2);
+                worst = std::max(worst, std::abs(double(h.at(i, j)) - sphere_imprint(r, p, rho)));
+            }
+        EXPECT_LT(worst, 2e-6) << "texel " << texel; // exact at texel centres, up to float storage
+        EXPECT_NEAR(texel_at(h, 0.1, -0.2), -p, 1e-6);
+    }
+}
+
+TEST(SnowField, BoxImprintIsAFlatRectangle) {
+    const double depth = 0.08, heading = 30 * 3.14159265358979 / 180;
+    SnowField f = make_field(flat_ground(4, 1), fine(0.01));
+    ASSERT_TRUE(f.add_collider(box({0.6, 0.4, 0.8}, 30, {{0.2, 0.2 - depth, 0.1}})).ok());
+    f.update();
+    const Heightmap& h = f.heightmap();
+    size_t inside = 0, outside = 0;
+    for (int j = 0; j < h.frame.height; ++j)
+        for (int i = 0; i < h.frame.width; ++i) {
+            auto xz = texel_xz(h.frame, i, j);
+            const double rx = xz[0] - 0.2, rz = xz[1] - 0.1;
+            // Local axes: x across = (cos, −sin), z along = (sin, cos) in (x, z).
+            const double lx = rx * std::cos(heading) - rz * std::sin(heading), lz = rx * std::sin(heading) + rz * std::cos(heading);
+            const double margin = std::min(0.3 - std::abs(lx), 0.4 - std::abs(lz)); // > 0 inside
+            const float v = h.at(i, j);
+            if (margin > 0.01) {
+                ++inside;
+                EXPECT_NEAR(v, -depth, 1e-6) << lx << " " << lz;
+            } else if (margin < -0.01) {
+                ++outside;
+                EXPECT_EQ(v, 0.0f) << lx << " " << lz;
+            } else {
+                EXPECT_TRUE(v <= 0 && v >= -depth - 1e-6); // anti-aliased wall
+            }
+        }
+    EXPECT_GT(inside, 4000u);
+    EXPECT_GT(outside, 100000u);
+}
+
+TEST(SnowField, CapsuleImprintMatchesItsLowerSurface) {
+    // A log lying across its heading (axis along local x = world x for heading 0), pressed p.
+    const double r = 0.12, L = 1.0, p = 0.05;
+    SnowField f = make_field(flat_ground(4, 1), fine(0.01));
+    Collider c = capsule(r, L, {{0, r - p, 0}});
+    c.heading = {0};
+    ASSERT_TRUE(f.add_collider(c).ok());
+    f.update();
+    const Heightmap& h = f.heightmap();
+    double worst = 0;
+    for (int j = 0; j < h.frame.height; ++j)
+        for (int i = 0; i < h.frame.width; ++i) {
+            auto xz = texel_xz(h.frame, i, j);
+            const double ax = std::clamp(xz[0], -L / 2, L / 2); // closest axis point
+            const double rho = std::hypot(xz[0] - ax, xz[1]);
+            worst = std::max(worst, std::abs(double(h.at(i, j)) - sphere_imprint(r, p, rho)));
+        }
+    EXPECT_LT(worst, 2e-6);
+}
+
+TEST(SnowField, ImagePressesDepthTimesPixelValueTowardTheHeading) {
+    // Toe half (top rows) white, heel half black: only the half toward the heading is pressed.
+    for (double heading : {0.0, 90.0}) {
+        SnowField f = make_field(flat_ground(4, 1), fine(0.01));
+        Collider c = image(8, 16, 0.2, 0.4, 0.06, heading, {0, 0, 0}, [](int, int j) { return j < 8 ? 1.0 : 0.0; });
+        StampStats st;
+        ASSERT_TRUE(f.add_collider(c, &st).ok());
+        EXPECT_EQ(st.contacts, 1u);
+        f.update();
+        const Heightmap& h = f.heightmap();
+        const double fx = std::sin(heading * 3.14159265358979 / 180), fz = std::cos(heading * 3.14159265358979 / 180);
+        EXPECT_NEAR(texel_at(h, 0.1 * fx, 0.1 * fz), -0.06, 1e-6);  // toe side
+        EXPECT_NEAR(texel_at(h, -0.1 * fx, -0.1 * fz), 0.0, 1e-6);  // heel side
+        EXPECT_NEAR(texel_at(h, 0.3 * fx, 0.3 * fz), 0.0, 1e-6);    // beyond the print
+    }
+}
+
+TEST(SnowField, ImageColumnsMapToTheWalkersLeftAndRight) {
+    // Column 0 (left of the image) is the walker's left: +x when heading toward +z (glTF: +x is left).
+    SnowField f = make_field(flat_ground(4, 1), fine(0.01));
+    Collider c = image(8, 8, 0.4, 0.4, 0.05, 0.0, {0, 0, 0}, [](int i, int) { return i < 4 ? 1.0 : 0.0; });
+    ASSERT_TRUE(f.add_collider(c).ok());
+    f.update();
+    EXPECT_NEAR(texel_at(f.heightmap(), 0.1, 0), -0.05, 1e-6);
+    EXPECT_NEAR(texel_at(f.heightmap(), -0.1, 0), 0.0, 1e-6);
+}
+
+TEST(SnowField, SphereTrailIsContinuousAtTenRadiiSpacing) {
+    const double r = 0.1, p = 0.05;
+    SnowField f = make_field(flat_ground(6, 3), fine(0.01));
+    std::vector<std::array<double, 3>> path;
+    for (int k = 0; k < 4; ++k) path.push_back({-1.5 + 10 * r * k, r - p, 0.3 * k}); // diagonal, 10 r apart in x
+    ASSERT_TRUE(f.add_collider(sphere(r, path)).ok());
+    f.update();
+    // Along the centreline between the first and last sample, the depth never returns to 0.
+    double shallowest = -1;
+    for (int s = 0; s <= 3000; ++s) {
+        const double a = s / 3000.0;
+        const double x = path[0][0] + a * (path[3][0] - path[0][0]), z = path[0][2] + a * (path[3][2] - path[0][2]);
+        shallowest = std::max(shallowest, f.heightmap().sample_world(std::array<double, 3>{x, 0, z}.data()));
+    }
+    EXPECT_LT(shallowest, -0.9 * p);
+}
+
+TEST(SnowField, BoxAndCapsuleTrailsAreContinuous) {
+    SnowField f = make_field(flat_ground(6, 3), fine(0.01));
+    Collider b = box({0.1, 0.1, 0.1}, 0, {{-2, 0.02, -1}, {0, 0.02, -1}, {2, 0.02, -1}}); // 20 sizes apart, 3 cm in
+    Collider c = capsule(0.05, 0.2, {{-2, 0.03, 1}, {0, 0.03, 1}, {2, 0.03, 1}});
+    ASSERT_TRUE(f.add_collider(b).ok());
+    ASSERT_TRUE(f.add_collider(c).ok());
+    f.update();
+    for (double x = -2; x <= 2; x += 0.005) {
+        EXPECT_NEAR(f.heightmap().sample_world(std::array<double, 3>{x, 0, -1}.data()), -0.03, 1e-6) << x;
+        EXPECT_NEAR(f.heightmap().sample_world(std::array<double, 3>{x, 0, 1}.data()), -0.02, 1e-6) << x;
+    }
+}
+
+TEST(SnowField, TurningBoxSweepsItsCorners) {
+    // A box turning 90 degrees in place sweeps a disc of its half-diagonal (minus a half-texel tolerance).
+    SnowField f = make_field(flat_ground(4, 1), fine(0.01));
+    Collider b = box({0.4, 0.2, 0.4}, 0, {{0, 0.05, 0}, {0, 0.05, 0}});
+    b.heading = {0, 90};
+    ASSERT_TRUE(f.add_collider(b).ok());
+    f.update();
+    const double R = 0.2 * std::sqrt(2.0);
+    for (double a = 0; a < 6.28; a += 0.05) {
+        const double x = 0.97 * R * std::cos(a), z = 0.97 * R * std::sin(a);
+        // Only the quadrants the corners pass through: the 0→90 turn covers every angle at the corner radius.
+        EXPECT_LT(texel_at(f.heightmap(), x, z), -0.04) << a;
+    }
+}
+
+TEST(SnowField, MinCompositingIsOrderIndependent) {
+    std::vector<Collider> cs = {sphere(0.3, {{-0.5, 0.2, 0}, {0.5, 0.25, 0.2}}), box({0.5, 0.2, 0.5}, 20, {{0.1, 0.05, 0.1}}),
+                                capsule(0.1, 0.6, {{0, 0.06, -0.3}, {0.3, 0.04, 0.4}}),
+                                image(16, 16, 0.3, 0.3, 0.07, 45, {0.2, 0.0, -0.1}, [](int i, int j) { return (i + j) % 5 / 4.0; })};
+    std::vector<int> order = {0, 1, 2, 3};
+    std::vector<float> first;
+    std::mt19937 rng(7);
+    for (int trial = 0; trial < 6; ++trial) {
+        SnowOptions o = fine(0.01);
+        o.rim_width = 0.1;
+        o.conserve_volume = true;
+        SnowField f = make_field(flat_ground(4, 2), o);
+        if (trial % 2 == 0) {
+            ColliderSet set;
+            for (int k : order) set.colliders.push_back(cs[size_t(k)]);
+            ASSERT_TRUE(f.add_colliders(set).ok());
+        } else {
+            for (int k : order) ASSERT_TRUE(f.add_collider(cs[size_t(k)]).ok());
+        }
+        f.update();
+        if (first.empty()) first = f.heightmap().values;
+        else EXPECT_EQ(f.heightmap().values, first) << "trial " << trial;
+        std::shuffle(order.begin(), order.end(), rng);
+    }
+}
+
+TEST(SnowField, SnowDepthLimitsImprints) {
+    SnowOptions o = fine(0.01);
+    o.snow_depth = 0.05;
+    SnowField f = make_field(flat_ground(4, 1), o);
+    ASSERT_TRUE(f.add_collider(sphere(0.3, {{0, 0.1, 0}})).ok()); // 0.2 m deep without the limit
+    f.update();
+    const auto& v = f.heightmap().values;
+    EXPECT_NEAR(*std::min_element(v.begin(), v.end()), -0.05f, 1e-7);
+}
+
+TEST(SnowField, RefillIsMonotoneAndRespectsTime) {
+    Collider c = sphere(0.2, {{-1, 0.12, 0}, {0, 0.12, 0}, {1, 0.12, 0}});
+    c.time = {0, 1, 2};
+    std::vector<float> prev;
+    for (double T : {0.5, 2.0, 3.0, 5.0, 9.0, 20.0}) {
+        SnowOptions o = fine(0.02);
+        o.refill_rate = 0.3;
+        o.rim_width = 0.1;
+        SnowField f = make_field(flat_ground(4, 1), o);
+        f.set_time(T);
+        ASSERT_TRUE(f.add_collider(c).ok());
+        f.update();
+        const auto& v = f.heightmap().values;
+        if (T < 1) { // the ball has not reached x = 0.5 yet
+            EXPECT_EQ(texel_at(f.heightmap(), 0.6, 0), 0.0f);
+            EXPECT_LT(texel_at(f.heightmap(), -0.6, 0), -0.05f);
+            continue;
+        }
+        if (!prev.empty()) {
+            size_t violations = 0;
+            for (size_t k = 0; k < v.size(); ++k)
+                if (std::abs(v[k]) > std::abs(prev[k]) * (1 + 1e-6) + 1e-9) ++violations;
+            EXPECT_EQ(violations, 0u) << "T = " << T;
+        }
+        prev = v;
+    }
+    // Exponential: after 18 s at rate 0.3 the newest part keeps exp(-5.4) of its 8 cm.
+    EXPECT_LT(*std::max_element(prev.begin(), prev.end(), [](float a, float b) { return std::abs(a) < std::abs(b); }) * -1.0f,
+              float(0.08 * std::exp(-0.3 * 18) * 1.05));
+}
+
+TEST(SnowField, SetTimeRefillsAStampedField) {
+    SnowOptions o = fine(0.02);
+    o.refill_rate = std::log(2.0); // half-life 1 s
+    SnowField f = make_field(flat_ground(4, 1), o);
+    ASSERT_TRUE(f.add_collider(sphere(0.3, {{0, 0.2, 0}})).ok());
+    f.update();
+    const float before = texel_at(f.heightmap(), 0, 0);
+    f.set_time(1.0);
+    TexelRect changed = f.update();
+    EXPECT_FALSE(changed.empty());
+    EXPECT_NEAR(texel_at(f.heightmap(), 0, 0), before * 0.5f, 1e-6);
+}
+
+TEST(SnowField, RimConservesVolumeWithinOnePercent) {
+    for (double compaction : {0.0, 0.3, 0.8}) {
+        SnowOptions o = fine(0.01);
+        o.rim_width = 0.08;
+        o.conserve_volume = true;
+        o.compaction = compaction;
+        SnowField f = make_field(flat_ground(6, 2), o);
+        ColliderSet set;
+        set.colliders = {sphere(0.35, {{-2, 0.23, -2}, {-1, 0.25, -1}, {0, 0.22, -1.5}}), box({0.6, 0.4, 0.6}, 30, {{1.5, 0.12, 1.5}}),
+                         capsule(0.12, 1.0, {{1, 0.07, -2}, {1.2, 0.07, -1}}),
+                         image(32, 64, 0.12, 0.3, 0.06, 60, {-1.5, 0, 1.5}, [](int i, int j) { return (i * j) % 7 / 6.0; })};
+        ASSERT_TRUE(f.add_colliders(set).ok());
+        f.update();
+        const double removed = f.removed_volume(), raised = f.raised_volume();
+        EXPECT_GT(removed, 0.01);
+        EXPECT_NEAR(raised, removed * (1 - compaction), 0.01 * removed) << "compaction " << compaction;
+        // Independent sum over the output heightmap.
+        double pos = 0, neg = 0;
+        for (float v : f.heightmap().values) (v > 0 ? pos : neg) += double(v) * 0.01 * 0.01;
+        EXPECT_NEAR(pos, -neg * (1 - compaction), 0.01 * -neg);
+    }
+}
+
+TEST(SnowField, CosmeticRimRisesOnlyOutsideImprints) {
+    SnowOptions o = fine(0.01);
+    o.rim_width = 0.1;
+    o.rim_height = 0.5;
+    SnowField f = make_field(flat_ground(4, 1), o);
+    ASSERT_TRUE(f.add_collider(sphere(0.3, {{0, 0.22, 0}})).ok()); // 8 cm deep, contact radius ~0.21 m
+    f.update();
+    const Heightmap& h = f.heightmap();
+    EXPECT_LT(texel_at(h, 0, 0), -0.07f);
+    const float ridge = texel_at(h, 0.26, 0);
+    EXPECT_GT(ridge, 0.005f);
+    EXPECT_LT(ridge, 0.05f);
+    EXPECT_EQ(texel_at(h, 0.5, 0), 0.0f);
+}
+
+TEST(SnowField, IncrementalStampsMatchTheBatchAndReportDirtyRectangles) {
+    std::vector<Collider> cs;
+    std::mt19937 rng(3);
+    std::uniform_real_distribution<double> U(-1.5, 1.5);
+    for (int k = 0; k < 12; ++k) cs.push_back(sphere(0.1, {{U(rng), 0.07, U(rng)}}));
+    SnowOptions o = fine(0.01);
+    o.rim_width = 0.05;
+    SnowField batch = make_field(flat_ground(4, 1), o), inc = make_field(flat_ground(4, 1), o);
+    ColliderSet set;
+    set.colliders = cs;
+    ASSERT_TRUE(batch.add_colliders(set).ok());
+    batch.update();
+    inc.update();
+    for (const Collider& c : cs) {
+        const std::vector<float> before = inc.heightmap().values;
+        ColliderPose pose{c.path[0], 0, 0};
+        ASSERT_TRUE(inc.stamp(c, pose).ok());
+        const TexelRect r = inc.update();
+        const auto& after = inc.heightmap().values;
+        const int W = inc.frame().width;
+        for (size_t k = 0; k < after.size(); ++k)
+            if (after[k] != before[k]) {
+                const int i = int(k % size_t(W)), j = int(k / size_t(W));
+                ASSERT_TRUE(i >= r.x0 && i < r.x1 && j >= r.y0 && j < r.y1) << "changed texel outside the dirty rectangle";
+            }
+        EXPECT_LT(size_t(r.x1 - r.x0) * size_t(r.y1 - r.y0), after.size() / 10); // local, not the whole map
+    }
+    double worst = 0;
+    for (size_t k = 0; k < batch.heightmap().values.size(); ++k)
+        worst = std::max(worst, double(std::abs(batch.heightmap().values[k] - inc.heightmap().values[k])));
+    EXPECT_LT(worst, 1e-4); // imprints identical; cosmetic rims gathered in windows agree closely
+}
+
+TEST(SnowField, ContactRaysFollowAHill) {
+    SnowField f = make_field(hill_ground(8, 64), fine(0.02));
+    // A sphere resting 5 cm into the hill's side: contact found by the ray, imprint around the centre.
+    const double x = 0.8, z = 0.4, r = 0.2, p = 0.05;
+    const double g = hill_height(x, z);
+    StampStats st;
+    ASSERT_TRUE(f.add_collider(sphere(r, {{x, g + r - p, z}}), &st).ok());
+    EXPECT_EQ(st.contacts, 1u);
+    EXPECT_NEAR(st.deepest, p, 0.003); // the mesh's chord is below the analytic hill by a little
+    f.update();
+    EXPECT_LT(texel_at(f.heightmap(), x, z), -0.04f);
+    double h = 0;
+    f.cast_down(&h, std::array<double, 3>{x, 5, z}.data(), 1);
+    EXPECT_NEAR(h, g, 0.003);
+}
+
+TEST(SnowField, AColliderInTheAirMakesNoContact) {
+    SnowField f = make_field(flat_ground(4, 1), fine(0.02));
+    StampStats st;
+    ColliderSet set;
+    set.colliders = {sphere(0.2, {{0, 0.5, 0}, {1, 0.21, 0}}), box({0.3, 0.3, 0.3}, 0, {{0, 0.16, 1}})};
+    ASSERT_TRUE(f.add_colliders(set, &st).ok());
+    EXPECT_EQ(st.samples, 3u);
+    EXPECT_EQ(st.contacts, 0u);
+    EXPECT_EQ(st.stamps, 0u);
+    f.update();
+    for (float v : f.heightmap().values) ASSERT_EQ(v, 0.0f);
+}
+
+TEST(SnowField, MemoryGuardRefusesHugeHeightmaps) {
+    SnowOptions o;
+    o.texel = 1e-4; // 20 m / 0.1 mm = 200001² texels
+    Primitive g = flat_ground(20, 1);
+    SnowField f;
+    Status s = f.create(g.positions.data(), g.vertex_count(), g.indices.data(), g.indices.size(), o);
+    EXPECT_EQ(s.code, StatusCode::out_of_memory);
+    EXPECT_NE(s.message.find("MiB"), std::string::npos) << s.message;
+    EXPECT_NE(s.message.find("--texel"), std::string::npos) << s.message;
+}
+
+TEST(SnowField, RejectsBadOptions) {
+    Primitive g = flat_ground(4, 1);
+    auto make = [&](SnowOptions o) {
+        SnowField f;
+        return f.create(g.positions.data(), g.vertex_count(), g.indices.data(), g.indices.size(), o);
+    };
+    SnowOptions o;
+    o.texel = -1;
+    EXPECT_EQ(make(o).code, StatusCode::invalid_argument);
+    o = {};
+    o.compaction = 1.5;
+    EXPECT_EQ(make(o).code, StatusCode::invalid_argument);
+    o = {};
+    o.snow_depth = NAN;
+    EXPECT_EQ(make(o).code, StatusCode::invalid_argument);
+    o = {};
+    o.up = {0, 0, 0};
+    EXPECT_EQ(make(o).code, StatusCode::invalid_argument);
+}
+
+TEST(SnowField, CountsOverhangs) {
+    // A flat ground plus a downward-facing roof above part of it.
+    Primitive g = flat_ground(4, 1);
+    const uint32_t b = uint32_t(g.vertex_count());
+    g.positions.insert(g.positions.end(), {-1, 1, -1, 1, 1, -1, 1, 1, 1});
+    g.indices.insert(g.indices.end(), {b, b + 1, b + 2}); // counter-clockwise seen from below
+    SnowField f = make_field(g, fine(0.02));
+    EXPECT_EQ(f.overhang_triangles(), 1u);
+    SnowField flat = make_field(flat_ground(4, 1), fine(0.02));
+    EXPECT_EQ(flat.overhang_triangles(), 0u);
+}
+
+TEST(SnowField, WorksForAnyUpAxis) {
+    // The same ground and sphere rotated so that +z is up.
+    Primitive g = flat_ground(4, 1);
+    for (size_t v = 0; v < g.vertex_count(); ++v) std::swap(g.positions[3 * v + 1], g.positions[3 * v + 2]);
+    for (size_t t = 0; t < g.indices.size(); t += 3) std::swap(g.indices[t + 1], g.indices[t + 2]);
+    SnowOptions o = fine(0.01);
+    o.up = {0, 0, 1};
+    SnowField f = make_field(g, o);
+    ASSERT_TRUE(f.add_collider(sphere(0.35, {{0.1, -0.2, 0.35 - 0.12}})).ok());
+    f.update();
+    const double centre[3] = {0.1, -0.2, 0};
+    EXPECT_NEAR(f.heightmap().sample_world(centre), -0.12, 1e-5);
+}
