@@ -115,18 +115,29 @@ std::vector<std::array<double, 2>> convex_hull(std::vector<std::array<double, 2>
     return h;
 }
 
-// Signed distance to a convex counter-clockwise polygon: exact inside, the largest edge distance outside
-// (exact except beyond corners, where it is smaller — harmless for a half-texel coverage ramp).
-double signed_distance(const std::vector<std::array<double, 2>>& h, double x, double y) {
-    if (h.size() < 3) return kInf;
-    double best = -kInf;
+// Signed distance to a convex counter-clockwise polygon, from its edges' outward unit normals: exact inside,
+// the largest edge distance outside (exact except beyond corners, where it is smaller — harmless for a
+// half-texel coverage ramp).
+struct EdgeLines {
+    std::vector<std::array<double, 3>> lines; // nx, ny, c: distance = nx·x + ny·y − c
+};
+EdgeLines edge_lines(const std::vector<std::array<double, 2>>& h) {
+    EdgeLines e;
+    if (h.size() < 3) return e;
     for (size_t i = 0; i < h.size(); ++i) {
         const auto& a = h[i];
         const auto& b = h[(i + 1) % h.size()];
         const double ex = b[0] - a[0], ey = b[1] - a[1], l = std::hypot(ex, ey);
         if (l == 0) continue;
-        best = std::max(best, ((x - a[0]) * ey - (y - a[1]) * ex) / l); // outward normal (ey, −ex)
+        const double nx = ey / l, ny = -ex / l; // outward for counter-clockwise order
+        e.lines.push_back({nx, ny, nx * a[0] + ny * a[1]});
     }
+    return e;
+}
+double signed_distance(const EdgeLines& e, double x, double y) {
+    if (e.lines.empty()) return kInf;
+    double best = -kInf;
+    for (const auto& l : e.lines) best = std::max(best, l[0] * x + l[1] * y - l[2]);
     return best;
 }
 
@@ -252,8 +263,8 @@ void sweep_fixed(const StampTarget& T, const Collider& c, const LocalPose& p0, c
         // Vertical walls alias into staircases on a grid; the imprint is scaled by the texel's coverage,
         // clamp(1/2 − d/texel, 0, 1) with d the signed distance to the swept outline (a convex polygon).
         const double pad = 0.5 * T.texel;
-        const auto hull = convex_hull({{-hx, -hz}, {hx, -hz}, {hx, hz}, {-hx, hz}, {-hx + dx, -hz + dz}, {hx + dx, -hz + dz},
-                                       {hx + dx, hz + dz}, {-hx + dx, hz + dz}});
+        const EdgeLines hull = edge_lines(convex_hull({{-hx, -hz}, {hx, -hz}, {hx, hz}, {-hx, hz}, {-hx + dx, -hz + dz}, {hx + dx, -hz + dz},
+                                       {hx + dx, hz + dz}, {-hx + dx, hz + dz}}));
         rasterise(T, u0, u1, v0, v1, decay, res, [&](double qu, double qv, double g) {
             const double ru = qu - p0.u, rv = qv - p0.v;
             const double x0 = ru * ax.ex_u + rv * ax.ex_v, z0 = ru * ax.ez_u + rv * ax.ez_v;

@@ -173,11 +173,11 @@ Status parse_colliders(ColliderSet& out, const std::string& text, const std::str
     json doc;
     try {
         doc = json::parse(text);
-    } catch (const json::parse_error& e) {
-        std::string what = e.what();
+    } catch (const json::exception& e) {
         // nlohmann prefixes "[json.exception.parse_error.101] parse error at line 3, column 5: ..."
-        auto pos = what.find("parse error");
-        return Status::error(StatusCode::invalid_input, "malformed JSON: " + (pos == std::string::npos ? what : what.substr(pos)));
+        std::string what = e.what();
+        auto pos = what.find("] ");
+        return Status::error(StatusCode::invalid_input, "malformed JSON: " + (pos == std::string::npos ? what : what.substr(pos + 2)));
     }
     try {
         if (!doc.is_object()) throw Bad{"the document must be an object {\"up\": ..., \"colliders\": [...]}"};

@@ -105,10 +105,17 @@ struct RimInput {
     bool conserve = false;
     double compaction = 0.3;
 };
-// Recomputes the rim over `write` (inside the grid) from the sources inside `window` (which contains write);
-// with conserve, the raised volume inside the window equals the removed one × (1 − compaction). rim is the
-// full-grid layer. Returns the volume (m³) that could not be placed (no receiver near any imprint).
-double compute_rim(float* rim, const RimInput& in, const TexelRect& window, const TexelRect& write);
+// The texels a rim computation owns: the tiles of one connected dirty region. It counts only the imprints
+// inside them and writes only them.
+struct RimOwner {
+    const uint8_t* tiles = nullptr; // per tile, 1 = owned
+    int tiles_x = 0, tile = 16;
+    bool owns(int i, int j) const { return tiles[size_t(j / tile) * size_t(tiles_x) + size_t(i / tile)] != 0; }
+};
+// Recomputes the rim on the owned texels of `window` from the imprints on owned texels; with conserve, the
+// raised volume written equals the removed volume × (1 − compaction). rim is the full-grid layer. Returns the
+// volume (m³) that could not be placed (no receiver near any imprint).
+double compute_rim(float* rim, const RimInput& in, const TexelRect& window, const RimOwner& owner);
 
 // ---- heightmap_io.cpp -------------------------------------------------------------------------------------
 // (public save_heightmap / load_heightmap)

@@ -215,22 +215,35 @@ size_t DisplacedGround::displace_all(const Heightmap& h, float* pos, float* nor)
 }
 
 size_t DisplacedGround::update(const Heightmap& h, const TexelRect& dirty, float* pos, float* nor) {
+    return update(h, std::vector<TexelRect>{dirty}, pos, nor);
+}
+
+size_t DisplacedGround::update(const Heightmap& h, const std::vector<TexelRect>& rects, float* pos, float* nor) {
     Impl& m = *impl_;
-    if (dirty.empty() || m.rest.empty()) return 0;
-    // A point at (ti, tj) reads texels floor(ti) .. floor(ti) + 1: it is affected when that span meets the
-    // rectangle, i.e. ti in (x0 − 1, x1).
-    const int tx0 = std::clamp((dirty.x0 - 1) / Impl::kTile - 1, 0, m.tiles_x - 1), tx1 = std::clamp(dirty.x1 / Impl::kTile + 1, 0, m.tiles_x - 1);
-    const int ty0 = std::clamp((dirty.y0 - 1) / Impl::kTile - 1, 0, m.tiles_y - 1), ty1 = std::clamp(dirty.y1 / Impl::kTile + 1, 0, m.tiles_y - 1);
+    if (m.rest.empty()) return 0;
+    if (++m.epoch == 0) std::fill(m.mark.begin(), m.mark.end(), 0), m.epoch = 1;
+    const uint32_t moved_mark = m.epoch;
     std::vector<uint32_t> moved;
-    for (int ty = ty0; ty <= ty1; ++ty)
-        for (int tx = tx0; tx <= tx1; ++tx) {
-            const size_t t = size_t(ty) * size_t(m.tiles_x) + size_t(tx);
-            for (uint32_t k = m.tile_off[t]; k < m.tile_off[t + 1]; ++k) {
-                const uint32_t p = m.tile_pts[k];
-                const double ti = m.texel[2 * size_t(p)], tj = m.texel[2 * size_t(p) + 1];
-                if (ti > dirty.x0 - 1 && ti < dirty.x1 && tj > dirty.y0 - 1 && tj < dirty.y1) moved.push_back(p);
+    for (const TexelRect& dirty : rects) {
+        if (dirty.empty()) continue;
+        // A point at (ti, tj) reads texels floor(ti) .. floor(ti) + 1: it is affected when that span meets the
+        // rectangle, i.e. ti in (x0 − 1, x1).
+        const int tx0 = std::clamp((dirty.x0 - 1) / Impl::kTile - 1, 0, m.tiles_x - 1), tx1 = std::clamp(dirty.x1 / Impl::kTile + 1, 0, m.tiles_x - 1);
+        const int ty0 = std::clamp((dirty.y0 - 1) / Impl::kTile - 1, 0, m.tiles_y - 1), ty1 = std::clamp(dirty.y1 / Impl::kTile + 1, 0, m.tiles_y - 1);
+        for (int ty = ty0; ty <= ty1; ++ty)
+            for (int tx = tx0; tx <= tx1; ++tx) {
+                const size_t t = size_t(ty) * size_t(m.tiles_x) + size_t(tx);
+                for (uint32_t k = m.tile_off[t]; k < m.tile_off[t + 1]; ++k) {
+                    const uint32_t p = m.tile_pts[k];
+                    if (m.mark[p] == moved_mark) continue;
+                    const double ti = m.texel[2 * size_t(p)], tj = m.texel[2 * size_t(p) + 1];
+                    if (ti > dirty.x0 - 1 && ti < dirty.x1 && tj > dirty.y0 - 1 && tj < dirty.y1) {
+                        m.mark[p] = moved_mark;
+                        moved.push_back(p);
+                    }
+                }
             }
-        }
+    }
     if (moved.empty()) return 0;
     std::sort(moved.begin(), moved.end());
     tbb::parallel_for(size_t(0), moved.size(), [&](size_t k) { m.displace(moved[k], h); });

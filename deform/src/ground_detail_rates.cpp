@@ -5,7 +5,7 @@
 // Practical Guide to Splines", 1978, ch. 2). With the curvature H of the heightmap inside a triangle's
 // footprint (second differences over texels), segments of s = sqrt(8·e/H) keep the displaced mesh within e of
 // the heightmap's surface. A stamp edge that is a kink (box walls, soft brush edges) has an unbounded second
-// derivative; there the spacing bottoms out at `min_spacing` (about half a texel — what the map resolves).
+// derivative; there the spacing bottoms out at `min_spacing` (one texel — what the map resolves).
 // With a camera, e grows with distance (Cycles' dicing in pixels): e_world = pixel_error × distance / focal.
 #include "deform_internal.h"
 

@@ -15,6 +15,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <tuple>
 
 namespace furrow {
 
@@ -26,7 +27,16 @@ struct SnowField::Impl {
     std::vector<float> carve, rim, base;
     GroundRaycaster rays;
     double now = 0;
-    TexelRect carve_dirty, out_dirty, content;
+    TexelRect content;
+    // Dirty state per 16 x 16-texel tile: stamped since the last update, output changed by refill.
+    static constexpr int kTile = 16;
+    int tiles_x = 0, tiles_y = 0;
+    std::vector<uint8_t> carve_tiles, out_tiles;
+    void mark(std::vector<uint8_t>& tiles, const TexelRect& r) {
+        if (r.empty()) return;
+        for (int ty = r.y0 / kTile; ty <= (r.y1 - 1) / kTile; ++ty)
+            for (int tx = r.x0 / kTile; tx <= (r.x1 - 1) / kTile; ++tx) tiles[size_t(ty) * size_t(tiles_x) + size_t(tx)] = 1;
+    }
     bool all_dirty = false;
     bool stamped = false;
     double max_reach = 0;
@@ -122,6 +132,10 @@ Status SnowField::create(const float* positions, size_t vertex_count, const uint
     impl->out.values.assign(N, 0.0f);
     impl->carve.assign(N, 0.0f);
     impl->rim.assign(N, 0.0f);
+    impl->tiles_x = (f.width + Impl::kTile - 1) / Impl::kTile;
+    impl->tiles_y = (f.height + Impl::kTile - 1) / Impl::kTile;
+    impl->carve_tiles.assign(size_t(impl->tiles_x) * size_t(impl->tiles_y), 0);
+    impl->out_tiles = impl->carve_tiles;
     impl->overhangs = rasterize_ground(impl->ground.values.data(), f, positions, vertex_count, indices, index_count);
     bool any = false;
     for (float g : impl->ground.values)
@@ -230,7 +244,7 @@ static StampStats run_jobs(SnowField::Impl& m, const std::vector<Job>& jobs, Sta
     for (const StampResult& r : res) {
         ++st.stamps;
         st.texels_written += r.written;
-        m.carve_dirty.unite(r.rect);
+        m.mark(m.carve_tiles, r.rect);
         m.content.unite(r.rect);
         m.max_reach = std::max(m.max_reach, r.reach);
     }
@@ -346,7 +360,7 @@ void SnowField::set_time(double t) {
                 if (!m.base.empty()) m.base[x] *= f;
             }
         });
-        m.out_dirty.unite(c);
+        m.mark(m.out_tiles, c);
         m.volumes_valid = false;
     }
     m.now = t;
@@ -354,22 +368,112 @@ void SnowField::set_time(double t) {
 
 double SnowField::now() const { return impl_->now; }
 
-TexelRect SnowField::update() {
+// Disjoint rectangles covering the set tiles: runs along rows, merged with identical runs on the next rows.
+static std::vector<TexelRect> tile_rects(const std::vector<uint8_t>& tiles, int tx, int ty, int tile, int width, int height) {
+    std::vector<TexelRect> out;
+    std::vector<TexelRect> open; // runs of the previous tile row, extendable downwards
+    for (int y = 0; y < ty; ++y) {
+        std::vector<TexelRect> row;
+        for (int x = 0; x < tx;) {
+            if (!tiles[size_t(y) * size_t(tx) + size_t(x)]) {
+                ++x;
+                continue;
+            }
+            int e = x;
+            while (e < tx && tiles[size_t(y) * size_t(tx) + size_t(e)]) ++e;
+            row.push_back({x, y, e, y + 1});
+            x = e;
+        }
+        std::vector<TexelRect> next;
+        for (TexelRect r : row) {
+            bool merged = false;
+            for (TexelRect& o : open)
+                if (o.x0 == r.x0 && o.x1 == r.x1 && o.y1 == y) {
+                    o.y1 = y + 1;
+                    next.push_back(o);
+                    o.x1 = o.x0; // consumed
+                    merged = true;
+                    break;
+                }
+            if (!merged) next.push_back(r);
+        }
+        for (const TexelRect& o : open)
+            if (!o.empty()) out.push_back(o);
+        open = std::move(next);
+    }
+    for (const TexelRect& o : open) out.push_back(o);
+    for (TexelRect& r : out)
+        r = {r.x0 * tile, r.y0 * tile, std::min(width, r.x1 * tile), std::min(height, r.y1 * tile)};
+    std::sort(out.begin(), out.end(), [](const TexelRect& a, const TexelRect& b) { return std::tie(a.y0, a.x0) < std::tie(b.y0, b.x0); });
+    return out;
+}
+
+std::vector<TexelRect> SnowField::update() {
     Impl& m = *impl_;
     if (m.ground.values.empty()) return {};
     const HeightmapFrame& f = m.ground.frame;
-    TexelRect D = m.all_dirty ? m.full() : m.carve_dirty;
-    TexelRect changed = m.out_dirty;
-    if (!D.empty()) {
-        TexelRect A = D;
-        const double rw = m.rim_width();
-        if (rw > 0) {
-            const int pad = int(std::ceil((rw + m.max_reach) / f.texel)) + 2;
-            auto grow = [&](TexelRect r, int p) {
-                return TexelRect{std::max(0, r.x0 - p), std::max(0, r.y0 - p), std::min(f.width, r.x1 + p), std::min(f.height, r.y1 + p)};
-            };
-            A = m.all_dirty ? m.full() : grow(D, pad);
-            const TexelRect window = m.all_dirty ? m.full() : grow(A, 2 * pad);
+    const int T = Impl::kTile, TX = m.tiles_x, TY = m.tiles_y;
+    if (m.all_dirty) std::fill(m.carve_tiles.begin(), m.carve_tiles.end(), 1);
+    std::vector<uint8_t> region = m.carve_tiles; // tiles whose output is recomputed
+    const double rw = m.rim_width();
+    if (rw > 0) {
+        // The rim reaches rw beyond an imprint and gathers volume from up to max_reach inside it: a region is
+        // the stamped tiles grown by that margin, and each connected region is recomputed on its own.
+        const int pad = int(std::ceil((rw + m.max_reach) / f.texel)) + 2;
+        const int tp = (pad + T - 1) / T;
+        for (int y = 0; y < TY; ++y)
+            for (int x = 0; x < TX; ++x) {
+                if (!m.carve_tiles[size_t(y) * size_t(TX) + size_t(x)]) continue;
+                for (int yy = std::max(0, y - tp); yy <= std::min(TY - 1, y + tp); ++yy)
+                    for (int xx = std::max(0, x - tp); xx <= std::min(TX - 1, x + tp); ++xx) region[size_t(yy) * size_t(TX) + size_t(xx)] = 1;
+            }
+        // Connected regions (8-connected tiles), each with its window (bounding box + margin); regions whose
+        // windows overlap are merged, so that no texel is computed twice and each computation owns whole rims.
+        struct Group {
+            TexelRect window;
+            std::vector<size_t> tiles;
+        };
+        std::vector<Group> groups;
+        std::vector<uint8_t> seen(region.size(), 0);
+        for (size_t s0 = 0; s0 < region.size(); ++s0) {
+            if (!region[s0] || seen[s0]) continue;
+            Group gr;
+            std::vector<size_t> stack{s0};
+            seen[s0] = 1;
+            TexelRect box;
+            while (!stack.empty()) {
+                const size_t c = stack.back();
+                stack.pop_back();
+                gr.tiles.push_back(c);
+                const int cx = int(c % size_t(TX)), cy = int(c / size_t(TX));
+                box.unite({cx * T, cy * T, std::min(f.width, (cx + 1) * T), std::min(f.height, (cy + 1) * T)});
+                for (int dy = -1; dy <= 1; ++dy)
+                    for (int dx = -1; dx <= 1; ++dx) {
+                        const int nx = cx + dx, ny = cy + dy;
+                        if (nx < 0 || ny < 0 || nx >= TX || ny >= TY) continue;
+                        const size_t nb = size_t(ny) * size_t(TX) + size_t(nx);
+                        if (region[nb] && !seen[nb]) seen[nb] = 1, stack.push_back(nb);
+                    }
+            }
+            gr.window = {std::max(0, box.x0 - pad), std::max(0, box.y0 - pad), std::min(f.width, box.x1 + pad), std::min(f.height, box.y1 + pad)};
+            groups.push_back(std::move(gr));
+        }
+        auto overlap = [](const TexelRect& a, const TexelRect& b) { return a.x0 < b.x1 && b.x0 < a.x1 && a.y0 < b.y1 && b.y0 < a.y1; };
+        for (bool merged = true; merged;) {
+            merged = false;
+            for (size_t a = 0; a < groups.size() && !merged; ++a)
+                for (size_t b = a + 1; b < groups.size(); ++b)
+                    if (overlap(groups[a].window, groups[b].window)) {
+                        groups[a].window.unite(groups[b].window);
+                        groups[a].tiles.insert(groups[a].tiles.end(), groups[b].tiles.begin(), groups[b].tiles.end());
+                        groups.erase(groups.begin() + long(b));
+                        merged = true;
+                        break;
+                    }
+        }
+        std::vector<uint8_t> own(region.size(), 0);
+        for (const Group& gr : groups) {
+            for (size_t c : gr.tiles) own[c] = 1;
             RimInput in;
             in.carve = m.carve.data();
             in.base = m.base.empty() ? nullptr : m.base.data();
@@ -381,22 +485,25 @@ TexelRect SnowField::update() {
             in.height_ratio = m.opt.rim_height;
             in.conserve = m.opt.conserve_volume;
             in.compaction = m.opt.compaction;
-            m.lost_rim = compute_rim(m.rim.data(), in, window, A);
-            m.content.unite(A);
+            m.lost_rim += compute_rim(m.rim.data(), in, gr.window, RimOwner{own.data(), TX, T});
+            for (size_t c : gr.tiles) own[c] = 0;
+            m.content.unite(gr.window);
         }
+    }
+    const std::vector<TexelRect> rects = tile_rects(region, TX, TY, T, f.width, f.height);
+    for (const TexelRect& A : rects)
         tbb::parallel_for(A.y0, A.y1, [&](int j) {
             for (int i = A.x0; i < A.x1; ++i) {
                 const size_t x = size_t(j) * size_t(f.width) + size_t(i);
                 m.out.values[x] = m.carve[x] + m.rim[x];
             }
         });
-        changed.unite(A);
-        m.volumes_valid = false;
-    }
-    m.carve_dirty = {};
-    m.out_dirty = {};
+    if (!rects.empty()) m.volumes_valid = false;
+    for (size_t k = 0; k < region.size(); ++k) region[k] = region[k] | m.out_tiles[k];
+    std::fill(m.carve_tiles.begin(), m.carve_tiles.end(), 0);
+    std::fill(m.out_tiles.begin(), m.out_tiles.end(), 0);
     m.all_dirty = false;
-    return changed;
+    return tile_rects(region, TX, TY, T, f.width, f.height);
 }
 
 const Heightmap& SnowField::heightmap() const { return impl_->out; }

@@ -27,62 +27,95 @@
 namespace furrow::detail {
 namespace {
 
-// Separable box sum of radius n (zero outside), applied twice: a smooth (quadratic B-spline) kernel in O(N).
-void box_pass(std::vector<double>& v, int w, int h, int n) {
-    std::vector<double> tmp(v.size());
-    tbb::parallel_for(tbb::blocked_range<int>(0, h, 16), [&](const tbb::blocked_range<int>& r) {
-        std::vector<double> pre(static_cast<size_t>(w) + 1);
+// Working arrays, kept between calls (a game calls update() every frame): no allocation, no page faults.
+struct Scratch {
+    std::vector<float> source, mass, profile, num, den, result, tmp, f;
+    std::vector<uint8_t> is_source, receiver;
+    std::vector<int> row_of, nearest;
+};
+
+template <class T>
+void fit(std::vector<T>& v, size_t n) {
+    if (v.size() < n) v.resize(n);
+}
+
+// Separable box sum of radius n (zero outside). Both passes walk memory row by row (the vertical one keeps a
+// running sum per column); sums are carried in double, stored in float.
+void box_pass(float* v, float* tmp, int w, int h, int n) {
+    tbb::parallel_for(tbb::blocked_range<int>(0, h, 32), [&](const tbb::blocked_range<int>& r) {
         for (int j = r.begin(); j != r.end(); ++j) {
-            const double* row = &v[size_t(j) * size_t(w)];
-            pre[0] = 0;
-            for (int i = 0; i < w; ++i) pre[size_t(i) + 1] = pre[size_t(i)] + row[i];
-            for (int i = 0; i < w; ++i) tmp[size_t(j) * size_t(w) + size_t(i)] = pre[size_t(std::min(w, i + n + 1))] - pre[size_t(std::max(0, i - n))];
+            const float* row = v + size_t(j) * size_t(w);
+            float* o = tmp + size_t(j) * size_t(w);
+            double acc = 0;
+            for (int i = 0; i <= std::min(n, w - 1); ++i) acc += row[i];
+            for (int i = 0; i < w; ++i) {
+                o[i] = float(acc);
+                if (i + n + 1 < w) acc += row[i + n + 1];
+                if (i - n >= 0) acc -= row[i - n];
+            }
         }
     });
-    tbb::parallel_for(tbb::blocked_range<int>(0, w, 64), [&](const tbb::blocked_range<int>& r) {
-        std::vector<double> pre(static_cast<size_t>(h) + 1);
-        for (int i = r.begin(); i != r.end(); ++i) {
-            pre[0] = 0;
-            for (int j = 0; j < h; ++j) pre[size_t(j) + 1] = pre[size_t(j)] + tmp[size_t(j) * size_t(w) + size_t(i)];
-            for (int j = 0; j < h; ++j) v[size_t(j) * size_t(w) + size_t(i)] = pre[size_t(std::min(h, j + n + 1))] - pre[size_t(std::max(0, j - n))];
+    tbb::parallel_for(tbb::blocked_range<int>(0, w, 256), [&](const tbb::blocked_range<int>& r) {
+        const int i0 = r.begin(), i1 = r.end();
+        std::vector<double> acc(size_t(i1 - i0), 0.0);
+        for (int j = 0; j <= std::min(n, h - 1); ++j)
+            for (int i = i0; i < i1; ++i) acc[size_t(i - i0)] += tmp[size_t(j) * size_t(w) + size_t(i)];
+        for (int j = 0; j < h; ++j) {
+            float* o = v + size_t(j) * size_t(w);
+            const float* add = j + n + 1 < h ? tmp + size_t(j + n + 1) * size_t(w) : nullptr;
+            const float* sub = j - n >= 0 ? tmp + size_t(j - n) * size_t(w) : nullptr;
+            for (int i = i0; i < i1; ++i) {
+                double& a = acc[size_t(i - i0)];
+                o[i] = float(a);
+                if (add) a += add[i];
+                if (sub) a -= sub[i];
+            }
         }
     });
 }
-void smooth(std::vector<double>& v, int w, int h, int n) {
-    box_pass(v, w, h, n);
-    box_pass(v, w, h, n);
+
+// Two box passes: a smooth (quadratic B-spline) kernel of radius 2n in O(N).
+void smooth(float* v, float* tmp, int w, int h, int n) {
+    box_pass(v, tmp, w, h, n);
+    box_pass(v, tmp, w, h, n);
 }
 
 // Nearest texel of a mask (exact Euclidean) for every texel of a w × h window: index into the window, or -1.
-void nearest_in_mask(std::vector<int>& nearest, const std::vector<uint8_t>& receiver, int w, int h) {
-    const double big = 1e20;
-    // Pass 1, per column: distance (in rows) to the nearest receiver in the same column.
-    std::vector<double> f(size_t(w) * size_t(h));
-    std::vector<int> row_of(size_t(w) * size_t(h), -1);
-    tbb::parallel_for(tbb::blocked_range<int>(0, w, 64), [&](const tbb::blocked_range<int>& r) {
-        for (int i = r.begin(); i != r.end(); ++i) {
-            int last = -1;
-            for (int j = 0; j < h; ++j) {
+void nearest_in_mask(Scratch& S, const uint8_t* mask, int w, int h) {
+    const size_t N = size_t(w) * size_t(h);
+    const float big = 1e30f;
+    fit(S.f, N);
+    fit(S.row_of, N);
+    fit(S.nearest, N);
+    float* f = S.f.data();
+    int* row_of = S.row_of.data();
+    int* nearest = S.nearest.data();
+    // Pass 1, per column: the nearest marked row above and below (row-major sweeps, a running row per column).
+    {
+        std::vector<int> last(size_t(w), -1);
+        for (int j = 0; j < h; ++j)
+            for (int i = 0; i < w; ++i) {
                 const size_t x = size_t(j) * size_t(w) + size_t(i);
-                if (receiver[x]) last = j;
-                row_of[x] = last;
+                if (mask[x]) last[size_t(i)] = j;
+                row_of[x] = last[size_t(i)];
             }
-            last = -1;
-            for (int j = h - 1; j >= 0; --j) {
+        std::fill(last.begin(), last.end(), -1);
+        for (int j = h - 1; j >= 0; --j)
+            for (int i = 0; i < w; ++i) {
                 const size_t x = size_t(j) * size_t(w) + size_t(i);
-                if (receiver[x]) last = j;
-                if (last >= 0 && (row_of[x] < 0 || last - j < j - row_of[x])) row_of[x] = last;
-                f[x] = row_of[x] < 0 ? big : double(row_of[x] - j) * double(row_of[x] - j);
+                if (mask[x]) last[size_t(i)] = j;
+                const int below = last[size_t(i)];
+                if (below >= 0 && (row_of[x] < 0 || below - j < j - row_of[x])) row_of[x] = below;
+                f[x] = row_of[x] < 0 ? big : float(row_of[x] - j) * float(row_of[x] - j);
             }
-        }
-    });
+    }
     // Pass 2, per row: lower envelope of the parabolas (i − q)² + f(q).
-    nearest.assign(size_t(w) * size_t(h), -1);
-    tbb::parallel_for(tbb::blocked_range<int>(0, h, 8), [&](const tbb::blocked_range<int>& r) {
+    tbb::parallel_for(tbb::blocked_range<int>(0, h, 16), [&](const tbb::blocked_range<int>& r) {
         std::vector<int> v(static_cast<size_t>(w));
         std::vector<double> z(static_cast<size_t>(w) + 1);
         for (int j = r.begin(); j != r.end(); ++j) {
-            const double* fr = &f[size_t(j) * size_t(w)];
+            const float* fr = f + size_t(j) * size_t(w);
+            int* out = nearest + size_t(j) * size_t(w);
             int k = -1;
             for (int q = 0; q < w; ++q) {
                 if (fr[q] >= big) continue;
@@ -93,27 +126,25 @@ void nearest_in_mask(std::vector<int>& nearest, const std::vector<uint8_t>& rece
                 double s;
                 while (true) {
                     const int p = v[size_t(k)];
-                    s = ((fr[q] + double(q) * q) - (fr[p] + double(p) * p)) / (2.0 * (q - p));
+                    s = ((double(fr[q]) + double(q) * q) - (double(fr[p]) + double(p) * p)) / (2.0 * (q - p));
                     if (s <= z[size_t(k)] && k > 0) {
                         --k;
                         continue;
                     }
                     break;
                 }
-                if (s <= z[size_t(k)]) { // k == 0 and the new parabola wins everywhere
-                    v[0] = q, z[0] = -kInf, z[1] = kInf;
-                    continue;
-                }
                 ++k;
                 v[size_t(k)] = q, z[size_t(k)] = s, z[size_t(k) + 1] = kInf;
             }
-            if (k < 0) continue;
+            if (k < 0) {
+                std::fill(out, out + w, -1);
+                continue;
+            }
             int m = 0;
             for (int i = 0; i < w; ++i) {
                 while (z[size_t(m) + 1] < i) ++m;
                 const int q = v[size_t(m)];
-                const size_t src = size_t(j) * size_t(w) + size_t(q);
-                nearest[size_t(j) * size_t(w) + size_t(i)] = row_of[src] * w + q;
+                out[i] = row_of[size_t(j) * size_t(w) + size_t(q)] * w + q;
             }
         }
     });
@@ -121,97 +152,105 @@ void nearest_in_mask(std::vector<int>& nearest, const std::vector<uint8_t>& rece
 
 } // namespace
 
-double compute_rim(float* rim, const RimInput& in, const TexelRect& win, const TexelRect& write) {
+double compute_rim(float* rim, const RimInput& in, const TexelRect& win, const RimOwner& own) {
     const int w = win.x1 - win.x0, h = win.y1 - win.y0;
     if (w <= 0 || h <= 0) return 0.0;
     const size_t N = size_t(w) * size_t(h);
+    static thread_local Scratch S;
+    for (auto* v : {&S.source, &S.mass, &S.profile, &S.num, &S.den, &S.result, &S.tmp}) fit(*v, N);
+    fit(S.is_source, N);
+    fit(S.receiver, N);
+    float *source = S.source.data(), *mass = S.mass.data(), *profile = S.profile.data();
+    uint8_t *is_source = S.is_source.data(), *receiver = S.receiver.data();
     auto gidx = [&](int i, int j) { return size_t(j + win.y0) * size_t(in.width) + size_t(i + win.x0); };
-    std::vector<double> source(N, 0.0);
-    std::vector<uint8_t> is_source(N, 0), receiver(N, 0);
+    auto owned = [&](int i, int j) { return own.owns(i + win.x0, j + win.y0); };
+    // Every imprinted texel of the window shapes the ridge (distance, local depth); with conserve, only the
+    // imprints on owned texels count as volume, so that what is written balances what is owned.
     bool any_source = false;
     for (int j = 0; j < h; ++j)
         for (int i = 0; i < w; ++i) {
             const size_t g = gidx(i, j);
-            const double base = in.base ? double(in.base[g]) : 0.0;
-            const double s = base - double(in.carve[g]);
+            const float base = in.base ? in.base[g] : 0.0f;
+            const float s = base - in.carve[g];
             const size_t x = size_t(j) * size_t(w) + size_t(i);
+            source[x] = mass[x] = 0;
+            is_source[x] = receiver[x] = 0;
             if (s > 0) {
                 source[x] = s;
                 is_source[x] = 1;
-                any_source = true;
+                if (owned(i, j)) {
+                    mass[x] = s;
+                    any_source = true;
+                }
             } else if (!std::isnan(in.ground[g])) {
                 receiver[x] = 1;
             }
         }
-    auto clear_write = [&] {
-        for (int j = write.y0; j < write.y1; ++j)
-            std::fill(rim + size_t(j) * size_t(in.width) + size_t(write.x0), rim + size_t(j) * size_t(in.width) + size_t(write.x1), 0.0f);
+    auto write = [&](const float* result) {
+        for (int j = 0; j < h; ++j)
+            for (int i = 0; i < w; ++i)
+                if (owned(i, j)) rim[gidx(i, j)] = result ? result[size_t(j) * size_t(w) + size_t(i)] : 0.0f;
     };
     if (!any_source || in.width_m <= 0) {
-        clear_write();
+        write(nullptr);
         return 0.0;
     }
     const double t = in.texel;
     // Profile in the distance from the imprint (texel centres; the outline is half a texel out).
-    std::vector<int> nearest;
-    nearest_in_mask(nearest, is_source, w, h);
-    std::vector<double> profile(N, 0.0);
+    nearest_in_mask(S, is_source, w, h);
+    const int* nearest = S.nearest.data();
+    const double reach2 = (in.width_m / t + 0.5) * (in.width_m / t + 0.5);
     for (int j = 0; j < h; ++j)
         for (int i = 0; i < w; ++i) {
             const size_t x = size_t(j) * size_t(w) + size_t(i);
+            profile[x] = 0;
             if (!receiver[x] || nearest[x] < 0) continue;
             const int qi = nearest[x] % w, qj = nearest[x] / w;
-            const double d = t * (std::hypot(double(i - qi), double(j - qj)) - 0.5);
-            const double tau = d / in.width_m;
-            if (tau > 0 && tau < 1) profile[x] = 16 * tau * tau * (1 - tau) * (1 - tau);
+            const double d2 = double(i - qi) * (i - qi) + double(j - qj) * (j - qj);
+            if (d2 >= reach2) continue;
+            const double tau = t * (std::sqrt(d2) - 0.5) / in.width_m;
+            if (tau > 0 && tau < 1) profile[x] = float(16 * tau * tau * (1 - tau) * (1 - tau));
         }
     // Gathering radius: an imprint's half-width plus its rim, so that a rim point sees the volume it carries.
     const int n = std::max(2, int(std::ceil((in.width_m + in.gather_m) / t / 2)));
-    std::vector<double> num = source, den;
-    if (in.conserve) {
-        den = profile;
-    } else {
-        den.assign(N, 0.0);
+    float *num = S.num.data(), *den = S.den.data(), *result = S.result.data(), *tmp = S.tmp.data();
+    std::copy(in.conserve ? mass : source, (in.conserve ? mass : source) + N, num);
+    if (in.conserve) std::copy(profile, profile + N, den);
+    else
         for (size_t x = 0; x < N; ++x) den[x] = is_source[x];
-    }
-    smooth(num, w, h, n);
-    smooth(den, w, h, n);
-    std::vector<double> result(N, 0.0);
-    double raised = 0, removed = 0;
+    smooth(num, tmp, w, h, n);
+    smooth(den, tmp, w, h, n);
+    double removed = 0;
     for (size_t x = 0; x < N; ++x) {
-        removed += source[x];
-        if (profile[x] > 0 && den[x] > 0) {
-            result[x] = profile[x] * num[x] / den[x];
-            raised += result[x];
-        }
+        removed += mass[x];
+        result[x] = (profile[x] > 0 && den[x] > 0) ? profile[x] * num[x] / den[x] : 0.0f;
     }
     // Staircase noise of the texel-centre distances, blurred away; imprinted texels stay untouched.
-    smooth(result, w, h, 1);
-    raised = 0;
-    for (size_t x = 0; x < N; ++x) {
-        if (!receiver[x]) result[x] = 0;
-        raised += result[x];
-    }
-    if (!in.conserve) {
-        // The blur kernel sums to 81 (two 3 x 3 box passes).
-        for (double& r : result) r /= 81.0;
-    }
+    smooth(result, tmp, w, h, 1);
+    double raised = 0;
+    for (int j = 0; j < h; ++j)
+        for (int i = 0; i < w; ++i) {
+            const size_t x = size_t(j) * size_t(w) + size_t(i);
+            if (!receiver[x] || !owned(i, j)) result[x] = 0;
+            raised += result[x];
+        }
     double lost = 0;
     if (in.conserve) {
+        // The region owns its imprints and, by its margin, their whole rims: the raised volume written here
+        // equals the volume removed here × (1 − compaction).
         const double target = removed * (1.0 - in.compaction);
         if (raised > 0) {
-            const double k = target / raised;
-            for (double& r : result) r *= k;
+            const float k = float(target / raised);
+            for (size_t x = 0; x < N; ++x) result[x] *= k;
         } else {
             lost = target * t * t;
         }
     } else {
-        for (double& r : result) r *= in.height_ratio;
+        // The blur kernel sums to 81 (two 3 x 3 box passes).
+        const float k = float(in.height_ratio / 81.0);
+        for (size_t x = 0; x < N; ++x) result[x] *= k;
     }
-    clear_write();
-    for (int j = write.y0; j < write.y1; ++j)
-        for (int i = write.x0; i < write.x1; ++i)
-            rim[size_t(j) * size_t(in.width) + size_t(i)] = float(result[size_t(j - win.y0) * size_t(w) + size_t(i - win.x0)]);
+    write(result);
     return lost;
 }
 

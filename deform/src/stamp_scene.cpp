@@ -107,7 +107,7 @@ struct WorkMesh {
 struct EdgeRates {
     struct Key {
         uint32_t bits[6];
-        bool operator==(const Key& o) const { return std::memcmp(bits, o.bits, sizeof bits) == 0; }
+        bool operator==(const Key& o) const { return std::equal(bits, bits + 6, o.bits); }
     };
     struct Hash {
         size_t operator()(const Key& k) const {
@@ -206,6 +206,38 @@ void scene_triangles(std::vector<float>& positions, std::vector<uint32_t>& indic
 
 namespace {
 
+// The tessellation step (triangles in world space in, triangles out): refines the ground where the heightmap
+// has detail, leaves flat snow alone. Pass 1 cuts detailed triangles longer than 8 texels to about that size,
+// so that pass 2 refines a neighbourhood of each stamp and not a whole large ground triangle; pass 2 gives
+// every edge the detail rate of its finer face.
+Status tessellate_ground(WorkMesh& w, const Heightmap& hm, const StampOptions& o, StampReport& rep) {
+    const double texel = hm.frame.texel;
+    DetailRateOptions dr;
+    dr.max_error = o.max_error > 0 ? o.max_error : 0.25 * texel;
+    dr.min_spacing = texel; // finer than the map resolves buys nothing
+    dr.max_rate = 1 << 20;
+    dr.camera = o.camera;
+    std::vector<int> rates;
+    triangle_detail_rates(rates, hm, w.positions.data(), w.indices.data(), w.indices.size() / 3, dr);
+    const double coarse = 8 * texel;
+    bool split = false;
+    for (size_t t = 0; t < rates.size(); ++t) {
+        if (rates[t] <= 1) continue;
+        const uint32_t* c = &w.indices[3 * t];
+        auto P = [&](int k) { return D3{w.positions[3 * size_t(c[k])], w.positions[3 * size_t(c[k]) + 1], w.positions[3 * size_t(c[k]) + 2]}; };
+        const double longest = std::max({norm(P(1) - P(0)), norm(P(2) - P(1)), norm(P(0) - P(2))});
+        rates[t] = std::clamp(int(std::ceil(longest / coarse)), 1, std::max(1, o.max_rate));
+        split = split || rates[t] > 1;
+    }
+    if (split) {
+        Status s = tessellate_pass(w, rates, o, rep);
+        if (!s.ok()) return s;
+    }
+    dr.max_rate = std::max(1, o.max_rate);
+    triangle_detail_rates(rates, hm, w.positions.data(), w.indices.data(), w.indices.size() / 3, dr);
+    return tessellate_pass(w, rates, o, rep);
+}
+
 // Deforms one mesh drawn with world matrix M.
 Status deform_mesh(Scene& scene, int mesh_index, const Mat& M, bool skinned, const SnowField& field, const StampOptions& o,
                    StampReport& rep) {
@@ -277,36 +309,9 @@ Status deform_mesh(Scene& scene, int mesh_index, const Mat& M, bool skinned, con
     rep.triangles_in += w.indices.size() / 3;
 
     const Heightmap& hm = field.heightmap();
-    const double texel = hm.frame.texel;
-    const double max_error = o.max_error > 0 ? o.max_error : 0.25 * texel;
     if (tess) {
         const auto t0 = Clock::now();
-        DetailRateOptions dr;
-        dr.max_error = max_error;
-        dr.min_spacing = 0.5 * texel;
-        dr.max_rate = 1 << 20;
-        dr.camera = o.camera;
-        // Pass 1: detailed triangles longer than 8 texels are cut to about that size first, so that the
-        // detail pass refines a neighbourhood of each stamp, not a whole large ground triangle.
-        std::vector<int> rates;
-        triangle_detail_rates(rates, hm, w.positions.data(), w.indices.data(), w.indices.size() / 3, dr);
-        const double coarse = 8 * texel;
-        bool split = false;
-        for (size_t t = 0; t < rates.size(); ++t) {
-            if (rates[t] <= 1) continue;
-            const uint32_t* c = &w.indices[3 * t];
-            auto P = [&](int k) { return D3{w.positions[3 * size_t(c[k])], w.positions[3 * size_t(c[k]) + 1], w.positions[3 * size_t(c[k]) + 2]}; };
-            const double longest = std::max({norm(P(1) - P(0)), norm(P(2) - P(1)), norm(P(0) - P(2))});
-            rates[t] = std::clamp(int(std::ceil(longest / coarse)), 1, std::max(1, o.max_rate));
-            split = split || rates[t] > 1;
-        }
-        Status s = Status::success();
-        if (split) s = tessellate_pass(w, rates, o, rep);
-        if (s.ok()) {
-            dr.max_rate = std::max(1, o.max_rate);
-            triangle_detail_rates(rates, hm, w.positions.data(), w.indices.data(), w.indices.size() / 3, dr);
-            s = tessellate_pass(w, rates, o, rep);
-        }
+        Status s = tessellate_ground(w, hm, o, rep);
         if (!s.ok()) return Status::error(s.code, "tessellation of mesh '" + mesh.name + "' failed: " + s.message);
         rep.tessellate_seconds += seconds_since(t0);
     }

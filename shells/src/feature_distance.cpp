@@ -117,29 +117,34 @@ size_t crossing_vertices(uint8_t* hit, const std::vector<double>& base, const st
         if (CGAL::collinear(pts[t[0]], pts[t[1]], pts[t[2]])) continue;
         boxes.emplace_back(pts[t[0]].bbox() + pts[t[1]].bbox() + pts[t[2]].bbox(), i);
     }
-    std::vector<const Box*> ptrs, touched;
-    ptrs.reserve(boxes.size());
+    // Only pairs with a shell triangle are of interest: the shell boxes (or, after a repair, those around
+    // changed vertices) against all boxes, so that the many overlapping base-base neighbours are never
+    // enumerated.
+    std::vector<const Box*> bases, shells, touched;
     for (const Box& b : boxes) {
-        ptrs.push_back(&b);
         const uint32_t f = source[b.info()];
-        if (changed && f != UINT32_MAX && ((*changed)[triangles[f][0]] || (*changed)[triangles[f][1]] || (*changed)[triangles[f][2]]))
+        if (f == UINT32_MAX) {
+            bases.push_back(&b);
+            continue;
+        }
+        shells.push_back(&b);
+        if (!changed || (*changed)[triangles[f][0]] || (*changed)[triangles[f][1]] || (*changed)[triangles[f][2]])
             touched.push_back(&b);
     }
+    if (touched.empty()) return 0;
     std::vector<std::pair<size_t, size_t>> candidates;
     auto report = [&](const Box* x, const Box* y) {
-        if (x->info() == y->info()) return;
-        if (source[x->info()] == UINT32_MAX && source[y->info()] == UINT32_MAX) return; // the input's own
-        candidates.emplace_back(std::min(x->info(), y->info()), std::max(x->info(), y->info()));
+        if (x->info() != y->info()) candidates.emplace_back(std::min(x->info(), y->info()), std::max(x->info(), y->info()));
     };
-    if (changed) {
-        if (touched.empty()) return 0;
-        CGAL::box_intersection_d<CGAL::Sequential_tag>(touched.begin(), touched.end(), ptrs.begin(), ptrs.end(), report);
-        std::sort(candidates.begin(), candidates.end());
-        candidates.erase(std::unique(candidates.begin(), candidates.end()), candidates.end());
-    } else {
-        CGAL::box_self_intersection_d<CGAL::Sequential_tag>(ptrs.begin(), ptrs.end(), report);
-    }
+    // Shell against base, and shell against shell; the base's own overlapping neighbours are never
+    // enumerated. After a repair only the shell triangles around changed vertices are tested.
+    CGAL::box_intersection_d<CGAL::Sequential_tag>(touched.begin(), touched.end(), bases.begin(), bases.end(), report);
+    if (changed)
+        CGAL::box_intersection_d<CGAL::Sequential_tag>(touched.begin(), touched.end(), shells.begin(), shells.end(), report);
+    else
+        CGAL::box_self_intersection_d<CGAL::Sequential_tag>(shells.begin(), shells.end(), report);
     std::sort(candidates.begin(), candidates.end()); // a fixed order, whatever order the boxes came in
+    candidates.erase(std::unique(candidates.begin(), candidates.end()), candidates.end());
     std::vector<uint8_t> crossing(candidates.size(), 0);
     tbb::parallel_for(tbb::blocked_range<size_t>(0, candidates.size(), 256), [&](const tbb::blocked_range<size_t>& r) {
         for (size_t i = r.begin(); i != r.end(); ++i)

@@ -9,11 +9,10 @@
 //     of parametric length h errs by |D| h^2 / 8 at the midpoint, and on a triangle by at most 1/6 of the
 //     largest |e^T H e| over its edges e (at the centroid). Second derivatives come from Bfr at the points of a
 //     rate-3 probe of every face. Quads (and the quad sub-faces of n-gons) are cut into cells of h_u x h_v
-//     split along a diagonal, whose error (Duu h_u^2 +- 2 Duv h_u h_v + Dvv h_v^2) / 8 stays below e when
-//     R_u = sqrt((|Duu| + |Duv|) / 4e) and R_v likewise (the three terms sum to at most 2 (e/2)); Loop
-//     triangles take all four lattice directions of Bfr's patterns, (1,0), (0,1), (1,-1) and the (1,1) of its
-//     transition corners, with the 1/6 centroid factor. Each edge takes the most demanding face beside it,
-//     along its own direction, so anisotropic surfaces (a cylinder) stay anisotropic on quads;
+//     split along a diagonal (error (Duu h_u^2 +- 2 Duv h_u h_v + Dvv h_v^2) / 8); R_u and R_v are chosen per
+//     face to minimise R_u R_v with all four directions within e (quad_need). Loop triangles take the lattice
+//     directions of Bfr's patterns and the medians of its transition corners (triangle_need). Each edge takes
+//     the most demanding face beside it, along its own direction, so a cylinder stays anisotropic on quads;
 //     screen_error divides by the eye distance of each probe (error in pixels = error x focal / distance);
 //   - focus points, a per-vertex array and a per-edge callback for callers with their own detail measure.
 // Everything here depends on one edge's data and its two faces only, and each edge's rate is one number
@@ -61,12 +60,14 @@ std::array<double, 3> combine(const std::array<double, 3>& a, double x, const st
     return {a[0] * x + b[0] * y + c[0] * z, a[1] * x + b[1] * y + c[1] * z, a[2] * x + b[2] * y + c[2] * z};
 }
 
-// e * R^2 for a Loop triangle: the four lattice directions of Bfr's triangle patterns ((1,0), (0,1), (1,-1)
-// and the (1,1) of its transition corners) at edge midpoints (|D| / 8), and the centroids of the two kinds
-// of triangle, (1/18) |sum of the edge terms| = |Duu + Dvv -+ Duv| / 9.
+// e * R^2 for a Loop triangle: |D| / 8 at the midpoints of segments along the three lattice directions of
+// Bfr's triangle patterns ((1,0), (0,1), (1,-1)) and along the medians its non-uniform patterns use to join
+// each corner to the inner ring ((1,1), (-2,1), (1,-2)); and (1/18) |sum of the edge terms| at the centroids
+// of the two lattice triangles, |Duu + Dvv -+ Duv| / 9.
 double triangle_need(const CurvatureSample& s) {
     return std::max({length3(s.uu) / 8, length3(s.vv) / 8, length3(combine(s.uu, 1, s.uv, -2, s.vv, 1)) / 8,
-                     length3(combine(s.uu, 1, s.uv, 2, s.vv, 1)) / 8, length3(combine(s.uu, 1, s.uv, -1, s.vv, 1)) / 9,
+                     length3(combine(s.uu, 1, s.uv, 2, s.vv, 1)) / 8, length3(combine(s.uu, 4, s.uv, -4, s.vv, 1)) / 8,
+                     length3(combine(s.uu, 1, s.uv, -4, s.vv, 4)) / 8, length3(combine(s.uu, 1, s.uv, -1, s.vv, 1)) / 9,
                      length3(combine(s.uu, 1, s.uv, 1, s.vv, 1)) / 9});
 }
 
@@ -95,12 +96,118 @@ std::array<double, 2> quad_need(const std::vector<CurvatureSample>& samples, int
     return best;
 }
 
+// The limit surface's curvature is unbounded at extraordinary vertices, and the deeper Bfr approximates it
+// (SurfaceOptions::accuracy) the larger the second derivatives it reports right at such a corner. Probes are
+// therefore pulled 10% towards the inside of the face (of its sub-face for n-gons), where they measure the
+// curvature the triangles there actually span.
+void pull_inside(const osd::Bfr::Parameterization& p, const float* in, float* out) {
+    constexpr float keep = 0.9f;
+    switch (p.GetType()) {
+    case osd::Bfr::Parameterization::QUAD:
+        out[0] = 0.5f + keep * (in[0] - 0.5f);
+        out[1] = 0.5f + keep * (in[1] - 0.5f);
+        return;
+    case osd::Bfr::Parameterization::TRI:
+        out[0] = 1.0f / 3 + keep * (in[0] - 1.0f / 3);
+        out[1] = 1.0f / 3 + keep * (in[1] - 1.0f / 3);
+        return;
+    case osd::Bfr::Parameterization::QUAD_SUBFACES: {
+        float st[2];
+        const int sub = p.ConvertCoordToNormalizedSubFace(in, st);
+        st[0] = 0.5f + keep * (std::clamp(st[0], 0.0f, 1.0f) - 0.5f);
+        st[1] = 0.5f + keep * (std::clamp(st[1], 0.0f, 1.0f) - 0.5f);
+        p.ConvertNormalizedSubFaceToCoord(sub, st, out);
+        return;
+    }
+    }
+    out[0] = in[0];
+    out[1] = in[1];
+}
+
 // What the probe of one face contributes to the edges of that face.
 struct SideProbe {
     double need_world = 0; // max |C''| along the edge, world units
     double need_pixels = 0; // max |C''| * focal / distance
     double length_pixels = 0; // projected length along the limit curve (owner side only)
 };
+
+// Second-derivative estimates are exact on polynomial patches with a uniform pattern, but Bfr's non-uniform
+// patterns (corner triangles, strips to the inner ring, the centre of n-gons) and the fast-varying curvature
+// near extraordinary vertices can leave a face above the error asked for. So the error is measured as
+// Tessellator::measure does (each triangle's centroid and edge midpoints against the limit surface at the
+// same parametric location, here on the face's own surface) and the edges of a face over the target are
+// raised by 1.1 sqrt(error / target) (the error falls with the square of the rate), up to 4 rounds.
+void verify_error(std::vector<double>& wanted, const PreparedMesh& m, const RateOptions& r, const std::vector<Mat4>& inst,
+                  const std::array<double, 3>& eye, double focal, double min_distance) {
+    const size_t F = m.face_count(), E = m.edges.size();
+    static const float bary[4][3] = {{1.f / 3, 1.f / 3, 1.f / 3}, {0.5f, 0.5f, 0}, {0, 0.5f, 0.5f}, {0.5f, 0, 0.5f}};
+    for (int round = 0; round < 4; ++round) {
+        std::vector<int> rates(E);
+        for (size_t e = 0; e < E; ++e) rates[e] = final_rate(wanted[e], 1.0, r.max_rate);
+        std::vector<float> face_ratio(F, 0.0f);
+        tbb::parallel_for(tbb::blocked_range<size_t>(0, F, 16), [&](const tbb::blocked_range<size_t>& range) {
+            Surface surface;
+            std::vector<float> patch, coords, pos;
+            std::vector<int> fr, facets;
+            for (size_t f = range.begin(); f != range.end(); ++f) {
+                if (!m.smooth(f) || !m.factory || !m.factory->InitVertexSurface(m.face_refiner[f], &surface)) continue;
+                patch.resize(size_t(surface.GetNumPatchPoints()) * 3);
+                surface.PreparePatchPoints(m.refiner_data.data(), Surface::PointDescriptor(3, m.W), patch.data(), 3);
+                const auto param = m.parameterization(f);
+                const int nr = face_rates(m, f, rates, fr);
+                osd::Bfr::Tessellation tess(param, nr, fr.data());
+                coords.resize(size_t(tess.GetNumCoords()) * 2);
+                tess.GetCoords(coords.data());
+                pos.resize(size_t(tess.GetNumCoords()) * 3);
+                for (int i = 0; i < tess.GetNumCoords(); ++i) surface.Evaluate(&coords[size_t(i) * 2], patch.data(), 3, &pos[size_t(i) * 3]);
+                facets.resize(size_t(tess.GetNumFacets()) * 3);
+                tess.GetFacets(facets.data());
+                double ratio = 0;
+                for (size_t t = 0; t < facets.size(); t += 3) {
+                    float corner_uv[6], chart[6];
+                    for (int k = 0; k < 3; ++k) {
+                        corner_uv[2 * k] = coords[size_t(facets[t + size_t(k)]) * 2];
+                        corner_uv[2 * k + 1] = coords[size_t(facets[t + size_t(k)]) * 2 + 1];
+                    }
+                    int tile = 0;
+                    if (!common_chart(param, corner_uv, chart, tile)) continue;
+                    for (const auto& b : bary) {
+                        float c[2] = {0, 0}, uv[2], P[3];
+                        double q[3] = {0, 0, 0};
+                        for (int k = 0; k < 3; ++k) {
+                            for (int j = 0; j < 3; ++j) q[j] += double(b[k]) * pos[size_t(facets[t + size_t(k)]) * 3 + size_t(j)];
+                            c[0] += b[k] * chart[2 * k];
+                            c[1] += b[k] * chart[2 * k + 1];
+                        }
+                        chart_to_coord(param, tile, c, uv);
+                        surface.Evaluate(uv, patch.data(), 3, P);
+                        double d[3] = {q[0] - P[0], q[1] - P[1], q[2] - P[2]}, p[3] = {P[0], P[1], P[2]};
+                        for (const auto& M : inst) {
+                            const double err = length3(M.vector(d));
+                            if (r.max_error > 0) ratio = std::max(ratio, err / r.max_error);
+                            if (r.screen_error > 0)
+                                ratio = std::max(ratio, err * focal / std::max(distance3(M.point(p), eye), min_distance) / r.screen_error);
+                        }
+                    }
+                }
+                face_ratio[f] = float(ratio);
+            }
+        });
+        bool raised = false;
+        for (size_t e = 0; e < E; ++e) {
+            double factor = 1.0;
+            for (uint32_t s = m.edge_side_begin[e]; s < m.edge_side_begin[e + 1]; ++s) {
+                const float q = face_ratio[m.corner_face[m.side_corner[s]]];
+                if (q > 1.0f) factor = std::max(factor, 1.1 * std::sqrt(double(q)));
+            }
+            if (factor > 1.0 && rates[e] < r.max_rate) {
+                wanted[e] = std::max(wanted[e], double(rates[e]) * factor);
+                raised = true;
+            }
+        }
+        if (!raised) break;
+    }
+}
 
 } // namespace
 
@@ -277,7 +384,8 @@ Status wanted_rates(std::vector<double>& out, const PreparedMesh& m, const RateO
             probe.GetCoords(coords.data());
             samples.clear();
             for (int i = 0; i < probe.GetNumCoords(); ++i) {
-                const float* uv = &coords[size_t(i) * 2];
+                float uv[2];
+                pull_inside(param, &coords[size_t(i) * 2], uv);
                 float P[3], Du[3], Dv[3], Duu[3], Duv[3], Dvv[3];
                 surface.Evaluate(uv, patch.data(), 3, P, Du, Dv, Duu, Duv, Dvv);
                 const int tile = param.HasSubFaces() ? param.GetSubFace(uv) : 0;
@@ -331,6 +439,7 @@ Status wanted_rates(std::vector<double>& out, const PreparedMesh& m, const RateO
         if (r.max_error > 0) out[e] = std::max(out[e], std::sqrt(need_world / r.max_error));
         if (r.screen_error > 0) out[e] = std::max(out[e], std::sqrt(need_pixels / r.screen_error));
     }
+    if (probe_curvature) verify_error(out, m, r, inst, eye, focal, min_distance);
     return Status::success();
 }
 

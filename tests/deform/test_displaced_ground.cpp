@@ -42,7 +42,7 @@ TEST(DisplacedGround, IncrementalUpdatesEqualAFullPass) {
     for (int frame = 0; frame < 20; ++frame) {
         const double x = U(rng), z = U(rng);
         ASSERT_TRUE(p.field.stamp(sphere(0.15, {}), ColliderPose{{x, hill_height(x, z) + 0.1, z}, 0, 0}).ok());
-        const TexelRect r = p.field.update();
+        const auto r = p.field.update();
         const size_t moved = p.dg.update(p.field.heightmap(), r, pos.data(), nor.data());
         EXPECT_GT(moved, 0u);
         EXPECT_LT(moved, p.dg.welded_count() / 4);

@@ -23,7 +23,8 @@ Heightmap stamped_map(double texel = 0.02) {
 
 TEST(SaveHeightmap, PfmRoundTripIsExactWithItsFrame) {
     const Heightmap h = stamped_map();
-    const auto file = temp_dir() / "h.pfm";
+    const auto dir = temp_dir();
+    const auto file = dir / "h.pfm";
     ASSERT_TRUE(save_heightmap(h, file.string()).ok());
     Heightmap back;
     Status s = load_heightmap(back, file.string());
@@ -38,7 +39,7 @@ TEST(SaveHeightmap, PfmRoundTripIsExactWithItsFrame) {
     auto bytes = read_bytes(file);
     const std::string head(bytes.begin(), bytes.begin() + 3);
     EXPECT_EQ(head, "Pf\n");
-    EXPECT_EQ(list_dir(temp_dir()), std::vector<std::string>{"h.pfm"}); // no temp file left
+    EXPECT_EQ(list_dir(dir), std::vector<std::string>{"h.pfm"}); // no temp file left
 }
 
 TEST(SaveHeightmap, Png16RoundTripWithinItsQuantum) {
@@ -58,6 +59,13 @@ TEST(SaveHeightmap, Png16RoundTripWithinItsQuantum) {
     double worst = 0;
     for (size_t k = 0; k < h.values.size(); ++k) worst = std::max(worst, double(std::abs(back.values[k] - h.values[k])));
     EXPECT_LE(worst, 0.51 * quantum + 1e-7);
+    size_t kept = 0;
+    for (size_t k = 0; k < h.values.size(); ++k)
+        if (h.values[k] == 0) { // untouched snow comes back exactly untouched
+            EXPECT_EQ(back.values[k], 0.0f);
+            ++kept;
+        }
+    EXPECT_GT(kept, 1000u);
     EXPECT_DOUBLE_EQ(back.frame.texel, h.frame.texel);
 }
 

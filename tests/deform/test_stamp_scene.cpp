@@ -76,9 +76,42 @@ TEST(StampScene, SphereOnFlatGroundFollowsTheAnalyticSurface) {
     EXPECT_LT(worst, 0.004);
     EXPECT_LT(mean, 0.0002);
     expect_watertight_sheet(out);
-    // Untouched snow stays coarse: far fewer triangles than a uniform grid at the texel size.
-    EXPECT_LT(rep.triangles_out, size_t(2 * 400 * 400) / 10);
+    // Untouched snow stays coarse: beyond the input cells around the imprint (whose shared edges carry the
+    // fine rates one ring out) there are a few thousand triangles where a grid at the texel size has 180 000.
+    EXPECT_LT(rep.triangles_out, size_t(2 * 400 * 400) / 3);
     EXPECT_GT(rep.triangles_out, rep.triangles_in);
+    size_t far = 0;
+    for (size_t t = 0; t < out.indices.size(); t += 3) {
+        double x = 0, z = 0;
+        for (int c = 0; c < 3; ++c) x += out.positions[3 * size_t(out.indices[t + size_t(c)])] / 3, z += out.positions[3 * size_t(out.indices[t + size_t(c)]) + 2] / 3;
+        far += std::hypot(x - cx, z - cz) > 0.75;
+    }
+    EXPECT_LT(far, 2000u);
+}
+
+TEST(StampScene, ACameraCoarsensFarImprints) {
+    // Two identical balls, 1.8 m and 13 m from the eye: with a camera (1 px error) the far one is coarser.
+    auto count = [](const Primitive& p, double cx) {
+        size_t n = 0;
+        for (size_t t = 0; t < p.indices.size(); t += 3) {
+            double x = 0;
+            for (int c = 0; c < 3; ++c) x += p.positions[3 * size_t(p.indices[t + size_t(c)])] / 3;
+            n += std::abs(x - cx) < 1.0;
+        }
+        return n;
+    };
+    ColliderSet set = set_of({sphere(0.3, {{-6, 0.22, 0}}), sphere(0.3, {{6, 0.22, 0}})});
+    StampOptions o;
+    o.snow.texel = 0.01;
+    o.max_error = 0.0005;
+    Scene plain = ground_scene(flat_ground(16, 16)), viewed = plain;
+    ASSERT_TRUE(stamp_scene(plain, set, o).ok());
+    o.camera = StampCamera{{-7, 1.5, 0}, 45.0, 1080, 1.0};
+    ASSERT_TRUE(stamp_scene(viewed, set, o).ok());
+    const Primitive &a = plain.meshes[0].primitives[0], &b = viewed.meshes[0].primitives[0];
+    EXPECT_GT(count(b, -6), 2 * count(b, 6)); // the near imprint finer than the far one
+    EXPECT_LT(count(b, 6), count(a, 6) / 2);  // the far one coarser than without a camera
+    expect_watertight_sheet(b);
 }
 
 TEST(StampScene, BoxLeavesAFlatRectangle) {

@@ -210,9 +210,12 @@ public:
     void set_time(double time);
     double now() const;
 
-    // Brings the rim and the output heightmap up to date and returns the texels whose output value changed
-    // since the last call (empty when nothing did); the next call starts a new rectangle.
-    TexelRect update();
+    // Brings the rim and the output heightmap up to date and returns where the output changed since the last
+    // call: disjoint rectangles aligned to 16-texel tiles (empty when nothing changed), so that colliders far
+    // apart do not dirty everything between them. The rim is recomputed over the stamped tiles grown by the
+    // rim's reach; with conserve_volume each such region balances its own removed and raised volume, so a
+    // one-shot update is exact and incremental updates keep every recomputed region exact.
+    std::vector<TexelRect> update();
     // The output (imprint + rim), as of the last update().
     const Heightmap& heightmap() const;
     // Undeformed ground height per texel (NaN where no ground lies below), same frame.
@@ -257,9 +260,11 @@ public:
     // Displaces every vertex by `heightmap` and writes all positions and normals (vertex_count × 3 floats
     // each). Returns the number of welded points.
     size_t displace_all(const Heightmap& heightmap, float* positions_out, float* normals_out);
-    // Re-displaces only the points whose bilinear footprint meets `dirty` and renormalises their one-ring;
+    // Re-displaces only the points whose bilinear footprint meets a dirty rectangle and renormalises the points
+    // of the faces around them (exactly those whose normal can change);
     // other entries of the buffers are not touched (they must hold a previous displace_all/update result).
     // Returns the number of welded points moved.
+    size_t update(const Heightmap& heightmap, const std::vector<TexelRect>& dirty, float* positions_out, float* normals_out);
     size_t update(const Heightmap& heightmap, const TexelRect& dirty, float* positions_out, float* normals_out);
 
     size_t vertex_count() const;
@@ -286,9 +291,10 @@ struct StampOptions {
     std::optional<double> time;           // evaluation time (s); default = the latest sample time
     double max_error = 0.0;               // allowed deviation of the displaced mesh from the heightmap
                                           // surface (metres); 0 = a quarter texel
-    std::optional<StampCamera> camera;    // coarser far away (never finer than max_error asks)
+    std::optional<StampCamera> camera;    // error target max(max_error, pixel_error × distance / focal length):
+                                          // far imprints coarser, near ones as max_error asks
     bool tessellate = true;               // false: displace the ground's own vertices only
-    int max_rate = 64;                    // segments per input edge, 1..4096
+    int max_rate = 64;                    // segments per edge in each of the two tessellation passes, 1..4096
     size_t max_triangles = 0;             // > 0: tessellation rates scaled down to fit
     bool along_up = false;                // displacement direction (see DisplaceOptions)
     const Heightmap* base = nullptr;      // --heightmap-in
