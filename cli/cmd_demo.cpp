@@ -3,6 +3,7 @@
 #include "cli_common.h"
 
 #include <furrow/render.h>
+#include <furrow/deform.h>
 #include <furrow/shells.h>
 
 #include <nlohmann/json.hpp>
@@ -91,6 +92,32 @@ void demo_fur(const fs::path& model, const fs::path& mask, const RenderCamera& c
     write_render(scene, ro, out / "creature_fur_shaded.png", outputs);
 }
 
+// The snow field: footprints, a rolling ball, a crate and a dragged log stamped into ground.glb, the ground
+// tessellated where the imprints are and displaced; a shaded and a wireframe preview.
+void demo_snow(const fs::path& ground, const fs::path& colliders, const RenderCamera& cam, const DemoArgs& a,
+               const fs::path& out, std::vector<std::string>& outputs, const GlobalFlags& g) {
+    Scene scene;
+    StampOptions so;
+    so.snow.resolution = 512;
+    so.snow.rim_width = 0.08;
+    StampReport rep;
+    require_ok(stamp_files(scene, ground.string(), colliders.string(), so, &rep), colliders.string());
+    info(g, "snow: " + std::to_string(rep.stats.contacts) + " contacts, " + std::to_string(rep.triangles_in) + " -> " +
+                std::to_string(rep.triangles_out) + " triangles, deepest imprint " + std::to_string(rep.max_depth) + " m");
+    const fs::path glb = out / "snow.glb";
+    save_or_throw(scene, glb.string(), ground.string());
+    outputs.push_back(glb.string());
+    RenderOptions ro;
+    ro.width = a.width;
+    ro.height = a.height;
+    ro.ssaa = a.ssaa;
+    ro.camera = cam;
+    ro.background = std::array<float, 3>{0.80f, 0.85f, 0.90f};
+    write_render(scene, ro, out / "snow_shaded.png", outputs);
+    ro.mode = RenderMode::wireframe;
+    write_render(scene, ro, out / "snow_wireframe.png", outputs);
+}
+
 } // namespace
 
 void register_demo(CLI::App& app, GlobalFlags& g) {
@@ -124,8 +151,11 @@ void register_demo(CLI::App& app, GlobalFlags& g) {
             }
             if (desc.contains("snow")) {
                 const auto& s = desc["snow"];
-                demo_model("ground", models / s.at("ground").get<std::string>(), camera_from_json(s.value("camera", nlohmann::json::object())),
-                           *a, out, outputs, g);
+                const auto cam = camera_from_json(s.value("camera", nlohmann::json::object()));
+                demo_model("ground", models / s.at("ground").get<std::string>(), cam, *a, out, outputs, g);
+                if (s.contains("colliders"))
+                    demo_snow(models / s["ground"].get<std::string>(), models / s["colliders"].get<std::string>(), cam, *a,
+                              out, outputs, g);
             }
         } catch (const nlohmann::json::exception& e) {
             throw InputError(scene_file.string(), std::string("bad scene description: ") + e.what());

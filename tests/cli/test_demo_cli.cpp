@@ -13,12 +13,12 @@ TEST(demo_cli, WritesValidGltfAndPreviews) {
     RunResult r = run_furrow({"demo", "-o", dir.string(), "--ssaa", "1"});
     ASSERT_EQ(r.exit_code, 0) << r.err;
     EXPECT_NE(r.out.find("furrow demo wrote"), std::string::npos);
-    for (const char* glb : {"creature.glb", "creature_fur.glb", "ground.glb"}) {
+    for (const char* glb : {"creature.glb", "creature_fur.glb", "ground.glb", "snow.glb"}) {
         ASSERT_TRUE(std::filesystem::exists(dir / glb)) << glb;
         EXPECT_VALID_GLTF(dir / glb);
     }
     for (const char* png : {"creature_shaded.png", "creature_wireframe.png", "creature_fur_shaded.png", "ground_shaded.png",
-                            "ground_wireframe.png"}) {
+                            "ground_wireframe.png", "snow_shaded.png", "snow_wireframe.png"}) {
         ImageF img;
         ASSERT_TRUE(load_png(img, (dir / png).string()).ok()) << png;
         EXPECT_EQ(img.channels, 4);
