@@ -57,6 +57,7 @@ Scene two_material_scene() {
     lines.mode = PrimitiveMode::lines;
     lines.positions = {0, 0, 0, 1, 1, 1};
     lines.indices = {0, 1};
+    lines.targets.push_back(MorphTarget{std::vector<float>(6, 0.0f), {}, {}}); // glTF: every primitive of a mesh has the same targets
     Scene s = make_scene(left, "grid");
     s.meshes[0].primitives.push_back(right);
     s.meshes[0].primitives.push_back(lines);
@@ -65,14 +66,16 @@ Scene two_material_scene() {
     s.materials[0].name = "left";
     s.materials[1].name = "right";
     s.materials[1].base_color = {1, 0, 0, 1};
-    // A skeleton of 6 joints under the root so that the skin is valid glTF.
+    // A skeleton of 6 joints with one common root (joint 0), so that the skin is valid glTF.
     Skin skin;
     for (int j = 0; j < 6; ++j) {
         Node joint;
         joint.name = "joint" + std::to_string(j);
         s.nodes.push_back(joint);
-        skin.joints.push_back(int(s.nodes.size() - 1));
-        s.roots.push_back(int(s.nodes.size() - 1));
+        const int index = int(s.nodes.size() - 1);
+        skin.joints.push_back(index);
+        if (j == 0) s.roots.push_back(index);
+        else s.nodes[size_t(skin.joints[0])].children.push_back(index);
     }
     s.skins.push_back(skin);
     s.nodes[0].skin = 0;
@@ -183,7 +186,8 @@ TEST(tessellate_scene, OutputIsValidatorClean) {
     Scene s = two_material_scene();
     ASSERT_TRUE(tessellate_scene(s, uniform_options(SubdivisionScheme::catmark, 4)).ok());
     const auto file = temp_dir() / "two.glb";
-    ASSERT_TRUE(save_scene(s, file.string()).ok());
+    Status st = save_scene(s, file.string());
+    ASSERT_TRUE(st.ok()) << st.message;
     EXPECT_VALID_GLTF(file);
 }
 
