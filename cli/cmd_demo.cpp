@@ -31,6 +31,17 @@ RenderCamera camera_from_json(const nlohmann::json& j) {
     return c;
 }
 
+// The previews share size, supersampling and an opaque sky-grey background.
+RenderOptions preview_options(const RenderCamera& cam, const DemoArgs& a) {
+    RenderOptions ro;
+    ro.width = a.width;
+    ro.height = a.height;
+    ro.ssaa = a.ssaa;
+    ro.camera = cam;
+    ro.background = std::array<float, 3>{0.80f, 0.85f, 0.90f};
+    return ro;
+}
+
 void write_render(const Scene& scene, const RenderOptions& ro, const fs::path& png, std::vector<std::string>& outputs) {
     RenderResult r;
     require_ok(render_scene(r, scene, ro), png.string());
@@ -55,12 +66,7 @@ void demo_model(const std::string& title, const fs::path& model, const RenderCam
     const fs::path glb = out / (title + ".glb");
     save_or_throw(scene, glb.string(), model.string());
     outputs.push_back(glb.string());
-    RenderOptions ro;
-    ro.width = a.width;
-    ro.height = a.height;
-    ro.ssaa = a.ssaa;
-    ro.camera = cam;
-    ro.background = std::array<float, 3>{0.80f, 0.85f, 0.90f};
+    RenderOptions ro = preview_options(cam, a);
     write_render(scene, ro, out / (title + "_shaded.png"), outputs);
     ro.mode = RenderMode::wireframe;
     write_render(scene, ro, out / (title + "_wireframe.png"), outputs);
@@ -83,12 +89,7 @@ void demo_fur(const fs::path& model, const fs::path& mask, const RenderCamera& c
     const fs::path glb = out / "creature_fur.glb";
     save_or_throw(scene, glb.string(), model.string());
     outputs.push_back(glb.string());
-    RenderOptions ro;
-    ro.width = a.width;
-    ro.height = a.height;
-    ro.ssaa = a.ssaa;
-    ro.camera = cam;
-    ro.background = std::array<float, 3>{0.80f, 0.85f, 0.90f};
+    RenderOptions ro = preview_options(cam, a);
     write_render(scene, ro, out / "creature_fur_shaded.png", outputs);
 }
 
@@ -107,12 +108,7 @@ void demo_snow(const fs::path& ground, const fs::path& colliders, const RenderCa
     const fs::path glb = out / "snow.glb";
     save_or_throw(scene, glb.string(), ground.string());
     outputs.push_back(glb.string());
-    RenderOptions ro;
-    ro.width = a.width;
-    ro.height = a.height;
-    ro.ssaa = a.ssaa;
-    ro.camera = cam;
-    ro.background = std::array<float, 3>{0.80f, 0.85f, 0.90f};
+    RenderOptions ro = preview_options(cam, a);
     write_render(scene, ro, out / "snow_shaded.png", outputs);
     ro.mode = RenderMode::wireframe;
     write_render(scene, ro, out / "snow_wireframe.png", outputs);
