@@ -46,6 +46,20 @@ struct DisjointSets {
     }
 };
 
+// Indices 0..n-1 ordered by key(i), ties by index: sorting (key, index) records in place is several times
+// faster than sorting indices through a comparator that recomputes keys.
+template <class Key, class KeyOf>
+std::vector<uint32_t> order_by(size_t n, KeyOf key_of) {
+    std::vector<std::pair<Key, uint32_t>> records(n);
+    for (size_t i = 0; i < n; ++i) records[i] = {key_of(uint32_t(i)), uint32_t(i)};
+    std::sort(records.begin(), records.end());
+    std::vector<uint32_t> order(n);
+    for (size_t i = 0; i < n; ++i) order[i] = records[i].second;
+    return order;
+}
+
+uint64_t pack(uint32_t hi, uint32_t lo) { return (uint64_t(hi) << 32) | lo; }
+
 uint32_t float_bits(float f) {
     if (f == 0.0f) f = 0.0f; // -0 and +0 are the same value
     uint32_t u;
@@ -162,16 +176,13 @@ void split_polygon(std::vector<std::vector<uint32_t>>& pieces, std::vector<uint3
 // Edges of the welded mesh: sides (corners whose outgoing edge it is) grouped by sorted endpoint pair.
 void build_edges(PreparedMesh& m) {
     const size_t C = m.corner_input.size();
-    std::vector<uint32_t> half(C);
-    std::iota(half.begin(), half.end(), 0u);
-    auto ekey = [&](uint32_t c) {
-        uint32_t a = m.corner_welded[c], b = m.corner_welded[m.next_corner(c)];
-        return std::array<uint32_t, 2>{std::min(a, b), std::max(a, b)};
-    };
-    std::sort(half.begin(), half.end(), [&](uint32_t a, uint32_t b) {
-        auto ka = ekey(a), kb = ekey(b);
-        return ka != kb ? ka < kb : a < b;
-    });
+    std::vector<uint64_t> keys(C);
+    for (uint32_t c = 0; c < C; ++c) {
+        const uint32_t a = m.corner_welded[c], b = m.corner_welded[m.next_corner(c)];
+        keys[c] = pack(std::min(a, b), std::max(a, b));
+    }
+    const std::vector<uint32_t> half = order_by<uint64_t>(C, [&](uint32_t c) { return keys[c]; });
+    auto ekey = [&](uint32_t c) { return keys[c]; };
     m.edge_side_begin.assign(1, 0);
     m.side_corner.clear();
     m.corner_edge.assign(C, none);
@@ -299,6 +310,26 @@ Status prepare_mesh(PreparedMesh& m, const TessellateInput& in, const SurfaceOpt
         std::vector<std::vector<uint32_t>> pieces;
         for (size_t f = 0; f < nf_in; ++f) {
             const size_t n = in.face_sizes ? in.face_sizes[f] : 3;
+            // The common case, no welded vertex twice: no repair, no allocation.
+            bool distinct = n >= 3;
+            for (size_t i = 0; i < n && distinct && n <= 16; ++i)
+                for (size_t j = i + 1; j < n; ++j)
+                    if (welded_of_index[first + i] == welded_of_index[first + j]) {
+                        distinct = false;
+                        break;
+                    }
+            if (distinct && n <= 16) {
+                for (size_t i = first; i < first + n; ++i) {
+                    m.corner_input.push_back(in.indices[i]);
+                    m.corner_welded.push_back(welded_of_index[i]);
+                    m.corner_face.push_back(uint32_t(m.face_source.size()));
+                }
+                m.face_source.push_back(uint32_t(f));
+                face_group_of.push_back(in.face_groups ? in.face_groups[f] : 0u);
+                m.face_offset.push_back(uint32_t(m.corner_input.size()));
+                first += n;
+                continue;
+            }
             std::vector<uint32_t> corners(n);
             std::iota(corners.begin(), corners.end(), uint32_t(first));
             first += n;
@@ -365,13 +396,20 @@ Status prepare_mesh(PreparedMesh& m, const TessellateInput& in, const SurfaceOpt
                     key[K + 4 + j] = float_bits(in.weights[v * 4 + size_t(j)]);
                 }
         }
+        // Sorted by a hash of the key, equal keys compared in full: equal vectors end up adjacent.
+        std::vector<uint64_t> hash(nv);
+        for (size_t v = 0; v < nv; ++v) {
+            uint64_t h = 1469598103934665603ull;
+            for (size_t k = 0; k < key_len; ++k) h = (h ^ keys[v * key_len + k]) * 1099511628211ull;
+            hash[v] = h;
+        }
         std::vector<uint32_t> order(nv);
         std::iota(order.begin(), order.end(), 0u);
-        auto less = [&](uint32_t a, uint32_t b) {
+        std::sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) {
+            if (hash[a] != hash[b]) return hash[a] < hash[b];
             int c = std::memcmp(&keys[a * key_len], &keys[b * key_len], key_len * sizeof(uint32_t));
             return c != 0 ? c < 0 : a < b;
-        };
-        std::sort(order.begin(), order.end(), less);
+        });
         uint32_t cls = 0;
         for (size_t i = 0; i < nv; ++i) {
             if (i && std::memcmp(&keys[order[i] * key_len], &keys[order[i - 1] * key_len], key_len * sizeof(uint32_t)))
@@ -382,15 +420,10 @@ Status prepare_mesh(PreparedMesh& m, const TessellateInput& in, const SurfaceOpt
     // Values: distinct (welded position, face group, attribute class) over the corners.
     m.corner_value.assign(C, 0);
     {
-        std::vector<uint32_t> order(C);
-        std::iota(order.begin(), order.end(), 0u);
         auto key = [&](uint32_t c) {
             return std::array<uint32_t, 3>{m.corner_welded[c], face_group_of[m.corner_face[c]], attr_class[m.corner_input[c]]};
         };
-        std::sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) {
-            auto ka = key(a), kb = key(b);
-            return ka != kb ? ka < kb : a < b;
-        });
+        const std::vector<uint32_t> order = order_by<std::array<uint32_t, 3>>(C, key);
         uint32_t value = 0;
         std::vector<float> tmp(static_cast<size_t>(K));
         for (size_t i = 0; i < C; ++i) {
@@ -576,15 +609,10 @@ Status prepare_mesh(PreparedMesh& m, const TessellateInput& in, const SurfaceOpt
 
     // ---- groups: output vertices at points, one per (point, value, sector)
     {
-        std::vector<uint32_t> order(C);
-        std::iota(order.begin(), order.end(), 0u);
         auto key = [&](uint32_t c) {
             return std::array<uint32_t, 3>{m.corner_point[c], m.corner_value[c], sector_root[c]};
         };
-        std::sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) {
-            auto ka = key(a), kb = key(b);
-            return ka != kb ? ka < kb : a < b;
-        });
+        const std::vector<uint32_t> order = order_by<std::array<uint32_t, 3>>(C, key);
         m.corner_group.assign(C, none);
         m.point_group_begin.assign(P + 1, 0);
         for (size_t i = 0; i < C; ++i) {
@@ -606,13 +634,8 @@ Status prepare_mesh(PreparedMesh& m, const TessellateInput& in, const SurfaceOpt
             m.group_attr_end[g] = same_next ? m.group_attr_end[g + 1] : uint32_t(g + 1);
         }
         // Sectors: runs of (point, sector root) over the corners.
-        std::vector<uint32_t> sorder(C);
-        std::iota(sorder.begin(), sorder.end(), 0u);
-        auto skey = [&](uint32_t c) { return std::array<uint32_t, 2>{m.corner_point[c], sector_root[c]}; };
-        std::sort(sorder.begin(), sorder.end(), [&](uint32_t a, uint32_t b) {
-            auto ka = skey(a), kb = skey(b);
-            return ka != kb ? ka < kb : a < b;
-        });
+        auto skey = [&](uint32_t c) { return pack(m.corner_point[c], sector_root[c]); };
+        const std::vector<uint32_t> sorder = order_by<uint64_t>(C, skey);
         std::vector<uint32_t> sector_of_root(C, none);
         for (size_t i = 0; i < C; ++i) {
             const uint32_t c = sorder[i];

@@ -170,6 +170,10 @@ struct Mat4 {
 };
 std::vector<Mat4> instance_matrices(const RateOptions& r);
 
+// verify_rates.cpp: raises the wanted rates of faces whose measured chordal error exceeds the target.
+void verify_error(std::vector<double>& wanted, const PreparedMesh& m, const RateOptions& r, const std::vector<Mat4>& inst,
+                  const std::array<double, 3>& eye, double focal, double min_distance);
+
 inline double length3(const std::array<double, 3>& a) { return std::sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]); }
 inline double distance3(const std::array<double, 3>& a, const std::array<double, 3>& b) {
     return length3({a[0] - b[0], a[1] - b[1], a[2] - b[2]});

@@ -247,6 +247,7 @@ void split(Mesh& mesh, const Merged& g, const TessellateOutput& t) {
             dst.weights.clear();
         }
         size_t vd = 0;
+        dst.targets.resize(g.targets); // glTF: every primitive of a mesh has the same number of targets
         for (size_t k = 0; k < g.targets; ++k) {
             const MorphTarget* mt = k < src.targets.size() ? &src.targets[k] : nullptr;
             MorphTarget& out = dst.targets[k];

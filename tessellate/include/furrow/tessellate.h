@@ -76,8 +76,10 @@ struct RateOptions {
     double near = 1.0, far = 10.0;            //   clamp(1 - (d - near)/(far - near), 0.01, 1) · max_rate,
                                               //   an edge takes the mean of its ends; near < far required
     double pixel_error = 0.0;  // > 0: projected segments of at most this many pixels (Cycles' dicing rate)
-    double screen_error = 0.0; // > 0: projected chordal error of at most this many pixels
-    double max_error = 0.0;    // > 0: chordal error to the limit surface at most this (world units)
+    double screen_error = 0.0; // > 0: chordal error to the limit surface of at most this many pixels on screen
+    double max_error = 0.0;    // > 0: chordal error to the limit surface of at most this (world units)
+                               // (both estimated from second derivatives, then measured per face as
+                               // Tessellator::measure does and raised where needed; capped by max_rate)
     std::vector<FocusPoint> focus;
     // Hooks for callers with their own detail measure (e.g. a heightmap): a wanted rate per input vertex (an
     // edge takes the larger of its ends), and/or a callback given the edge's two control points (object
