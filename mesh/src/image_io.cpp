@@ -2,6 +2,7 @@
 #include "atomic_file.h"
 
 #include <furrow/mesh.h>
+#include <furrow/render.h> // linear_to_srgb
 #include <stb_image.h>
 #include <stb_image_write.h>
 
@@ -56,12 +57,6 @@ std::vector<uint8_t> encode_png_rgba8(const uint8_t* rgba, int width, int height
         &out, width, height, 4, rgba, width * 4);
     return out;
 }
-
-namespace {
-float linear_to_srgb(float x) {
-    return x <= 0.0031308f ? 12.92f * x : 1.055f * std::pow(x, 1.0f / 2.4f) - 0.055f;
-}
-} // namespace
 
 Status save_png(const std::string& path, const ImageF& image, bool srgb_encode) {
     if (image.width <= 0 || image.height <= 0 || image.channels < 1 || image.channels > 4 ||
