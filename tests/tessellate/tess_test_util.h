@@ -22,6 +22,8 @@ inline TessellateInput input_of(const Primitive& p) {
         in.face_sizes = p.face_sizes.data();
         in.face_count = p.face_sizes.size();
     }
+    // The plain-array API cannot see array lengths: a short uv0 would be read past its end.
+    EXPECT_TRUE(p.uv0.empty() || p.uv0.size() == 2 * p.vertex_count()) << "uv0 does not match the positions";
     if (!p.uv0.empty()) in.uvs = p.uv0.data();
     return in;
 }

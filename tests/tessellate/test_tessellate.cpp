@@ -331,6 +331,8 @@ TEST(tessellate, Valence2InteriorVertexFallsBackLinear) {
     // Replace the centre quad [5, 9, 10, 6] (a, b, c, d order of quad_grid) by two quads through a new vertex.
     const uint32_t v = 16;
     p.positions.insert(p.positions.end(), {0.1f, 0.0f, 0.05f});
+    if (!p.uv0.empty()) p.uv0.insert(p.uv0.end(), {0.52f, 0.5f}); // every array grows with the new vertex
+    if (!p.normals.empty()) p.normals.insert(p.normals.end(), {0.0f, 1.0f, 0.0f});
     size_t centre = 4;
     std::vector<uint32_t> quad(p.indices.begin() + long(centre * 4), p.indices.begin() + long(centre * 4 + 4));
     p.indices.erase(p.indices.begin() + long(centre * 4), p.indices.begin() + long(centre * 4 + 4));
