@@ -5,6 +5,7 @@
 #include <furrow/render.h>
 #include <furrow/deform.h>
 #include <furrow/shells.h>
+#include <furrow/tessellate.h>
 
 #include <nlohmann/json.hpp>
 
@@ -114,6 +115,38 @@ void demo_snow(const fs::path& ground, const fs::path& colliders, const RenderCa
     write_render(scene, ro, out / "snow_wireframe.png", outputs);
 }
 
+// The ground tessellated for one view (the same camera as its previews): the surface error is held under
+// a fraction of a preview pixel, so near hills get fine triangles and the far side stays coarse.
+void demo_terrain(const nlohmann::json& t, const fs::path& models, const DemoArgs& a, const fs::path& out,
+                  std::vector<std::string>& outputs, const GlobalFlags& g) {
+    const fs::path ground = models / t.at("ground").get<std::string>();
+    const RenderCamera cam = camera_from_json(t.value("camera", nlohmann::json::object()));
+    Scene scene = load_or_throw(ground.string());
+    TessellateOptions o;
+    const std::string scheme = t.value("scheme", std::string("catmark"));
+    if (scheme == "catmark") o.surface.scheme = SubdivisionScheme::catmark;
+    else if (scheme == "loop") o.surface.scheme = SubdivisionScheme::loop;
+    else if (scheme == "bilinear") o.surface.scheme = SubdivisionScheme::bilinear;
+    else throw InputError(ground.string(), "unknown scheme \"" + scheme + "\" in the demo scene");
+    if (!cam.eye) throw InputError(ground.string(), "the demo terrain needs a camera eye (the view it is tessellated for)");
+    o.rates.camera = TessellationCamera{*cam.eye, cam.fov_degrees, a.height};
+    o.rates.screen_error = t.value("screen_error", 2.0);
+    o.rates.max_rate = t.value("max_rate", 8);
+    SceneTessellateReport rep;
+    require_ok(tessellate_scene(scene, o, &rep), ground.string());
+    info(g, "terrain: " + scheme + ", at most " + std::to_string(o.rates.screen_error).substr(0, 4) +
+                " px surface error from the camera: " + std::to_string(rep.triangles_in) + " -> " +
+                std::to_string(rep.triangles_out) + " triangles, edge rates " + std::to_string(rep.totals.min_rate) +
+                ".." + std::to_string(rep.totals.max_rate));
+    const fs::path glb = out / "terrain.glb";
+    save_or_throw(scene, glb.string(), ground.string());
+    outputs.push_back(glb.string());
+    RenderOptions ro = preview_options(cam, a);
+    write_render(scene, ro, out / "terrain_shaded.png", outputs);
+    ro.mode = RenderMode::wireframe;
+    write_render(scene, ro, out / "terrain_wireframe.png", outputs);
+}
+
 } // namespace
 
 void register_demo(CLI::App& app, GlobalFlags& g) {
@@ -153,6 +186,7 @@ void register_demo(CLI::App& app, GlobalFlags& g) {
                     demo_snow(models / s["ground"].get<std::string>(), models / s["colliders"].get<std::string>(), cam, *a,
                               out, outputs, g);
             }
+            if (desc.contains("terrain")) demo_terrain(desc["terrain"], models, *a, out, outputs, g);
         } catch (const nlohmann::json::exception& e) {
             throw InputError(scene_file.string(), std::string("bad scene description: ") + e.what());
         }

@@ -426,7 +426,10 @@ inline std::string scene_json() {
          fmt3(c[0], c[1], c[2]) + ",\n";
     j += "               \"camera\": {\"eye\": [1.6, 1.1, 2.2], \"target\": [0, 0.45, 0], \"fov\": 40}},\n";
     j += "  \"snow\": {\"ground\": \"ground.glb\", \"colliders\": \"colliders.json\",\n";
-    j += "           \"camera\": {\"eye\": [0, 9, 14], \"target\": [0, 0, 0], \"fov\": 45}}\n";
+    j += "           \"camera\": {\"eye\": [0, 9, 14], \"target\": [0, 0, 0], \"fov\": 45}},\n";
+    // A low camera at one corner of the ground: near hills get fine triangles, the far side stays coarse.
+    j += "  \"terrain\": {\"ground\": \"ground.glb\", \"scheme\": \"catmark\", \"screen_error\": 2, \"max_rate\": 8,\n";
+    j += "              \"camera\": {\"eye\": [-9, 3, 9], \"target\": [1, -0.5, -1], \"fov\": 50}}\n";
     j += "}\n";
     return j;
 }

@@ -13,12 +13,13 @@ TEST(demo_cli, WritesValidGltfAndPreviews) {
     RunResult r = run_furrow({"demo", "-o", dir.string(), "--ssaa", "1"});
     ASSERT_EQ(r.exit_code, 0) << r.err;
     EXPECT_NE(r.out.find("furrow demo wrote"), std::string::npos);
-    for (const char* glb : {"creature.glb", "creature_fur.glb", "ground.glb", "snow.glb"}) {
+    for (const char* glb : {"creature.glb", "creature_fur.glb", "ground.glb", "snow.glb", "terrain.glb"}) {
         ASSERT_TRUE(std::filesystem::exists(dir / glb)) << glb;
         EXPECT_VALID_GLTF(dir / glb);
     }
     for (const char* png : {"creature_shaded.png", "creature_wireframe.png", "creature_fur_shaded.png", "ground_shaded.png",
-                            "ground_wireframe.png", "snow_shaded.png", "snow_wireframe.png"}) {
+                            "ground_wireframe.png", "snow_shaded.png", "snow_wireframe.png",
+                            "terrain_shaded.png", "terrain_wireframe.png"}) {
         ImageF img;
         ASSERT_TRUE(load_png(img, (dir / png).string()).ok()) << png;
         EXPECT_EQ(img.channels, 4);
@@ -34,6 +35,45 @@ TEST(demo_cli, WritesValidGltfAndPreviews) {
         EXPECT_GT(double(differs) / double(n), 0.05) << png;
         EXPECT_LT(double(differs) / double(n), 0.95) << png;
     }
+}
+
+// The demo terrain is tessellated for its camera (models/scene.json: eye at (-9, 3, 9), 2 px, rate <= 8):
+// one piece with one boundary loop, finer near the eye than far from it, far below the uniform rate-8 count.
+TEST(demo_cli, TerrainIsAdaptiveAndCrackFree) {
+    const auto dir = temp_dir() / "out";
+    RunResult r = run_furrow({"demo", "-o", dir.string(), "--ssaa", "1"});
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    Scene s;
+    ASSERT_TRUE(load_scene(s, (dir / "terrain.glb").string()).ok());
+    ASSERT_EQ(s.meshes.size(), 1u);
+    const Primitive& p = s.meshes[0].primitives[0];
+    CheckReport c = check_primitive(p);
+    EXPECT_EQ(c.non_manifold_edges, 0u);
+    EXPECT_EQ(c.boundary_loops, 1u);
+    EXPECT_EQ(c.nan_values, 0u);
+    const size_t base = 8192, uniform8 = base * 64;
+    EXPECT_GT(c.triangles, base * 4) << "the near side should be refined";
+    EXPECT_LT(c.triangles, uniform8 / 2) << "the far side should stay coarse";
+    // Mean edge length of triangles within 6 m of the eye vs beyond 18 m (ground is 20 x 20 m).
+    const double eye[3] = {-9, 3, 9};
+    double near_sum = 0, far_sum = 0;
+    size_t near_n = 0, far_n = 0;
+    auto at = [&](uint32_t v, int d) { return double(p.positions[size_t(v) * 3 + size_t(d)]); };
+    for (size_t t = 0; t + 2 < p.indices.size(); t += 3) {
+        const uint32_t a = p.indices[t], b = p.indices[t + 1];
+        double dist = 0, len = 0;
+        for (int d = 0; d < 3; ++d) {
+            dist += (at(a, d) - eye[d]) * (at(a, d) - eye[d]);
+            len += (at(a, d) - at(b, d)) * (at(a, d) - at(b, d));
+        }
+        dist = std::sqrt(dist);
+        len = std::sqrt(len);
+        if (dist < 6) near_sum += len, ++near_n;
+        if (dist > 18) far_sum += len, ++far_n;
+    }
+    ASSERT_GT(near_n, 0u);
+    ASSERT_GT(far_n, 0u);
+    EXPECT_LT(near_sum / double(near_n), 0.5 * far_sum / double(far_n));
 }
 
 TEST(demo_cli, MissingSceneDescriptionIsAnError) {
