@@ -52,6 +52,40 @@ private:
     std::vector<std::vector<std::string>> rows_;
 };
 
+// Speed-versus-error points of a benchmark, for the plots: one file per group (a model, a shape), one line per
+// series (a criterion, a method), one point per setting.
+struct PlotPoint {
+    std::string group, series, label;
+    double seconds = 0, triangles = 0, error = 0;
+};
+// {"error": error_name, "points": [...]}: stored as result["plot"] by every benchmark.
+nlohmann::json plot_json(const std::string& error_name, const std::vector<PlotPoint>& points);
+// Writes <bench>_<group>_error_vs_time.svg and _error_vs_triangles.svg (or _time_vs_triangles.svg when every
+// error is 0) into dir; returns the files written.
+std::vector<std::string> write_plots(const nlohmann::json& result, const std::filesystem::path& dir);
+
+// Output flags every benchmark shares.
+struct BenchOutput {
+    bool json = false;
+    std::string plots; // folder for SVG plots; empty = none
+};
+void add_bench_output_flags(CLI::App& cmd, BenchOutput& o);
+// Prints the JSON if asked and writes the plots (of each entry of result["benches"] for `furrow bench`).
+void finish_bench(const nlohmann::json& result, const BenchOutput& o, const GlobalFlags& g);
+
+// Every benchmark as a function: returns {"bench": <tool>, ..., "plot": plot_json(...)} and prints its tables
+// when `tables` is set. `quick` = fewer inputs and settings (what `furrow bench --quick` runs).
+struct BenchRun {
+    bool quick = false;
+    int repeat = 0; // 0 = the benchmark's own default
+    bool tables = true;
+};
+nlohmann::json bench_io_default(const BenchRun& r, const GlobalFlags& g);
+nlohmann::json bench_render_default(const BenchRun& r, const GlobalFlags& g);
+nlohmann::json bench_shells_default(const BenchRun& r, const GlobalFlags& g);
+nlohmann::json bench_tessellate_default(const BenchRun& r, const GlobalFlags& g);
+nlohmann::json bench_stamp_default(const BenchRun& r, const GlobalFlags& g);
+
 // One registration per benchmark (cli/bench_<tool>.cpp), called by register_bench.
 void register_bench_io(CLI::App& bench, GlobalFlags& g);
 void register_bench_tessellate(CLI::App& bench, GlobalFlags& g);

@@ -71,7 +71,7 @@ IoRow bench_one(const fs::path& file, const fs::path& tmp, int repeat) {
 
 } // namespace
 
-void run_bench_io(const BenchArgs& args, const GlobalFlags& g) {
+nlohmann::json run_bench_io(const BenchArgs& args, const GlobalFlags& g, bool tables) {
     std::vector<fs::path> files = collect_bench_inputs(args, {".glb", ".gltf", ".obj", ".ply", ".off", ".stl"});
     if (files.empty()) throw InputError("bench io", "no input models found (give files or folders)");
     fs::path tmp = fs::temp_directory_path() / ("furrow-bench-" + std::to_string(::getpid()));
@@ -86,6 +86,7 @@ void run_bench_io(const BenchArgs& args, const GlobalFlags& g) {
     Table t({"model", "file KiB", "triangles", "load ms", "save ms", "memcpy us", "load/memcpy", "save/memcpy",
              "load MB/s", "peak MiB", "roundtrip max|dp|"});
     nlohmann::json j = nlohmann::json::array();
+    std::vector<PlotPoint> points;
     for (const auto& r : rows) {
         t.add({r.name, fmt(r.bytes / 1024.0, 1), std::to_string(r.triangles), fmt(r.load_s * 1e3, 2), fmt(r.save_s * 1e3, 2),
                fmt(r.memcpy_s * 1e6, 2), fmt(r.load_s / r.memcpy_s, 0), fmt(r.save_s / r.memcpy_s, 0),
@@ -100,26 +101,35 @@ void run_bench_io(const BenchArgs& args, const GlobalFlags& g) {
                      {"save_over_memcpy", r.save_s / r.memcpy_s},
                      {"peak_mib", r.peak_mib},
                      {"roundtrip_max_error", r.roundtrip_max_error}});
+        points.push_back({"", "load", r.name, r.load_s, double(r.triangles), r.roundtrip_max_error});
+        points.push_back({"", "save (GLB)", r.name, r.save_s, double(r.triangles), r.roundtrip_max_error});
     }
-    if (args.json) {
-        std::printf("%s\n", nlohmann::json{{"bench", "io"}, {"repeat", args.repeat}, {"rows", j}}.dump(2).c_str());
-    } else {
+    if (tables) {
         std::printf("furrow bench io: load and save (GLB) per model, median of %d runs; baseline = memcpy of the "
                     "file's bytes in this run; error = max |position change| after save + reload\n",
                     args.repeat);
         t.print();
     }
+    return {{"bench", "io"}, {"repeat", args.repeat}, {"rows", j}, {"plot", plot_json("round-trip max |dp|", points)}};
+}
+
+nlohmann::json bench_io_default(const BenchRun& r, const GlobalFlags& g) {
+    BenchArgs a;
+    if (r.quick) a.inputs = {FURROW_MODELS_DIR};
+    if (r.repeat > 0) a.repeat = r.repeat;
+    return run_bench_io(a, g, r.tables);
 }
 
 void register_bench_io(CLI::App& bench, GlobalFlags& g) {
     auto args = std::make_shared<BenchArgs>();
+    auto out = std::make_shared<BenchOutput>();
     CLI::App* io = bench.add_subcommand("io", "Load + save time per model, as a ratio to memcpy of its bytes");
     io->add_option("inputs", args->inputs, "Model files or folders (default: models/ and ../shared/corpus)");
     io->add_option("--repeat", args->repeat, "Runs per measurement; the median is reported (default 5)")
         ->check(CLI::Range(1, 1000));
-    io->add_flag("--json", args->json, "Print one JSON object instead of the table");
-    io->footer("Examples:\n  furrow bench io\n  furrow bench io ../shared/corpus --repeat 9 --json");
-    io->callback([args, &g] { run_bench_io(*args, g); });
+    add_bench_output_flags(*io, *out);
+    io->footer("Examples:\n  furrow bench io\n  furrow bench io ../shared/corpus --repeat 9 --json --plots plots");
+    io->callback([args, out, &g] { finish_bench(run_bench_io(*args, g, !out->json), *out, g); });
 }
 
 } // namespace furrow::cli

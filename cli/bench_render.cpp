@@ -1,6 +1,8 @@
 // `furrow bench render`: frame time and triangles/s of the verification rasterizer on a shell asset of about
 // two million triangles at 1920×1080, as a ratio to merely transforming the same vertices (measured in the
-// same run), per thread count; plus the determinism check (identical pixels for every thread count).
+// same run), per thread count; plus the determinism check (identical pixels for every thread count); and speed
+// against image error: supersampling 1..3 against a 4x4-supersampled reference of the same frame (mean absolute
+// difference of the 8-bit sRGB channels, in 1/255 steps).
 #include "bench_common.h"
 
 #include <furrow/render.h>
@@ -21,7 +23,7 @@ struct RenderBenchArgs {
     int layers = 128;    // shells grown on the input (0 = render the input as it is)
     int width = 1920, height = 1080;
     int repeat = 3;
-    bool json = false;
+    bool quick = false; // the SSAA sweep at a quarter of the pixels
 };
 
 // The baseline: every vertex of every drawn primitive through a 4×4 matrix into clip space (float4), one
@@ -52,7 +54,7 @@ double transform_seconds(const Scene& scene, int repeat) {
     });
 }
 
-void run(const RenderBenchArgs& a, const GlobalFlags& g) {
+nlohmann::json run(const RenderBenchArgs& a, const GlobalFlags& g, bool tables) {
     const std::string input = a.input.empty() ? (fs::path(FURROW_MODELS_DIR) / "creature.glb").string() : a.input;
     Scene scene = load_or_throw(input);
     if (a.layers > 0) {
@@ -92,24 +94,63 @@ void run(const RenderBenchArgs& a, const GlobalFlags& g) {
                         {"triangles_per_s", double(r.triangles) / s}, {"frame_over_transform", s / t_transform},
                         {"identical", same}});
     }
-    if (a.json) {
-        std::printf("%s\n", nlohmann::json{{"bench", "render"}, {"input", input}, {"layers", a.layers},
-                                           {"transform_s", t_transform}, {"rows", rows}}
-                                .dump(2)
-                                .c_str());
-        return;
+
+    // Speed against error: supersampling levels against a 4x4 reference, at a smaller frame (the reference
+    // has 16 samples per pixel).
+    RenderOptions so = ro;
+    so.width = a.quick ? 480 : 960;
+    so.height = a.quick ? 270 : 540;
+    so.ssaa = 4;
+    RenderResult ref;
+    const auto ref_start = std::chrono::steady_clock::now();
+    require_ok(render_scene(ref, scene, so), input); // one frame: it is the slowest and only a yardstick
+    const double t_ref = std::chrono::duration<double>(std::chrono::steady_clock::now() - ref_start).count();
+    Table ts({"ssaa", "frame", "frame ms", "ms/reference", "mean |d| (1/255)", "max-channel pixels > 8/255 %"});
+    nlohmann::json ssaa_rows = nlohmann::json::array();
+    std::vector<PlotPoint> points;
+    for (int level : {1, 2, 3}) {
+        so.ssaa = level;
+        RenderResult r;
+        const double s = median_seconds(a.repeat, [&] { require_ok(render_scene(r, scene, so), input); });
+        const double mad = mean_absolute_difference(r.color, ref.color) * 255.0;
+        size_t off = 0, n = size_t(r.color.width) * size_t(r.color.height);
+        for (size_t i = 0; i < n; ++i) {
+            float d = 0;
+            for (int c = 0; c < 3; ++c) d = std::max(d, std::abs(r.color.pixels[i * 4 + size_t(c)] - ref.color.pixels[i * 4 + size_t(c)]));
+            off += d * 255.0f > 8.0f;
+        }
+        ts.add({std::to_string(level), std::to_string(so.width) + "x" + std::to_string(so.height), fmt(s * 1e3, 1), fmt(s / t_ref, 3),
+                fmt(mad, 3), fmt(100.0 * double(off) / double(n), 2)});
+        ssaa_rows.push_back({{"ssaa", level}, {"seconds", s}, {"over_reference", s / t_ref}, {"mean_abs_diff_255", mad},
+                             {"pixels_off_pct", 100.0 * double(off) / double(n)}});
+        points.push_back({"", "ssaa 1..3 vs 4x4 reference", "ssaa " + std::to_string(level), s, double(r.triangles), mad});
     }
-    std::printf("furrow bench render: %s with %d shells, %zu triangles at %dx%d, median of %d frames; baseline = "
-                "transforming all %zu vertices to clip space on one thread: %.2f ms\n",
-                fs::path(input).filename().string().c_str(), a.layers, tris, a.width, a.height, a.repeat, verts,
-                t_transform * 1e3);
-    t.print();
+    if (tables) {
+        std::printf("furrow bench render: %s with %d shells, %zu triangles at %dx%d, median of %d frames; baseline = "
+                    "transforming all %zu vertices to clip space on one thread: %.2f ms\n",
+                    fs::path(input).filename().string().c_str(), a.layers, tris, a.width, a.height, a.repeat, verts,
+                    t_transform * 1e3);
+        t.print();
+        std::printf("\nSpeed against error: supersampling levels against a 4x4-supersampled reference frame (%.1f ms); error = "
+                    "mean |difference| of the sRGB channels\n", t_ref * 1e3);
+        ts.print();
+    }
+    return {{"bench", "render"}, {"input", input}, {"layers", a.layers}, {"transform_s", t_transform}, {"rows", rows},
+            {"ssaa", ssaa_rows}, {"reference_s", t_ref}, {"plot", plot_json("mean |d| (1/255)", points)}};
 }
 
 } // namespace
 
+nlohmann::json bench_render_default(const BenchRun& r, const GlobalFlags& g) {
+    RenderBenchArgs a;
+    if (r.quick) a.layers = 32, a.width = 960, a.height = 540, a.quick = true;
+    if (r.repeat > 0) a.repeat = r.repeat;
+    return run(a, g, r.tables);
+}
+
 void register_bench_render(CLI::App& bench, GlobalFlags& g) {
     auto a = std::make_shared<RenderBenchArgs>();
+    auto out = std::make_shared<BenchOutput>();
     CLI::App* c = bench.add_subcommand("render", "Rasterizer frame time and triangles/s vs transforming the vertices");
     c->add_option("input", a->input, "Scene to render (default: models/creature.glb)");
     c->add_option("--layers", a->layers, "Fur shells grown on the input first (default 128, about 2M triangles "
@@ -117,9 +158,9 @@ void register_bench_render(CLI::App& bench, GlobalFlags& g) {
         ->check(CLI::Range(0, 256));
     c->add_option("--repeat", a->repeat, "Frames per measurement; the median is reported (default 3)")
         ->check(CLI::Range(1, 100));
-    c->add_flag("--json", a->json, "Print one JSON object instead of the table");
+    add_bench_output_flags(*c, *out);
     c->footer("Examples:\n  furrow bench render\n  furrow bench render scene.glb --layers 0");
-    c->callback([a, &g] { run(*a, g); });
+    c->callback([a, out, &g] { finish_bench(run(*a, g, !out->json), *out, g); });
 }
 
 } // namespace furrow::cli

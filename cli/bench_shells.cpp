@@ -164,7 +164,7 @@ Row bench_one(const fs::path& file, int layers, const ShellsArgs& a) {
     return row;
 }
 
-void run_bench_shells(const ShellsArgs& a, const GlobalFlags& g) {
+nlohmann::json run_bench_shells(const ShellsArgs& a, const GlobalFlags& g, bool tables) {
     BenchArgs ba = a.base;
     if (ba.inputs.empty()) {
         fs::path creature = fs::path(FURROW_MODELS_DIR) / "creature.glb";
@@ -186,8 +186,10 @@ void run_bench_shells(const ShellsArgs& a, const GlobalFlags& g) {
     Table t({"model", "N", "base tris", "out tris", "ms", "Mtri/s", "out MiB", "memcpy ms", "x memcpy", "peak MiB",
              "max rel err", "mean rel err", "measured", "clamped"});
     nlohmann::json j = nlohmann::json::array();
+    std::vector<PlotPoint> points;
     for (const auto& r : rows) {
         const double ratio = r.seconds / r.memcpy_seconds;
+        points.push_back({r.model, "shells", "N=" + std::to_string(r.layers), r.seconds, double(r.out_triangles), r.max_rel});
         t.add({r.model, std::to_string(r.layers), std::to_string(r.base_triangles), std::to_string(r.out_triangles),
                fmt(r.seconds * 1e3, 2), fmt(r.out_triangles / r.seconds / 1e6, 1), fmt(r.out_bytes / 1048576.0, 1),
                fmt(r.memcpy_seconds * 1e3, 3), fmt(ratio, 1), fmt(r.peak_mib, 1), fmt_sci(r.max_rel), fmt_sci(r.mean_rel),
@@ -198,23 +200,32 @@ void run_bench_shells(const ShellsArgs& a, const GlobalFlags& g) {
                      {"max_relative_error", r.max_rel}, {"mean_relative_error", r.mean_rel}, {"measured", r.measured},
                      {"clamped_vertices", r.clamped}, {"welded_vertices", r.welded}});
     }
-    if (a.base.json) {
-        std::printf("%s\n", nlohmann::json{{"bench", "shells"}, {"repeat", a.base.repeat}, {"relative_length", a.relative_length}, {"rows", j}}
-                                .dump(2)
-                                .c_str());
-    } else {
+    if (tables) {
         std::printf("furrow bench shells: add_fur_shells (viewer layout) per model and N, median of %d runs, length = %.3g x bbox "
                     "diagonal (creature: with its mask); baseline = memcpy of the output bytes in this run; error = | distance of "
                     "a shell vertex to the base surface (CGAL) - requested offset | / requested, over unclamped vertices\n",
                     a.base.repeat, a.relative_length);
         t.print();
     }
+    return {{"bench", "shells"}, {"repeat", a.base.repeat}, {"relative_length", a.relative_length}, {"rows", j},
+            {"plot", plot_json("max relative offset error", points)}};
 }
 
 } // namespace
 
+nlohmann::json bench_shells_default(const BenchRun& r, const GlobalFlags& g) {
+    ShellsArgs a;
+    a.base.repeat = r.repeat > 0 ? r.repeat : 3;
+    if (r.quick) {
+        a.base.inputs = {(fs::path(FURROW_MODELS_DIR) / "creature.glb").string()};
+        a.layers = {8, 32};
+    }
+    return run_bench_shells(a, g, r.tables);
+}
+
 void register_bench_shells(CLI::App& bench, GlobalFlags& g) {
     auto a = std::make_shared<ShellsArgs>();
+    auto out = std::make_shared<BenchOutput>();
     a->base.repeat = 3;
     CLI::App* cmd = bench.add_subcommand("shells", "Fur shells per model and N: time vs memcpy of the output, achieved offset");
     cmd->add_option("inputs", a->base.inputs, "Model files or folders (default: models/creature.glb and ../shared/corpus)");
@@ -222,9 +233,9 @@ void register_bench_shells(CLI::App& bench, GlobalFlags& g) {
     cmd->add_option("--relative-length", a->relative_length, "Fur length as a fraction of the bbox diagonal (default 0.02)")
         ->check(CLI::Range(1e-6, 1.0));
     cmd->add_option("--repeat", a->base.repeat, "Timed runs per row; the median is reported (default 3)")->check(CLI::Range(1, 1000));
-    cmd->add_flag("--json", a->base.json, "Print one JSON object instead of the table");
+    add_bench_output_flags(*cmd, *out);
     cmd->footer("Examples:\n  furrow bench shells\n  furrow bench shells models/creature.glb --layers 16,128 --repeat 5 --json");
-    cmd->callback([a, &g] { run_bench_shells(*a, g); });
+    cmd->callback([a, out, &g] { finish_bench(run_bench_shells(*a, g, !out->json), *out, g); });
 }
 
 } // namespace furrow::cli

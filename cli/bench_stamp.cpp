@@ -18,7 +18,6 @@ namespace {
 
 struct Args {
     int repeat = 3;
-    bool json = false;
     bool quick = false;
 };
 
@@ -145,10 +144,10 @@ double brute_force_down(const std::vector<float>& P, const std::vector<uint32_t>
 
 } // namespace
 
-static void run_bench_stamp(const Args& a, const GlobalFlags& g) {
+static nlohmann::json run_bench_stamp(const Args& a, const GlobalFlags& g, bool tables) {
     nlohmann::json J;
     const int repeat = a.repeat;
-    const bool text = !a.json;
+    const bool text = tables;
 
     // ---- 1. Analytic oracle: speed versus error --------------------------------------------------------------
     info(g, "bench stamp: analytic oracle");
@@ -179,6 +178,10 @@ static void run_bench_stamp(const Args& a, const GlobalFlags& g) {
         }
         t.print();
     }
+    std::vector<PlotPoint> points;
+    for (const auto& r : rows)
+        points.push_back({r.shape, r.method + (r.max_error > 0 ? ", max-error " + fmt(r.max_error * 1e3, 2) + " mm" : ""),
+                          "texel " + fmt(r.texel * 1e3, 1) + " mm", r.seconds, double(r.triangles), r.worst * 1e3});
     for (const auto& r : rows)
         J["oracle"].push_back({{"shape", r.shape}, {"method", r.method}, {"texel", r.texel}, {"max_error", r.max_error},
                                {"triangles", r.triangles}, {"seconds", r.seconds}, {"max_dev", r.worst}, {"mean_dev", r.mean}});
@@ -421,17 +424,25 @@ static void run_bench_stamp(const Args& a, const GlobalFlags& g) {
             dt.print();
         }
     }
-    if (a.json) std::printf("%s\n", nlohmann::json{{"bench", "stamp"}, {"repeat", repeat}, {"results", J}}.dump(2).c_str());
+    return {{"bench", "stamp"}, {"repeat", repeat}, {"results", J}, {"plot", plot_json("max deviation (mm)", points)}};
+}
+
+nlohmann::json bench_stamp_default(const BenchRun& r, const GlobalFlags& g) {
+    Args a;
+    a.quick = r.quick;
+    if (r.repeat > 0) a.repeat = r.repeat;
+    return run_bench_stamp(a, g, r.tables);
 }
 
 void register_bench_stamp(CLI::App& bench, GlobalFlags& g) {
     auto a = std::make_shared<Args>();
+    auto out = std::make_shared<BenchOutput>();
     CLI::App* cmd = bench.add_subcommand("stamp", "Snow stamping: analytic-oracle error vs time, rays/s, stamps/s, a 256-collider frame");
     cmd->add_option("--repeat", a->repeat, "Runs per measurement; the median is reported (default 3)")->check(CLI::Range(1, 1000));
-    cmd->add_flag("--json", a->json, "Print one JSON object instead of the tables");
+    add_bench_output_flags(*cmd, *out);
     cmd->add_flag("--quick", a->quick, "Fewer sizes and samples (a smoke run)");
     cmd->footer("Examples:\n  furrow bench stamp\n  furrow bench stamp --quick --json\n  furrow bench stamp -j 1 --repeat 5");
-    cmd->callback([a, &g] { run_bench_stamp(*a, g); });
+    cmd->callback([a, out, &g] { finish_bench(run_bench_stamp(*a, g, !out->json), *out, g); });
 }
 
 } // namespace furrow::cli

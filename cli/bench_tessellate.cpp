@@ -213,9 +213,12 @@ Row run_one(const Tessellator& t, const BenchModel& m, const Criterion& c, doubl
 
 } // namespace
 
-void run_bench_tessellate(const BenchArgs& args, const std::vector<double>& targets, const GlobalFlags& g) {
+nlohmann::json run_bench_tessellate(const BenchArgs& args, const std::vector<double>& targets, const GlobalFlags& g,
+                                    bool tables, bool quick = false) {
     std::vector<BenchModel> models;
-    if (args.inputs.empty()) {
+    if (quick) {
+        models.push_back(terrain_patch());
+    } else if (args.inputs.empty()) {
         models.push_back(terrain_patch());
         const fs::path corpus = FURROW_CORPUS_DIR;
         std::vector<fs::path> files;
@@ -244,7 +247,8 @@ void run_bench_tessellate(const BenchArgs& args, const std::vector<double>& targ
         const double prep = median_seconds(std::max(1, args.repeat / 2), [&] { require_ok(t.prepare(input_of(m.primitive), so), m.name); });
         prepare_ms.push_back({m.name, prep * 1e3});
         for (const auto& c : criteria(m))
-            for (double x : c.settings) rows.push_back(run_one(t, m, c, x, args.repeat));
+            for (size_t k = 0; k < c.settings.size() && (!quick || k < 3); ++k) // quick: the coarse settings
+                rows.push_back(run_one(t, m, c, c.settings[k], args.repeat));
         // Matched: the cheapest setting of each criterion whose max projected error is within the target.
         for (double target : targets) {
             for (const auto& c : criteria(m)) {
@@ -270,7 +274,9 @@ void run_bench_tessellate(const BenchArgs& args, const std::vector<double>& targ
     nlohmann::json j_rows = nlohmann::json::array(), j_matched = nlohmann::json::array();
     Table t({"model", "criterion", "setting", "max rate", "triangles", "ms", "Mtri/s", "max err %diag", "mean err %diag",
              "max err px"});
+    std::vector<PlotPoint> points;
     for (const auto& r : rows) {
+        points.push_back({r.model, r.criterion, r.setting, r.seconds, double(r.triangles), r.max_px});
         t.add({r.model, r.criterion, r.setting, std::to_string(r.max_rate), std::to_string(r.triangles), fmt(r.seconds * 1e3, 1),
                fmt(tri_per_s(r), 2), fmt_sci(r.max_pct), fmt_sci(r.mean_pct), fmt_sci(r.max_px)});
         j_rows.push_back({{"model", r.model}, {"criterion", r.criterion}, {"setting", r.setting}, {"max_rate", r.max_rate},
@@ -292,15 +298,11 @@ void run_bench_tessellate(const BenchArgs& args, const std::vector<double>& targ
                              {"over_seed", seed > 0 ? double(r.triangles) / seed : 0.0}, {"seconds", r.seconds},
                              {"max_error_px", r.max_px}, {"max_error_pct_diag", r.max_pct}});
     }
-    if (args.json) {
-        nlohmann::json prep = nlohmann::json::object();
-        for (const auto& [name, ms] : prepare_ms) prep[name] = ms;
-        std::printf("%s\n", nlohmann::json{{"bench", "tessellate"}, {"repeat", args.repeat}, {"prepare_ms", prep},
-                                           {"rows", j_rows}, {"matched", j_matched}}
-                                .dump(2)
-                                .c_str());
-        return;
-    }
+    nlohmann::json prep = nlohmann::json::object();
+    for (const auto& [name, ms] : prepare_ms) prep[name] = ms;
+    nlohmann::json result{{"bench", "tessellate"}, {"repeat", args.repeat},   {"prepare_ms", prep},
+                          {"rows", j_rows},        {"matched", j_matched}, {"plot", plot_json("max error (px)", points)}};
+    if (!tables) return result;
     std::printf("furrow bench tessellate: median of %d runs (tessellation only; prepare = weld, repair, refiner, Bfr "
                 "factory: ", args.repeat);
     for (size_t i = 0; i < prepare_ms.size(); ++i)
@@ -312,11 +314,19 @@ void run_bench_tessellate(const BenchArgs& args, const std::vector<double>& targ
                 "whose max error in pixels is within the target; baselines uniform and the seed (Unity distance) "
                 "formula, max rate 64\n");
     tm.print();
+    return result;
+}
+
+nlohmann::json bench_tessellate_default(const BenchRun& r, const GlobalFlags& g) {
+    BenchArgs a;
+    a.repeat = r.repeat > 0 ? r.repeat : 3;
+    return run_bench_tessellate(a, r.quick ? std::vector<double>{1.0} : std::vector<double>{1.0, 0.5}, g, r.tables, r.quick);
 }
 
 void register_bench_tessellate(CLI::App& bench, GlobalFlags& g) {
     auto args = std::make_shared<BenchArgs>();
     args->repeat = 3;
+    auto out = std::make_shared<BenchOutput>();
     auto targets = std::make_shared<std::vector<double>>(std::vector<double>{1.0, 0.5});
     CLI::App* cmd = bench.add_subcommand("tessellate", "Triangles, time and error of the tessellation criteria, and "
                                                        "triangles needed for equal max pixel error");
@@ -326,10 +336,10 @@ void register_bench_tessellate(CLI::App& bench, GlobalFlags& g) {
     cmd->add_option("--repeat", args->repeat, "Runs per timing; the median is reported (default 3)")->check(CLI::Range(1, 1000));
     cmd->add_option("--targets", *targets, "Max projected errors (pixels) for the matched comparison (default 1 0.5)")
         ->check(CLI::PositiveNumber);
-    cmd->add_flag("--json", args->json, "Print one JSON object instead of the tables");
-    cmd->footer("Examples:\n  furrow bench tessellate\n  furrow bench tessellate --targets 2 1 0.5 --repeat 5\n"
+    add_bench_output_flags(*cmd, *out);
+    cmd->footer("Examples:\n  furrow bench tessellate --plots plots\n  furrow bench tessellate --targets 2 1 0.5 --repeat 5\n"
                 "  furrow bench tessellate ../shared/corpus/duck/Duck.glb --json");
-    cmd->callback([args, targets, &g] { run_bench_tessellate(*args, *targets, g); });
+    cmd->callback([args, targets, out, &g] { finish_bench(run_bench_tessellate(*args, *targets, g, !out->json), *out, g); });
 }
 
 } // namespace furrow::cli

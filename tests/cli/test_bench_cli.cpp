@@ -1,0 +1,122 @@
+// `furrow bench`: every tool's benchmark reachable from one command, one JSON document with speed-versus-error
+// points, and SVG plots drawn from them. (The numbers themselves are measurements, not asserted here; what is
+// asserted is that they exist, are finite and consistent with the tables' own rows.)
+#include "test_support.h"
+
+#include <cmath>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+using namespace furrow;
+using namespace furrow::test;
+
+namespace {
+
+std::string read_text(const std::filesystem::path& f) {
+    std::ifstream in(f, std::ios::binary);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+}
+
+size_t count(const std::string& s, const std::string& what) {
+    size_t n = 0;
+    for (size_t p = s.find(what); p != std::string::npos; p = s.find(what, p + 1)) ++n;
+    return n;
+}
+
+} // namespace
+
+// Two of the benchmarks (the cheap ones) through `furrow bench --only`: JSON with one entry per tool, plot
+// points that carry time, triangles and a finite error, and one SVG per group with a line per series.
+TEST(bench_cli, AllBenchmarksJsonAndPlots) {
+    const auto dir = temp_dir();
+    const auto plots = dir / "plots";
+    RunResult r = run_furrow({"bench", "--quick", "--repeat", "1", "--only", "io,tessellate", "--json", "--plots", plots.string()});
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    nlohmann::json j = nlohmann::json::parse(r.out, nullptr, false);
+    ASSERT_FALSE(j.is_discarded()) << r.out.substr(0, 500);
+    ASSERT_EQ(j["bench"], "all");
+    ASSERT_EQ(j["benches"].size(), 2u);
+    EXPECT_EQ(j["benches"][0]["bench"], "io");
+    EXPECT_EQ(j["benches"][1]["bench"], "tessellate");
+
+    // io: a lossless round trip of every bundled model, two points (load, save) per model.
+    const auto& io = j["benches"][0];
+    ASSERT_GT(io["rows"].size(), 0u);
+    EXPECT_EQ(io["plot"]["points"].size(), 2 * io["rows"].size());
+    for (const auto& row : io["rows"]) {
+        EXPECT_EQ(row["roundtrip_max_error"].get<double>(), 0.0) << row["model"];
+        EXPECT_GT(row["load_s"].get<double>(), 0.0);
+    }
+    // Every error is 0, so io is plotted as time against size.
+    EXPECT_TRUE(std::filesystem::exists(plots / "io_time_vs_triangles.svg"));
+
+    // tessellate (quick = the terrain patch): five criteria, a point per row, finite positive errors.
+    const auto& te = j["benches"][1];
+    ASSERT_EQ(te["plot"]["points"].size(), te["rows"].size());
+    std::set<std::string> series;
+    for (const auto& p : te["plot"]["points"]) {
+        series.insert(p["series"].get<std::string>());
+        EXPECT_TRUE(std::isfinite(p["error"].get<double>()));
+        EXPECT_GT(p["error"].get<double>(), 0.0);
+        EXPECT_GT(p["seconds"].get<double>(), 0.0);
+        EXPECT_GT(p["triangles"].get<double>(), 0.0);
+    }
+    EXPECT_EQ(series.size(), 5u);
+    // Finer uniform rates have smaller errors (the error measure is a real one).
+    double previous = INFINITY;
+    for (const auto& row : te["rows"])
+        if (row["criterion"] == "uniform") {
+            EXPECT_LT(row["max_error_px"].get<double>(), previous) << row["setting"];
+            previous = row["max_error_px"].get<double>();
+        }
+
+    size_t svgs = 0;
+    for (const auto& name : list_dir(plots)) {
+        ASSERT_EQ(std::filesystem::path(name).extension(), ".svg") << name; // no temporaries left behind
+        const std::string svg = read_text(plots / name);
+        EXPECT_EQ(svg.rfind("<?xml", 0), 0u) << name;
+        EXPECT_NE(svg.find("</svg>"), std::string::npos) << name;
+        EXPECT_EQ(svg.find("nan"), std::string::npos) << name;
+        if (name.rfind("tessellate_", 0) == 0) EXPECT_EQ(count(svg, "<polyline"), 5u) << name;
+        ++svgs;
+    }
+    EXPECT_EQ(svgs, 3u); // io: time vs triangles; tessellate's terrain: error vs time and vs triangles
+}
+
+// The tables are the default output; a bad --only is a usage error.
+TEST(bench_cli, TablesAndUsageErrors) {
+    RunResult r = run_furrow({"bench", "--quick", "--repeat", "1", "--only", "io"});
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_NE(r.out.find("==== furrow bench io"), std::string::npos);
+    EXPECT_NE(r.out.find("load/memcpy"), std::string::npos);
+    r = run_furrow({"bench", "--only", "nonsense"});
+    EXPECT_EQ(r.exit_code, 2) << r.err;
+    r = run_furrow({"bench", "io", "--repeat", "0"});
+    EXPECT_EQ(r.exit_code, 2) << r.err;
+}
+
+// The shells and render benchmarks on small settings: their plot points carry the error they print.
+TEST(bench_cli, ShellsAndRenderPlotPoints) {
+    const auto creature = (models_dir() / "creature.glb").string();
+    RunResult r = run_furrow({"bench", "shells", creature, "--layers", "4", "--repeat", "1", "--json"});
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    nlohmann::json j = nlohmann::json::parse(r.out, nullptr, false);
+    ASSERT_FALSE(j.is_discarded());
+    ASSERT_EQ(j["rows"].size(), 1u);
+    ASSERT_EQ(j["plot"]["points"].size(), 1u);
+    EXPECT_EQ(j["plot"]["points"][0]["error"].get<double>(), j["rows"][0]["max_relative_error"].get<double>());
+    EXPECT_LT(j["rows"][0]["max_relative_error"].get<double>(), 0.1); // offsets within 10 % where not clamped
+
+    r = run_furrow({"bench", "render", creature, "--layers", "0", "--repeat", "1", "--json"});
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    j = nlohmann::json::parse(r.out, nullptr, false);
+    ASSERT_FALSE(j.is_discarded());
+    ASSERT_EQ(j["ssaa"].size(), 3u);
+    // More supersamples, closer to the 4x4 reference.
+    EXPECT_GT(j["ssaa"][0]["mean_abs_diff_255"].get<double>(), j["ssaa"][1]["mean_abs_diff_255"].get<double>());
+    EXPECT_GT(j["ssaa"][1]["mean_abs_diff_255"].get<double>(), j["ssaa"][2]["mean_abs_diff_255"].get<double>());
+    for (const auto& row : j["rows"]) EXPECT_TRUE(row["identical"].get<bool>());
+}
