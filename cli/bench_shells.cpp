@@ -1,15 +1,26 @@
 // `furrow bench shells`: time of add_fur_shells per model and shell count, against a memcpy of the bytes it
 // produces (same run), with the achieved offset measured against the requested one.
+//
+// The total is split as FurReport reports it: setup (once per base mesh: frames, clamps, the exact
+// intersection test, vertex sets, albedo) and emission (the shell primitives: grows with N). Emission is
+// what compares with a memcpy of the output; setup is a cost per base triangle that does not depend on N,
+// so the total's ratio to memcpy falls roughly as 1/N and is largest for few shells on small meshes.
 #include "bench_common.h"
 #include "cli_common.h"
 
 #include <furrow/shells.h>
 
+#include <tbb/global_control.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <memory>
 #include <sstream>
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
 
 namespace furrow::cli {
 namespace fs = std::filesystem;
@@ -28,6 +39,9 @@ struct Row {
     int layers = 0;
     size_t base_triangles = 0, out_triangles = 0, out_bytes = 0;
     double seconds = 0, memcpy_seconds = 0, peak_mib = 0;
+    double setup_seconds = 0, emit_seconds = 0; // medians of FurReport's split
+    double fresh_seconds = 0;                   // memcpy of the output bytes into memory just allocated
+    double first_seconds = 0;                   // the untimed first call (strand textures not yet cached)
     double max_rel = 0, mean_rel = 0;
     size_t measured = 0, clamped = 0, welded = 0;
 };
@@ -127,24 +141,36 @@ Row bench_one(const fs::path& file, int layers, const ShellsArgs& a) {
     fs::path mask = file.parent_path() / (file.stem().string() + "_fur_mask.png");
     if (fs::exists(mask)) require_ok(load_png(o.mask, mask.string()), mask.string());
     // Timed: add_fur_shells on a fresh copy of the loaded scene (the copy is not timed).
-    std::vector<double> times;
+    std::vector<double> times, setup, emit;
     Scene result;
     FurReport rep;
     double peak = 0;
     for (int r = 0; r <= a.base.repeat; ++r) {
         Scene s = base;
         FurReport rr;
+#if defined(__GLIBC__)
+        // Memory freed by the previous run goes back to the system first: otherwise the allocator reuses it,
+        // the peak above the resident size reads 0, and the run skips the page faults a fresh process pays.
+        malloc_trim(0);
+#endif
         PeakMemory pm;
         auto t0 = std::chrono::steady_clock::now();
         Status st = add_fur_shells(s, o, &rr);
         auto t1 = std::chrono::steady_clock::now();
         peak = std::max(peak, pm.peak_mib());
         require_ok(st, file.string());
-        if (r > 0) times.push_back(std::chrono::duration<double>(t1 - t0).count()); // run 0 warms up
+        const double seconds = std::chrono::duration<double>(t1 - t0).count();
+        if (r == 0) row.first_seconds = seconds; // run 0 warms up (and fills the strand-texture cache)
+        else times.push_back(seconds), setup.push_back(rr.setup_seconds), emit.push_back(rr.emit_seconds);
         if (r == a.base.repeat) result = std::move(s), rep = std::move(rr);
     }
-    std::sort(times.begin(), times.end());
-    row.seconds = times[times.size() / 2];
+    auto median = [](std::vector<double>& v) {
+        std::sort(v.begin(), v.end());
+        return v[v.size() / 2];
+    };
+    row.seconds = median(times);
+    row.setup_seconds = median(setup);
+    row.emit_seconds = median(emit);
     row.peak_mib = peak;
     row.base_triangles = rep.base_triangles;
     row.out_triangles = rep.shell_triangles;
@@ -154,6 +180,21 @@ Row bench_one(const fs::path& file, int layers, const ShellsArgs& a) {
         std::memcpy(dst.data(), src.data(), src.size());
         do_not_optimize(dst.data());
     });
+    // The same copy into memory just allocated, as the shells are written: the kernel maps and zeroes every
+    // page on first touch, which the warm baseline above never pays and no producer of new output avoids.
+    std::vector<double> fresh;
+    for (int r = 0; r < std::max(a.base.repeat, 5); ++r) {
+#if defined(__GLIBC__)
+        malloc_trim(0);
+#endif
+        auto t0 = std::chrono::steady_clock::now();
+        std::unique_ptr<char[]> buffer(new char[std::max<size_t>(src.size(), 1)]);
+        std::memcpy(buffer.get(), src.data(), src.size());
+        do_not_optimize(buffer.get());
+        auto t1 = std::chrono::steady_clock::now();
+        fresh.push_back(std::chrono::duration<double>(t1 - t0).count());
+    }
+    row.fresh_seconds = median(fresh);
     // Accuracy from one more run that keeps the frames (not timed).
     Scene s = base;
     FurOptions keep = o;
@@ -183,8 +224,9 @@ nlohmann::json run_bench_shells(const ShellsArgs& a, const GlobalFlags& g, bool 
                 info(g, "  skipped: " + e.file + ": " + e.what());
             }
         }
-    Table t({"model", "N", "base tris", "out tris", "ms", "Mtri/s", "out MiB", "memcpy ms", "x memcpy", "peak MiB",
-             "max rel err", "mean rel err", "measured", "clamped"});
+    Table t({"model", "N", "base tris", "out tris", "ms", "Mtri/s", "out MiB", "memcpy ms", "x memcpy", "setup ms", "emit ms",
+             "emit x memcpy", "fresh ms", "emit x fresh", "1st call ms", "peak MiB", "max rel err", "mean rel err", "measured",
+             "clamped"});
     nlohmann::json j = nlohmann::json::array();
     std::vector<PlotPoint> points;
     for (const auto& r : rows) {
@@ -192,22 +234,33 @@ nlohmann::json run_bench_shells(const ShellsArgs& a, const GlobalFlags& g, bool 
         points.push_back({r.model, "shells", "N=" + std::to_string(r.layers), r.seconds, double(r.out_triangles), r.max_rel});
         t.add({r.model, std::to_string(r.layers), std::to_string(r.base_triangles), std::to_string(r.out_triangles),
                fmt(r.seconds * 1e3, 2), fmt(r.out_triangles / r.seconds / 1e6, 1), fmt(r.out_bytes / 1048576.0, 1),
-               fmt(r.memcpy_seconds * 1e3, 3), fmt(ratio, 1), fmt(r.peak_mib, 1), fmt_sci(r.max_rel), fmt_sci(r.mean_rel),
+               fmt(r.memcpy_seconds * 1e3, 3), fmt(ratio, 1), fmt(r.setup_seconds * 1e3, 2), fmt(r.emit_seconds * 1e3, 2),
+               fmt(r.emit_seconds / r.memcpy_seconds, 2), fmt(r.fresh_seconds * 1e3, 3), fmt(r.emit_seconds / r.fresh_seconds, 2),
+               fmt(r.first_seconds * 1e3, 2), fmt(r.peak_mib, 1), fmt_sci(r.max_rel), fmt_sci(r.mean_rel),
                std::to_string(r.measured), std::to_string(r.clamped) + "/" + std::to_string(r.welded)});
         j.push_back({{"model", r.model}, {"layers", r.layers}, {"base_triangles", r.base_triangles},
                      {"out_triangles", r.out_triangles}, {"seconds", r.seconds}, {"out_bytes", r.out_bytes},
-                     {"memcpy_seconds", r.memcpy_seconds}, {"over_memcpy", ratio}, {"peak_mib", r.peak_mib},
+                     {"memcpy_seconds", r.memcpy_seconds}, {"over_memcpy", ratio}, {"setup_seconds", r.setup_seconds},
+                     {"emit_seconds", r.emit_seconds}, {"emit_over_memcpy", r.emit_seconds / r.memcpy_seconds},
+                     {"fresh_memcpy_seconds", r.fresh_seconds}, {"emit_over_fresh_memcpy", r.emit_seconds / r.fresh_seconds},
+                     {"first_call_seconds", r.first_seconds}, {"peak_mib", r.peak_mib},
                      {"max_relative_error", r.max_rel}, {"mean_relative_error", r.mean_rel}, {"measured", r.measured},
                      {"clamped_vertices", r.clamped}, {"welded_vertices", r.welded}});
     }
     if (tables) {
-        std::printf("furrow bench shells: add_fur_shells (viewer layout) per model and N, median of %d runs, length = %.3g x bbox "
-                    "diagonal (creature: with its mask); baseline = memcpy of the output bytes in this run; error = | distance of "
-                    "a shell vertex to the base surface (CGAL) - requested offset | / requested, over unclamped vertices\n",
-                    a.base.repeat, a.relative_length);
+        std::printf("furrow bench shells: add_fur_shells (viewer layout) per model and N, median of %d runs on %d thread(s), "
+                    "length = %.3g x bbox diagonal (creature: with its mask); baseline = memcpy (one thread, warm buffers) of "
+                    "the output bytes in this run; ms = setup (per base mesh: frames, clamps, exact intersection test, "
+                    "albedo) + emit (the N shells: compare this one with memcpy); fresh = the same memcpy into memory just "
+                    "allocated (first-touch page faults, as any new output pays); 1st call = the warm-up run, which also "
+                    "draws and encodes the strand textures (cached for later calls with the same options); error = | "
+                    "distance of a shell vertex to the base surface (CGAL) - requested offset | / requested, over unclamped "
+                    "vertices\n",
+                    a.base.repeat, int(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism)), a.relative_length);
         t.print();
     }
-    return {{"bench", "shells"}, {"repeat", a.base.repeat}, {"relative_length", a.relative_length}, {"rows", j},
+    return {{"bench", "shells"}, {"repeat", a.base.repeat}, {"relative_length", a.relative_length},
+            {"threads", int(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism))}, {"rows", j},
             {"plot", plot_json("max relative offset error", points)}};
 }
 

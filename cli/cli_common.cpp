@@ -1,9 +1,17 @@
 #include "cli_common.h"
 
+#include <chrono>
+#include <condition_variable>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
+#include <mutex>
 #include <sstream>
+#include <thread>
 
+#include <unistd.h>
+
+#include <nlohmann/json.hpp>
 #include <tbb/global_control.h>
 
 namespace furrow::cli {
@@ -28,7 +36,14 @@ void add_camera_flags(CLI::App& cmd, CameraFlags& f) {
                                          "Camera position x,y,z (default: frames the scene from a 3/4 view)");
     cmd.add_option_function<std::string>("--target", [&f](const std::string& s) { f.target = parse_vec3(s, "--target"); },
                                          "Point the camera looks at x,y,z (default: the scene's bounding-box centre)");
-    cmd.add_option_function<std::string>("--up", [&f](const std::string& s) { f.up = parse_vec3(s, "--up"); },
+    // A zero up vector is a bad option value (exit 2), not a problem of the input file (it was reported by the
+    // renderer as "Error: <input>: camera values must be finite, up non-zero", exit 1).
+    cmd.add_option_function<std::string>("--up",
+                                         [&f](const std::string& s) {
+                                             f.up = parse_vec3(s, "--up");
+                                             if (f.up[0] == 0 && f.up[1] == 0 && f.up[2] == 0)
+                                                 throw CLI::ValidationError("--up", "must not be the zero vector");
+                                         },
                                          "Up direction x,y,z (default 0,1,0)");
     cmd.add_option("--fov", f.fov_degrees, "Vertical field of view in degrees (default 45)")
         ->check(CLI::Range(1.0, 179.0));
@@ -62,14 +77,122 @@ bool same_file(const std::string& a, const std::string& b) {
     return !ec && ca == cb;
 }
 
-void save_or_throw(const Scene& scene, const std::string& out_path, const std::string& in_path) {
-    if (!in_path.empty() && same_file(out_path, in_path))
+// The files a .gltf input reads besides itself: its buffers' and images' relative URIs (percent-decoded),
+// resolved against its folder. Data URIs and absolute URLs are skipped.
+static std::vector<std::string> gltf_resources(const std::string& in_path) {
+    std::vector<std::string> files;
+    std::string ext = std::filesystem::path(in_path).extension().string();
+    for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+    if (ext != ".gltf") return files;
+    std::ifstream in(in_path, std::ios::binary);
+    nlohmann::json j = nlohmann::json::parse(in, nullptr, false);
+    if (!j.is_object()) return files;
+    for (const char* key : {"buffers", "images"}) {
+        if (!j.contains(key) || !j[key].is_array()) continue;
+        for (const auto& e : j[key]) {
+            if (!e.is_object() || !e.contains("uri") || !e["uri"].is_string()) continue;
+            const std::string uri = e["uri"].get<std::string>();
+            if (uri.rfind("data:", 0) == 0 || uri.find("://") != std::string::npos) continue;
+            std::string name;
+            for (size_t i = 0; i < uri.size(); ++i) {
+                if (uri[i] == '%' && i + 2 < uri.size() && std::isxdigit(static_cast<unsigned char>(uri[i + 1])) &&
+                    std::isxdigit(static_cast<unsigned char>(uri[i + 2]))) {
+                    name += char(std::stoi(uri.substr(i + 1, 2), nullptr, 16));
+                    i += 2;
+                } else {
+                    name += uri[i];
+                }
+            }
+            files.push_back((std::filesystem::path(in_path).parent_path() / name).string());
+        }
+    }
+    return files;
+}
+
+void refuse_overwriting_input(const std::string& out_path, const std::string& in_path) {
+    if (in_path.empty()) return;
+    if (same_file(out_path, in_path))
         throw InputError(out_path, "output path is the input file; refusing to overwrite the input");
+    // A .gltf output also writes <stem>.bin beside it, which may be a file the input reads: `convert a.gltf
+    // -o data.gltf` silently overwrote the input's data.bin. Inputs are never modified.
+    std::string ext = std::filesystem::path(out_path).extension().string();
+    for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+    if (ext != ".gltf") return;
+    const std::string bin = std::filesystem::path(out_path).replace_extension(".bin").string();
+    for (const std::string& f : gltf_resources(in_path))
+        if (same_file(bin, f))
+            throw InputError(out_path, "its buffer file " + bin + " is a file of the input; refusing to overwrite the input");
+}
+
+void save_or_throw(const Scene& scene, const std::string& out_path, const std::string& in_path) {
+    refuse_overwriting_input(out_path, in_path);
     require_ok(save_scene(scene, out_path), out_path);
 }
 
+// stderr is shared by info() lines and a Progress ticker thread: one writer at a time, and a line printed
+// while a progress line is shown first erases it (the ticker redraws it on its next tick).
+static std::mutex& stderr_mutex() {
+    static std::mutex m;
+    return m;
+}
+static bool stderr_is_terminal() {
+    static const bool tty = ::isatty(STDERR_FILENO) != 0;
+    return tty;
+}
+
 void info(const GlobalFlags& g, const std::string& line) {
-    if (!g.quiet) std::fprintf(stderr, "%s\n", line.c_str());
+    if (g.quiet) return;
+    std::lock_guard lock(stderr_mutex());
+    std::fprintf(stderr, "%s%s\n", stderr_is_terminal() ? "\r\033[K" : "", line.c_str());
+}
+
+struct Progress::State {
+    std::string command, stage;
+    std::chrono::steady_clock::time_point since = std::chrono::steady_clock::now();
+    std::mutex m;
+    std::condition_variable cv;
+    bool done = false;
+    std::thread ticker;
+
+    void draw() { // with m held
+        std::lock_guard lock(stderr_mutex());
+        const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
+        std::fprintf(stderr, "\r\033[K%s: %s... %.1f s", command.c_str(), stage.c_str(), s);
+        std::fflush(stderr);
+    }
+};
+
+Progress::Progress(const GlobalFlags& g, std::string command) {
+    if (g.quiet || !stderr_is_terminal()) return;
+    state_ = std::make_unique<State>();
+    state_->command = std::move(command);
+    State* st = state_.get();
+    st->ticker = std::thread([st] {
+        std::unique_lock lock(st->m);
+        while (!st->cv.wait_for(lock, std::chrono::milliseconds(250), [st] { return st->done; }))
+            if (!st->stage.empty()) st->draw();
+    });
+}
+
+void Progress::stage(const std::string& what) {
+    if (!state_) return;
+    std::lock_guard lock(state_->m);
+    state_->stage = what;
+    state_->since = std::chrono::steady_clock::now();
+    state_->draw();
+}
+
+Progress::~Progress() {
+    if (!state_) return;
+    {
+        std::lock_guard lock(state_->m);
+        state_->done = true;
+    }
+    state_->cv.notify_all();
+    state_->ticker.join();
+    std::lock_guard lock(stderr_mutex());
+    std::fprintf(stderr, "\r\033[K");
+    std::fflush(stderr);
 }
 
 } // namespace furrow::cli

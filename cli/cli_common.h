@@ -5,6 +5,7 @@
 #include <furrow/mesh.h>
 
 #include <array>
+#include <memory>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -15,7 +16,7 @@ namespace furrow::cli {
 enum ExitCode : int {
     exit_ok = 0,
     exit_bad_input = 1, // bad input, unwritable output or failed --require: one "Error: <file>: <what>" line
-    exit_usage = 2,     // bad command line (CLI11 prints the usage problem)
+    exit_usage = 2,     // bad command line: one "Error: <what>" line (main.cpp's CLI11 failure message)
     exit_internal = 3,  // a bug: an unexpected exception (please report)
 };
 
@@ -48,9 +49,28 @@ Scene load_or_throw(const std::string& path, const LoadOptions& options = {});
 // Saves or throws InputError naming the output; refuses output == input.
 void save_or_throw(const Scene& scene, const std::string& out_path, const std::string& in_path = {});
 bool same_file(const std::string& a, const std::string& b);
+// Throws InputError naming the output if writing out_path would overwrite in_path or, for a .gltf output, if
+// its .bin would overwrite a buffer or image file the .gltf input reads.
+void refuse_overwriting_input(const std::string& out_path, const std::string& in_path);
 
 // Prints to stderr unless quiet.
 void info(const GlobalFlags& g, const std::string& line);
+
+// Progress for long work: one stderr line, rewritten in place with the current stage and the seconds spent in
+// it ("furrow shells: growing 32 shells... 3.2 s"), erased when the object goes away (also on an error, before
+// main prints it). Only when stderr is a terminal and not --quiet: logs, pipes and tests see nothing.
+class Progress {
+public:
+    Progress(const GlobalFlags& g, std::string command);
+    ~Progress();
+    Progress(const Progress&) = delete;
+    Progress& operator=(const Progress&) = delete;
+    void stage(const std::string& what);
+
+private:
+    struct State;
+    std::unique_ptr<State> state_; // null when not on a terminal
+};
 
 // Registration of the commands, one file each (cli/cmd_<name>.cpp).
 void register_check(CLI::App& app, GlobalFlags& g);

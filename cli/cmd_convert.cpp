@@ -23,8 +23,7 @@ void register_convert(CLI::App& app, GlobalFlags& g) {
         lo.recentre = !args->no_recentre;
         Scene scene = load_or_throw(args->in, lo);
         for (const auto& w : scene.warnings) info(g, "Warning: " + args->in + ": " + w);
-        if (same_file(args->out, args->in))
-            throw InputError(args->out, "output path is the input file; refusing to overwrite the input");
+        refuse_overwriting_input(args->out, args->in);
         SaveOptions so;
         so.pretty_json = args->pretty;
         require_ok(save_scene(scene, args->out, so), args->out);

@@ -169,11 +169,14 @@ void register_demo(CLI::App& app, GlobalFlags& g) {
         if (ec) throw InputError(a->out, "cannot create the output folder: " + ec.message());
         const fs::path out(a->out);
         std::vector<std::string> outputs;
+        Progress progress(g, "furrow demo");
         try {
             if (desc.contains("creature")) {
                 const auto& c = desc["creature"];
                 const auto cam = camera_from_json(c.value("camera", nlohmann::json::object()));
+                progress.stage("creature");
                 demo_model("creature", models / c.at("model").get<std::string>(), cam, *a, out, outputs, g);
+                progress.stage("creature fur");
                 demo_fur(models / c.at("model").get<std::string>(),
                          c.contains("fur_mask") ? models / c["fur_mask"].get<std::string>() : fs::path(), cam, *a, out,
                          outputs, g);
@@ -181,11 +184,14 @@ void register_demo(CLI::App& app, GlobalFlags& g) {
             if (desc.contains("snow")) {
                 const auto& s = desc["snow"];
                 const auto cam = camera_from_json(s.value("camera", nlohmann::json::object()));
+                progress.stage("ground");
                 demo_model("ground", models / s.at("ground").get<std::string>(), cam, *a, out, outputs, g);
+                progress.stage("snow field");
                 if (s.contains("colliders"))
                     demo_snow(models / s["ground"].get<std::string>(), models / s["colliders"].get<std::string>(), cam, *a,
                               out, outputs, g);
             }
+            progress.stage("terrain");
             if (desc.contains("terrain")) demo_terrain(desc["terrain"], models, *a, out, outputs, g);
         } catch (const nlohmann::json::exception& e) {
             throw InputError(scene_file.string(), std::string("bad scene description: ") + e.what());

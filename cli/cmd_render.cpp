@@ -20,9 +20,9 @@ std::string lower_extension(const std::string& path) {
     return e;
 }
 
-// Writes bytes to a temporary file beside `path` and renames it into place, so a failure never leaves a
-// half-written output. Throws InputError naming `path`.
-void write_atomically(const std::string& path, const std::vector<uint8_t>& bytes) {
+// Writes bytes to a temporary file beside `path` (stage_file), to be renamed into place by commit_file, so a
+// failure never leaves a half-written output. Throws InputError naming `path`.
+std::string stage_file(const std::string& path, const std::vector<uint8_t>& bytes) {
     namespace fs = std::filesystem;
     fs::path target(path);
     fs::path temp = target.parent_path() / ("." + target.filename().string() + ".furrow-tmp-" + std::to_string(getpid()));
@@ -37,11 +37,15 @@ void write_atomically(const std::string& path, const std::vector<uint8_t>& bytes
             throw InputError(path, "cannot write: write failed (disk full?)");
         }
     }
+    return temp.string();
+}
+
+void commit_file(const std::string& temp, const std::string& path) {
     std::error_code ec;
-    fs::rename(temp, target, ec);
+    std::filesystem::rename(temp, path, ec);
     if (ec) {
         std::error_code ignored;
-        fs::remove(temp, ignored);
+        std::filesystem::remove(temp, ignored);
         throw InputError(path, "cannot write: " + ec.message());
     }
 }
@@ -129,6 +133,9 @@ void register_render(CLI::App& app, GlobalFlags& g) {
             throw CLI::ValidationError("--attribute", "only used with --mode attribute");
         o.attribute = args->attribute;
         if (args->ortho_height > 0 && !args->ortho) throw CLI::ValidationError("--ortho-height", "needs --ortho");
+        // Both given and equal is a bad command line (exit 2); it was an input error naming the mesh (exit 1).
+        if (args->camera.eye && args->camera.target && *args->camera.eye == *args->camera.target)
+            throw CLI::ValidationError("--camera", "the camera position and --target coincide");
         if (!args->background.empty()) o.background = parse_colour(args->background);
         if (lower_extension(args->out) != ".png") throw CLI::ValidationError("--output", "must end in .png");
         if (!args->depth_out.empty() && lower_extension(args->depth_out) != ".pfm")
@@ -137,13 +144,44 @@ void register_render(CLI::App& app, GlobalFlags& g) {
             if (!out->empty() && same_file(*out, args->in))
                 throw InputError(*out, "output path is the input file; refusing to overwrite the input");
 
+        Progress progress(g, "furrow render");
+        progress.stage("loading " + args->in);
         Scene scene = load_or_throw(args->in);
         for (const auto& w : scene.warnings) info(g, "Warning: " + args->in + ": " + w);
         RenderResult r;
+        progress.stage("rendering");
         require_ok(render_scene(r, scene, o), args->in);
         for (const auto& w : r.warnings) info(g, "Warning: " + args->in + ": " + w);
-        write_atomically(args->out, encode_png_rgba8(r.rgba8.data(), r.color.width, r.color.height));
-        if (!args->depth_out.empty()) write_atomically(args->depth_out, encode_pfm(r.depth));
+        // Both outputs or neither: the PNG used to be renamed into place before the depth file was even
+        // opened, so an unwritable --depth-out left the PNG behind. Stage both, then rename both.
+        const std::string png_temp = stage_file(args->out, encode_png_rgba8(r.rgba8.data(), r.color.width, r.color.height));
+        std::string depth_temp;
+        if (!args->depth_out.empty()) {
+            try {
+                depth_temp = stage_file(args->depth_out, encode_pfm(r.depth));
+            } catch (...) {
+                std::error_code ec;
+                std::filesystem::remove(png_temp, ec);
+                throw;
+            }
+        }
+        const bool had_png = std::filesystem::exists(args->out);
+        try {
+            commit_file(png_temp, args->out);
+        } catch (...) {
+            std::error_code ec;
+            if (!depth_temp.empty()) std::filesystem::remove(depth_temp, ec);
+            throw;
+        }
+        if (!depth_temp.empty()) {
+            try {
+                commit_file(depth_temp, args->depth_out);
+            } catch (...) {
+                std::error_code ec;
+                if (!had_png) std::filesystem::remove(args->out, ec);
+                throw;
+            }
+        }
         char timing[64];
         std::snprintf(timing, sizeof timing, "%.1f ms", r.timing.total);
         info(g, "Wrote " + args->out + " (" + std::to_string(o.width) + "x" + std::to_string(o.height) + ", " + mode +

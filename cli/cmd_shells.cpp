@@ -125,11 +125,15 @@ void register_shells(CLI::App& app, GlobalFlags& g) {
             a->fur.comb = load_image_or_throw(a->comb, "comb map");
             if (a->fur.comb.channels < 3) throw InputError(a->comb, "a comb map needs colour channels (r = along u, g = up)");
         }
+        Progress progress(g, "furrow shells");
+        progress.stage("loading " + a->in);
         Scene scene = load_or_throw(a->in);
         for (const auto& w : scene.warnings) info(g, "Warning: " + a->in + ": " + w);
         FurReport r;
+        progress.stage("growing " + plural(size_t(a->fur.shells.layers), "shell"));
         require_ok(add_fur_shells(scene, a->fur, &r), a->in);
         for (const auto& w : r.warnings) info(g, "Warning: " + a->in + ": " + w);
+        progress.stage("writing " + a->out);
         save_or_throw(scene, a->out, a->in);
         std::string line = "Wrote " + a->out + ": " + plural(size_t(a->fur.shells.layers), "shell") + " on " +
                            plural(r.primitives, "primitive") + ", " + std::to_string(r.shell_triangles) + " triangles added";

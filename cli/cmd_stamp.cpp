@@ -91,6 +91,11 @@ void register_stamp(CLI::App& app, GlobalFlags& g) {
         if (!a->heightmap_out.empty() && !ends_with_ci(a->heightmap_out, ".pfm") && !ends_with_ci(a->heightmap_out, ".png"))
             throw CLI::ValidationError("--heightmap-out", "must end in .pfm or .png");
         if (same_file(a->out, a->in)) throw InputError(a->out, "output path is the input file; refusing to overwrite the input");
+        // Inputs are never modified (README): not the colliders file, not the --heightmap-in map.
+        if (same_file(a->out, a->colliders))
+            throw InputError(a->out, "output path is the colliders file; refusing to overwrite an input");
+        if (!a->heightmap_out.empty() && !a->heightmap_in.empty() && same_file(a->heightmap_out, a->heightmap_in))
+            throw InputError(a->heightmap_out, "--heightmap-out is the --heightmap-in file; refusing to overwrite an input");
         ColliderSet colliders;
         require_ok(load_colliders(colliders, a->colliders), a->colliders);
         Heightmap base;
@@ -98,6 +103,8 @@ void register_stamp(CLI::App& app, GlobalFlags& g) {
             require_ok(load_heightmap(base, a->heightmap_in), a->heightmap_in);
             a->opt.base = &base;
         }
+        Progress progress(g, "furrow stamp");
+        progress.stage("loading " + a->in);
         Scene scene = load_or_throw(a->in);
         for (const auto& w : scene.warnings) info(g, "Warning: " + a->in + ": " + w);
         a->opt.tessellate = !a->no_tessellate;
@@ -113,10 +120,12 @@ void register_stamp(CLI::App& app, GlobalFlags& g) {
         }
         StampReport r;
         Heightmap out_map;
+        progress.stage("stamping " + std::to_string(colliders.colliders.size()) + " colliders");
         require_ok(stamp_scene(scene, colliders, a->opt, &r, a->heightmap_out.empty() ? nullptr : &out_map), a->in);
         for (const auto& w : r.warnings) info(g, "Warning: " + a->in + ": " + w);
 
         // Both outputs or neither: the heightmap goes first and is removed again if the mesh cannot be written.
+        progress.stage("writing " + a->out);
         const bool had_map = !a->heightmap_out.empty() && std::filesystem::exists(a->heightmap_out);
         if (!a->heightmap_out.empty()) require_ok(save_heightmap(out_map, a->heightmap_out), a->heightmap_out);
         try {

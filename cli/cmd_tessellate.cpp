@@ -139,15 +139,22 @@ void register_tessellate(CLI::App& app, GlobalFlags& g) {
             throw CLI::ValidationError("criterion", "give at least one of --uniform, --camera with --near/--far, "
                                                     "--pixel-error or --screen-error, --max-error, --focus");
 
+        Progress progress(g, "furrow tessellate");
+        progress.stage("loading " + a->in);
         Scene scene = load_or_throw(a->in);
         for (const auto& w : scene.warnings) info(g, "Warning: " + a->in + ": " + w);
         if (same_file(a->out, a->in))
             throw InputError(a->out, "output path is the input file; refusing to overwrite the input");
         const auto t0 = std::chrono::steady_clock::now();
         SceneTessellateReport rep;
+        progress.stage("tessellating");
         require_ok(tessellate_scene(scene, o, &rep), a->in);
+        // A scene without a face (no mesh, only points or lines) used to be "tessellated" into a copy with exit
+        // 0; shells, render and stamp refuse such input, and so does tessellate now.
+        if (rep.meshes == 0) throw InputError(a->in, "no triangles or polygons to tessellate");
         const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
         for (const auto& w : rep.warnings) info(g, "Warning: " + a->in + ": " + w);
+        progress.stage("writing " + a->out);
         save_or_throw(scene, a->out, a->in);
         const TessellateStats& s = rep.totals;
         std::string repairs;

@@ -182,8 +182,8 @@ template <class Offset>
 void rasterise(const StampTarget& T, double u0, double u1, double v0, double v1, double decay, StampResult& res,
                const Offset& offset) {
     const double t = T.texel;
-    const int i0 = std::max(0, int(std::ceil(u0 / t))), i1 = std::min(T.width - 1, int(std::floor(u1 / t)));
-    const int j0 = std::max(0, int(std::ceil(v0 / t))), j1 = std::min(T.height - 1, int(std::floor(v1 / t)));
+    const int i0 = clamped_int(std::ceil(u0 / t), 0, T.width), i1 = clamped_int(std::floor(u1 / t), -1, T.width - 1);
+    const int j0 = clamped_int(std::ceil(v0 / t), 0, T.height), j1 = clamped_int(std::floor(v1 / t), -1, T.height - 1);
     if (i1 < i0 || j1 < j0) return;
     struct Acc {
         TexelRect rect;
@@ -311,7 +311,7 @@ void stamp_image(const StampTarget& T, const Collider& c, const LocalPose& p, do
         if (std::abs(lx) > 0.5 * sx || std::abs(lz) > 0.5 * sz) return 0.0;
         // Seen from above with the heading up the page, local +x is on the left: column 0 is at +x.
         const double xi = (0.5 - lx / sx) * W - 0.5, yj = (0.5 - lz / sz) * H - 0.5;
-        const int i0 = int(std::floor(xi)), j0 = int(std::floor(yj));
+        const int i0 = clamped_int(std::floor(xi), -1, W), j0 = clamped_int(std::floor(yj), -1, H);
         const double fi = xi - i0, fj = yj - j0;
         const double v = (px(i0, j0) * (1 - fi) + px(i0 + 1, j0) * fi) * (1 - fj) + (px(i0, j0 + 1) * (1 - fi) + px(i0 + 1, j0 + 1) * fi) * fj;
         return -std::clamp(v, 0.0, 1.0) * p.penetration;
@@ -339,27 +339,54 @@ double collider_top_offset(const Collider& c) {
     return c.shape == ColliderShape::image ? 0.0 : collider_bottom_offset(c);
 }
 
-StampResult stamp_sweep(const StampTarget& T, const Collider& c, const LocalPose& p0, const LocalPose& p1, double decay) {
+StampResult stamp_sweep(const StampTarget& T, const Collider& c, const LocalPose& from, const LocalPose& to, double decay) {
     StampResult res;
     res.reach = shape_radius(c);
     const double t = T.texel;
+    const double R = shape_radius(c);
+    const double U = double(T.width - 1) * t, V = double(T.height - 1) * t; // the grid's far corner (u, v)
+    // Only the part of the path from which the shape can reach the grid is stepped: where the centre is within
+    // R (plus a texel) of it, an interval of the straight path (Liang–Barsky clipping against the grown grid
+    // box). A path from 4e28 m away stepped 1e6 times through empty space first (found by fuzz_stamp).
+    if (!(std::isfinite(from.u) && std::isfinite(from.v) && std::isfinite(to.u) && std::isfinite(to.v))) return res;
+    double ta = 0, tb = 1;
+    auto clip = [&](double p, double q) { // keeps the t in [ta, tb] with p·t <= q
+        if (p == 0) return q >= 0;
+        const double r = q / p;
+        if (p < 0) ta = std::max(ta, r);
+        else tb = std::min(tb, r);
+        return ta <= tb;
+    };
+    const double m = R + t, du = to.u - from.u, dv = to.v - from.v;
+    if (!(clip(-du, from.u + m) && clip(du, U + m - from.u) && clip(-dv, from.v + m) && clip(dv, V + m - from.v))) return res;
+    const LocalPose p0 = lerp(from, to, ta), p1 = lerp(from, to, tb);
     const double dist = std::hypot(p1.u - p0.u, p1.v - p0.v);
     const double turn = std::abs(p1.heading - p0.heading);
-    const double R = shape_radius(c);
+    // Step counts are clamped while still doubles: a path point 1e28 m away or a collider 1e27 m long asks
+    // for more steps than an int holds (found by fuzz_colliders); NaN (coordinates that overflow) takes one.
+    // 1e6 steps stay the cap they always were.
+    auto steps = [](double x) { return clamped_int(std::ceil(x), 1, 1000000); };
+    // How far the sub-steps of a turn must resolve the shape: to its far corner, but texels exist only on
+    // the grid, and none is farther from the centre than the grid's farthest corner (the distance to a
+    // fixed point is largest at an end of the centre's straight path). A 120 m log turning over a 2 m field
+    // took 3200 full-field steps (found by fuzz_colliders).
+    auto farthest_texel = [&](const LocalPose& p) {
+        return std::hypot(std::max(std::abs(p.u), std::abs(p.u - U)), std::max(std::abs(p.v), std::abs(p.v - V)));
+    };
+    const double R_turn = std::min(R, std::max(farthest_texel(p0), farthest_texel(p1)));
     if (c.shape == ColliderShape::image) {
         // Stamps every half texel of travel (of the centre or the far corner).
-        const double travel = std::max(dist + std::abs(p1.w - p0.w), turn * R);
-        const int n = int(std::min(1e6, std::ceil(travel / (0.5 * t))));
+        const double travel = std::max(dist + std::abs(p1.w - p0.w), turn * R_turn);
+        const int n = travel > 0 ? steps(travel / (0.5 * t)) : 0;
         for (int k = 0; k <= n; ++k) stamp_image(T, c, n ? lerp(p0, p1, double(k) / n) : p0, decay, res);
         return res;
     }
     // Turning: steps in which the far corner moves at most half a texel, each swept with both headings.
-    const bool turns = c.shape != ColliderShape::sphere && turn * R > 0.5 * t;
+    const bool turns = c.shape != ColliderShape::sphere && turn * R_turn > 0.5 * t;
     // Long translations: chunks so that each bounding box stays tight around the trench.
     const double chunk = std::max(4 * R, 32 * t);
-    int n = std::max(1, int(std::ceil(dist / chunk)));
-    if (turns) n = std::max(n, int(std::ceil(turn * R / (0.5 * t))));
-    n = std::min(n, 1000000);
+    int n = steps(dist / chunk);
+    if (turns) n = std::max(n, steps(turn * R_turn / (0.5 * t)));
     for (int k = 0; k < n; ++k) {
         const LocalPose a = lerp(p0, p1, double(k) / n), b = lerp(p0, p1, double(k + 1) / n);
         sweep_fixed(T, c, a, b, a.heading, decay, res);

@@ -202,6 +202,10 @@ Status parse_colliders(ColliderSet& out, const std::string& text, const std::str
 }
 
 Status load_colliders(ColliderSet& out, const std::string& path) {
+    // A folder opens and reads as empty, which was reported as "malformed JSON": say what is wrong.
+    std::error_code ec;
+    if (std::filesystem::is_directory(path, ec))
+        return Status::error(StatusCode::io_error, "is a directory, not a colliders file");
     std::ifstream f(path, std::ios::binary);
     if (!f) return Status::error(StatusCode::io_error, "cannot open the colliders file");
     std::ostringstream ss;

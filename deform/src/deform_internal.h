@@ -28,6 +28,11 @@ inline D3 d3(const std::array<double, 3>& a) { return {a[0], a[1], a[2]}; }
 inline std::array<double, 3> arr(D3 a) { return {a.x, a.y, a.z}; }
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// double -> int with the value clamped to [lo, hi] first (NaN gives lo). Converting a double outside int's
+// range is undefined behaviour, and collider sizes and positions may be anything up to 1e308: texel ranges
+// and step counts derived from them go through here (found by fuzz_colliders).
+inline int clamped_int(double x, int lo, int hi) { return x >= double(lo) ? (x <= double(hi) ? int(x) : hi) : lo; }
 constexpr double kPi = 3.14159265358979323846;
 
 // The in-plane axes for an up vector: +x/+z for +y up, a stable choice otherwise (axis_v = axis_u × up).

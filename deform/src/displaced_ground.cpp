@@ -71,7 +71,11 @@ struct DisplacedGround::Impl {
     uint32_t epoch = 0;
     static constexpr int kTile = 16;
 
-    int tile_of(double t, int tiles) const { return std::clamp(int(std::floor(t)) / kTile, 0, tiles - 1); }
+    // Clamped before the conversion: a vertex no triangle uses may lie far off the grid, with a texel
+    // coordinate beyond int (undefined behaviour, found by fuzz_stamp). The result is unchanged.
+    int tile_of(double t, int tiles) const {
+        return std::clamp(int(std::floor(std::clamp(t, -1.0, double(tiles) * kTile))) / kTile, 0, tiles - 1);
+    }
 
     void write(uint32_t p, float* pos, float* nor) const {
         for (uint32_t k = copy_off[p]; k < copy_off[size_t(p) + 1]; ++k) {
@@ -108,6 +112,10 @@ Status DisplacedGround::prepare(const float* positions, size_t vertex_count, con
     if (index_count % 3) return Status::error(StatusCode::invalid_input, "indices are not triangles");
     for (size_t k = 0; k < index_count; ++k)
         if (indices[k] >= vertex_count) return Status::error(StatusCode::invalid_input, "an index is out of range");
+    // Every vertex is displaced and bucketed by texel, including those no triangle uses: a NaN among them
+    // reached an int conversion (undefined behaviour, found by fuzz_stamp).
+    for (size_t k = 0; k < 3 * vertex_count; ++k)
+        if (!std::isfinite(positions[k])) return Status::error(StatusCode::invalid_input, "a vertex position is not finite");
     auto m = std::make_unique<Impl>();
     m->frame = frame;
     m->opt = opt;
@@ -173,8 +181,10 @@ Status DisplacedGround::prepare(const float* positions, size_t vertex_count, con
         const double tol = opt.top_tolerance > 0 ? opt.top_tolerance : 2 * frame.texel;
         m->movable.assign(points, 1);
         for (size_t p = 0; p < points; ++p) {
-            const int i = int(std::lround(m->texel[2 * p])), j = int(std::lround(m->texel[2 * p + 1]));
-            if (i < 0 || j < 0 || i >= ground->frame.width || j >= ground->frame.height) continue;
+            // On the grid before rounding to int, for the same reason as tile_of (same texels as before).
+            const double ti = m->texel[2 * p], tj = m->texel[2 * p + 1];
+            if (!(ti > -0.5 && tj > -0.5 && ti < ground->frame.width - 0.5 && tj < ground->frame.height - 0.5)) continue;
+            const int i = int(std::lround(ti)), j = int(std::lround(tj));
             const float g = ground->at(i, j);
             const double w = dot(D3{m->rest[3 * p], m->rest[3 * p + 1], m->rest[3 * p + 2]}, d3(frame.up));
             if (!std::isnan(g) && w < double(g) - tol) m->movable[p] = 0;

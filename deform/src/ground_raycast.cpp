@@ -62,7 +62,15 @@ double GroundRaycaster::first_hit(const D3& o, const D3& d) const {
     if (!tree_ || tree_->triangles.empty()) return nan;
     const Point origin(o.x, o.y, o.z);
     const Ray ray(origin, Vector(d.x, d.y, d.z));
-    auto hit = tree_->tree.first_intersection(ray);
+    // With coordinates near the double range (a collider 1e30 m up), the inexact kernel's predicates can
+    // contradict each other, and CGAL reports the "impossible" case by throwing (CGAL_error, in release builds
+    // too); thrown inside a TBB task it terminated the process (found by fuzz_stamp). No usable hit, then.
+    decltype(tree_->tree.first_intersection(ray)) hit;
+    try {
+        hit = tree_->tree.first_intersection(ray);
+    } catch (const CGAL::Failure_exception&) {
+        return nan;
+    }
     if (!hit) return nan;
     const double dd = dot(d, d);
     if (const Point* p = boost::get<Point>(&hit->first)) {

@@ -57,6 +57,14 @@ json frame_json(const HeightmapFrame& f) {
 
 Status frame_from_json(HeightmapFrame& f, const json& j, int width, int height) {
     try {
+        // texel 0 is the empty frame of a map that had none (a plain PFM): save_heightmap records it as it is,
+        // so it must load back as the same empty frame, to be stretched over the grid it is applied to.
+        // (Found by fuzz_heightmap: such a map saved fine and then failed to load.)
+        if (j.at("texel").is_number() && j.at("texel").get<double>() == 0.0) {
+            f = HeightmapFrame{};
+            f.width = width, f.height = height;
+            return Status::success();
+        }
         auto v3 = [&](const char* k) {
             std::array<double, 3> a = j.at(k).get<std::array<double, 3>>();
             for (double x : a)
@@ -218,6 +226,10 @@ Status save_heightmap(const Heightmap& hm, const std::string& path) {
 
 Status load_heightmap(Heightmap& out, const std::string& path) {
     const std::string ext = lower_ext(path);
+    // A folder opens as an ifstream and then throws from the read: refuse it here (it was exit 3, internal).
+    std::error_code dir_ec;
+    if (std::filesystem::is_directory(path, dir_ec))
+        return Status::error(StatusCode::io_error, "is a directory, not a heightmap file");
     std::ifstream in(path, std::ios::binary);
     if (!in) return Status::error(StatusCode::io_error, "cannot open the heightmap");
     std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(in)), {});

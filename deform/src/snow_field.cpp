@@ -213,7 +213,7 @@ static void collect_jobs(const SnowField::Impl& m, const Collider& c, std::vecto
     auto decay_at = [&](double t) { return rate > 0 ? std::exp(-rate * std::max(0.0, m.now - t)) : 1.0; };
     auto add = [&](const LocalPose& a, const LocalPose& b, double ta, double tb) {
         int steps = 1;
-        if (rate > 0) steps = std::clamp(int(std::ceil(rate * (tb - ta) / 0.005)), 1, 10000);
+        if (rate > 0) steps = clamped_int(std::ceil(rate * (tb - ta) / 0.005), 1, 10000);
         for (int s = 0; s < steps; ++s) {
             const double f0 = double(s) / steps, f1 = double(s + 1) / steps;
             auto lerp = [&](double f) {
@@ -261,6 +261,17 @@ static double heading_of(const Collider& c, size_t k) {
     return std::numeric_limits<double>::quiet_NaN();
 }
 
+// `h` moved by whole turns to within 180 degrees of `reference`, so that interpolating turns the short way
+// (exactly ±180 keeps the sign of the difference). Subtracting 360 in a loop never ended for a heading of
+// 1e30, where h − 360 == h (found by fuzz_stamp): std::remainder is exact for any finite value.
+static double unwrap_heading(double h, double reference) {
+    const double d = h - reference;
+    if (!(std::abs(d) > 180)) return h; // also NaN
+    double r = std::remainder(d, 360.0);
+    if (std::abs(r) == 180) r = std::copysign(180.0, d);
+    return reference + r;
+}
+
 static std::vector<ColliderPose> poses_of(const SnowField::Impl& m, const Collider& c) {
     std::vector<ColliderPose> poses;
     const size_t n = c.path.size();
@@ -276,10 +287,7 @@ static std::vector<ColliderPose> poses_of(const SnowField::Impl& m, const Collid
             h = (du * du + dv * dv > 1e-24) ? std::atan2(du, dv) * 180.0 / kPi : last_heading;
         }
         // Unwrapped, so that interpolating between samples turns the short way.
-        if (k > 0) {
-            while (h - last_heading > 180) h -= 360;
-            while (h - last_heading < -180) h += 360;
-        }
+        if (k > 0) h = unwrap_heading(h, last_heading);
         headings[k] = last_heading = h;
     }
     for (size_t k = 0; k < n; ++k) {
@@ -333,8 +341,7 @@ Status SnowField::stamp(const Collider& shape, const ColliderPose& pose, const C
     poses.push_back(pose);
     if (previous) { // turn the short way
         double& h = poses[1].heading_degrees;
-        while (h - poses[0].heading_degrees > 180) h -= 360;
-        while (h - poses[0].heading_degrees < -180) h += 360;
+        h = unwrap_heading(h, poses[0].heading_degrees);
     }
     StampStats st;
     std::vector<Job> jobs;
@@ -419,7 +426,8 @@ std::vector<TexelRect> SnowField::update() {
     if (rw > 0) {
         // The rim reaches rw beyond an imprint and gathers volume from up to max_reach inside it: a region is
         // the stamped tiles grown by that margin, and each connected region is recomputed on its own.
-        const int pad = int(std::ceil((rw + m.max_reach) / f.texel)) + 2;
+        // A reach beyond the grid covers all of it: capped there before it can overflow an int.
+        const int pad = clamped_int(std::ceil((rw + m.max_reach) / f.texel), 0, std::max(f.width, f.height)) + 2;
         const int tp = (pad + T - 1) / T;
         for (int y = 0; y < TY; ++y)
             for (int x = 0; x < TX; ++x) {

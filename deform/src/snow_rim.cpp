@@ -212,7 +212,9 @@ double compute_rim(float* rim, const RimInput& in, const TexelRect& win, const R
             if (tau > 0 && tau < 1) profile[x] = float(16 * tau * tau * (1 - tau) * (1 - tau));
         }
     // Gathering radius: an imprint's half-width plus its rim, so that a rim point sees the volume it carries.
-    const int n = std::max(2, int(std::ceil((in.width_m + in.gather_m) / t / 2)));
+    // Beyond the window's size a box covers all of it, so the cap changes nothing but keeps i + n + 1 (below)
+    // from overflowing for a collider of 1e30 m.
+    const int n = std::max(2, clamped_int(std::ceil((in.width_m + in.gather_m) / t / 2), 0, std::max(w, h)));
     float *num = S.num.data(), *den = S.den.data(), *result = S.result.data(), *tmp = S.tmp.data();
     std::copy(in.conserve ? mass : source, (in.conserve ? mass : source) + N, num);
     if (in.conserve) std::copy(profile, profile + N, den);

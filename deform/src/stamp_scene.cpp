@@ -14,6 +14,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <functional>
@@ -224,9 +225,16 @@ Status tessellate_ground(WorkMesh& w, const Heightmap& hm, const StampOptions& o
     for (size_t t = 0; t < rates.size(); ++t) {
         if (rates[t] <= 1) continue;
         const uint32_t* c = &w.indices[3 * t];
-        auto P = [&](int k) { return D3{w.positions[3 * size_t(c[k])], w.positions[3 * size_t(c[k]) + 1], w.positions[3 * size_t(c[k]) + 2]}; };
-        const double longest = std::max({norm(P(1) - P(0)), norm(P(2) - P(1)), norm(P(0) - P(2))});
-        rates[t] = std::clamp(int(std::ceil(longest / coarse)), 1, std::max(1, o.max_rate));
+        // Lengths in the heightmap's plane, as in triangle_detail_rates (a vertical face needs no cuts for its
+        // height: the map does not vary along up).
+        auto T = [&](int k) {
+            const double q[3] = {w.positions[3 * size_t(c[k])], w.positions[3 * size_t(c[k]) + 1], w.positions[3 * size_t(c[k]) + 2]};
+            return hm.frame.to_texel(q);
+        };
+        const auto t0 = T(0), t1 = T(1), t2 = T(2);
+        auto planar = [&](const std::array<double, 3>& a, const std::array<double, 3>& b) { return texel * std::hypot(b[0] - a[0], b[1] - a[1]); };
+        const double longest = std::max({planar(t0, t1), planar(t1, t2), planar(t2, t0)});
+        rates[t] = detail::clamped_int(std::ceil(longest / coarse), 1, std::max(1, o.max_rate));
         split = split || rates[t] > 1;
     }
     if (split) {
@@ -434,6 +442,27 @@ Status stamp_scene(Scene& scene, const ColliderSet& colliders, const StampOption
         if (!(o.camera->fov_degrees > 0 && o.camera->fov_degrees < 180)) return bad("camera field of view must be in (0, 180)");
         if (o.camera->viewport_height < 1) return bad("camera viewport height must be >= 1");
         if (!(o.camera->pixel_error > 0) || !std::isfinite(o.camera->pixel_error)) return bad("pixel error must be > 0");
+    }
+    // scene_triangles reads an index out of range as a degenerate corner, which is right for a heightmap of the
+    // ground, but the meshes are then written back with their own indices: such a ground came out of an ok
+    // stamp still naming vertices that do not exist (found by fuzz_stamp). Refused, as render_scene does.
+    for (int n : drawn_nodes(scene)) {
+        const int m = scene.nodes[size_t(n)].mesh;
+        if (m < 0 || size_t(m) >= scene.meshes.size()) continue;
+        for (size_t k = 0; k < scene.meshes[size_t(m)].primitives.size(); ++k) {
+            const Primitive& p = scene.meshes[size_t(m)].primitives[k];
+            if (p.mode != PrimitiveMode::triangles) continue;
+            // Every vertex of the ground is displaced, used by a triangle or not (DisplacedGround::prepare).
+            for (float x : p.positions)
+                if (!std::isfinite(x))
+                    return Status::error(StatusCode::invalid_input, "mesh " + std::to_string(m) + " primitive " + std::to_string(k) +
+                                                                        ": a vertex position is not finite");
+            for (uint32_t i : p.indices)
+                if (i >= p.vertex_count())
+                    return Status::error(StatusCode::invalid_input, "mesh " + std::to_string(m) + " primitive " + std::to_string(k) +
+                                                                        ": index " + std::to_string(i) + " is out of range (" +
+                                                                        std::to_string(p.vertex_count()) + " vertices)");
+        }
     }
     const auto t0 = Clock::now();
     std::vector<float> gp;

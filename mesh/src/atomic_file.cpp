@@ -18,7 +18,8 @@ std::string temp_path_beside(const std::string& path) {
     return (p.parent_path() / name).string();
 }
 
-Status atomic_write(const std::string& path, const void* data, size_t size) {
+// Writes the bytes to a temporary file beside `path` (tmp), after checking that `path` can be replaced.
+static Status stage(const std::string& path, const void* data, size_t size, std::string& tmp) {
     namespace fs = std::filesystem;
     fs::path p(path);
     fs::path dir = p.parent_path().empty() ? fs::path(".") : p.parent_path();
@@ -26,7 +27,7 @@ Status atomic_write(const std::string& path, const void* data, size_t size) {
     if (!fs::is_directory(dir, ec))
         return Status::error(StatusCode::io_error, "output folder '" + dir.string() + "' does not exist");
     if (fs::is_directory(p, ec)) return Status::error(StatusCode::io_error, "output path is a directory");
-    const std::string tmp = temp_path_beside(path);
+    tmp = temp_path_beside(path);
     FILE* f = std::fopen(tmp.c_str(), "wb");
     if (!f) return Status::error(StatusCode::io_error, std::string("cannot write: ") + std::strerror(errno));
     bool ok = size == 0 || std::fwrite(data, 1, size, f) == size;
@@ -37,12 +38,46 @@ Status atomic_write(const std::string& path, const void* data, size_t size) {
         std::remove(tmp.c_str());
         return Status::error(StatusCode::io_error, std::string("write failed: ") + std::strerror(err));
     }
+    return Status::success();
+}
+
+// Renames a staged temporary into place (removing it on failure).
+static Status commit(const std::string& tmp, const std::string& path) {
     if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-        err = errno;
+        int err = errno;
         std::remove(tmp.c_str());
         return Status::error(StatusCode::io_error, std::string("cannot rename into place: ") + std::strerror(err));
     }
     return Status::success();
+}
+
+Status atomic_write(const std::string& path, const void* data, size_t size) {
+    std::string tmp;
+    Status s = stage(path, data, size, tmp);
+    if (!s.ok()) return s;
+    return commit(tmp, path);
+}
+
+Status atomic_write_pair(const std::string& first, const void* first_data, size_t first_size, const std::string& second,
+                         const void* second_data, size_t second_size) {
+    std::string tmp1, tmp2;
+    Status s = stage(first, first_data, first_size, tmp1);
+    if (!s.ok()) return s;
+    s = stage(second, second_data, second_size, tmp2);
+    if (!s.ok()) {
+        std::remove(tmp1.c_str());
+        return s;
+    }
+    std::error_code ec;
+    const bool first_existed = std::filesystem::exists(first, ec);
+    s = commit(tmp1, first);
+    if (!s.ok()) {
+        std::remove(tmp2.c_str());
+        return s;
+    }
+    s = commit(tmp2, second);
+    if (!s.ok() && !first_existed) std::remove(first.c_str());
+    return s;
 }
 
 } // namespace furrow::detail

@@ -221,6 +221,12 @@ Status read_attribute(std::vector<float>& out, const tinygltf::Model& m, const s
         if (required) return Status::error(StatusCode::invalid_input, where + ": has no " + name + " attribute");
         return Status::success();
     }
+    // glTF 2.0 (3.6.2.2): UNSIGNED_INT is only allowed for indices; no vertex attribute (not even with
+    // KHR_mesh_quantization) may use it. It used to be read as if it were valid.
+    if (it->second >= 0 && size_t(it->second) < m.accessors.size() &&
+        m.accessors[size_t(it->second)].componentType == TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT)
+        return Status::error(StatusCode::invalid_input, where + " " + name + ": accessor " + std::to_string(it->second) +
+                                                            ": componentType 5125 (UNSIGNED_INT) is only allowed for indices");
     int comps = 0;
     Status s = read_accessor_floats(out, m, it->second, comps);
     if (!s.ok()) return Status::error(s.code, where + " " + name + ": " + s.message);
@@ -378,8 +384,24 @@ Material decode_material(const tinygltf::Material& src) {
 }
 
 // Image loader callback: keep the encoded bytes as they are; the rasterizer decodes on demand.
-bool keep_image_bytes(tinygltf::Image* image, const int, std::string*, std::string*, int, int,
-                      const unsigned char* bytes, int size, void*) {
+// `model` is the model tinygltf is filling. For an image in a bufferView, tinygltf 2.7 hands over
+// buffer.data + byteOffset and byteLength without checking them against the buffer's size, so a bufferView
+// reaching past its buffer was a heap read overflow here (found by fuzz_render); it is checked first.
+bool keep_image_bytes(tinygltf::Image* image, const int index, std::string* err, std::string*, int, int,
+                      const unsigned char* bytes, int size, void* model) {
+    const auto* m = static_cast<const tinygltf::Model*>(model);
+    if (image->bufferView >= 0) {
+        const size_t bv = size_t(image->bufferView);
+        const bool inside = m && bv < m->bufferViews.size() && size_t(m->bufferViews[bv].buffer) < m->buffers.size() &&
+                            m->bufferViews[bv].byteOffset <= m->buffers[size_t(m->bufferViews[bv].buffer)].data.size() &&
+                            m->bufferViews[bv].byteLength <=
+                                m->buffers[size_t(m->bufferViews[bv].buffer)].data.size() - m->bufferViews[bv].byteOffset;
+        if (!inside || size < 0) {
+            if (err) *err += "image " + std::to_string(index) + ": its bufferView lies outside its buffer\n";
+            return false;
+        }
+    }
+    if (size < 0) return false;
     image->image.assign(bytes, bytes + size);
     if (image->mimeType.empty() && size >= 4) {
         if (bytes[0] == 0x89 && bytes[1] == 'P' && bytes[2] == 'N' && bytes[3] == 'G') image->mimeType = "image/png";
@@ -538,14 +560,34 @@ Status convert_model(Scene& out, tinygltf::Model&& model, const LoadOptions& opt
 Status load_gltf_bytes(Scene& out, const uint8_t* data, size_t size, const std::string& base_dir,
                        const LoadOptions& options) {
     tinygltf::TinyGLTF loader;
-    loader.SetImageLoader(keep_image_bytes, nullptr);
     tinygltf::Model model;
+    loader.SetImageLoader(keep_image_bytes, &model);
+    if (base_dir.empty()) {
+        // From memory (load_scene_from_memory) there is no folder to resolve a URI against, and external URIs
+        // are documented as not resolved; tinygltf would still open any absolute path and try relative ones
+        // in the working directory, so the result depended on where the process ran and an error message
+        // gave away the size of any file a URI named (found while fuzzing load_scene_from_memory).
+        tinygltf::FsCallbacks no_files{};
+        no_files.FileExists = [](const std::string&, void*) { return false; };
+        no_files.ExpandFilePath = [](const std::string& p, void*) { return p; };
+        no_files.ReadWholeFile = [](std::vector<unsigned char>*, std::string*, const std::string&, void*) { return false; };
+        no_files.WriteWholeFile = [](std::string*, const std::string&, const std::vector<unsigned char>&, void*) { return false; };
+        loader.SetFsCallbacks(no_files);
+    }
     std::string err, warn;
     bool ok;
     const bool glb = size >= 4 && std::memcmp(data, "glTF", 4) == 0;
     if (size > std::numeric_limits<unsigned int>::max())
         return Status::error(StatusCode::out_of_memory, "file is larger than 4 GiB");
     if (glb) {
+        // GLB container version 1 is glTF 1.0's binary extension: tinygltf reads it as if it were 2.0.
+        if (size >= 12) {
+            uint32_t version = 0;
+            std::memcpy(&version, data + 4, 4);
+            if (version != 2)
+                return Status::error(StatusCode::unsupported, "invalid GLB: container version " + std::to_string(version) +
+                                                                  " is not supported (glTF 2.0 is version 2)");
+        }
         ok = loader.LoadBinaryFromMemory(&model, &err, &warn, data, unsigned(size), base_dir);
     } else {
         if (size == 0) return Status::error(StatusCode::invalid_input, "file is empty");
@@ -556,6 +598,12 @@ Status load_gltf_bytes(Scene& out, const uint8_t* data, size_t size, const std::
         // tinygltf's messages are multi-line; keep the first line (the CLI prints one line).
         while (!msg.empty() && (msg.back() == '\n' || msg.back() == ' ')) msg.pop_back();
         if (auto nl = msg.find('\n'); nl != std::string::npos) msg = msg.substr(0, nl);
+        // tinygltf quotes a data URI it cannot decode in full: the line could be megabytes of base64.
+        if (auto b64 = msg.find(";base64,"); b64 != std::string::npos) {
+            size_t start = b64 + 8, end = start;
+            while (end < msg.size() && msg[end] != ' ' && msg[end] != '\'' && msg[end] != '"') ++end;
+            if (end - start > 16) msg.replace(start + 16, end - start - 16, "...");
+        }
         return Status::error(StatusCode::invalid_input, (glb ? "invalid GLB: " : "invalid glTF: ") + msg);
     }
     Status s = convert_model(out, std::move(model), options);

@@ -542,8 +542,10 @@ Status save_scene(const Scene& scene, const std::string& path, const SaveOptions
     if (!bin.empty()) {
         j["buffers"] = nlohmann::json::array({{{"byteLength", bin.size()}, {"uri", bin_name}}});
         const std::string bin_path = (std::filesystem::path(path).parent_path() / bin_name).string();
-        Status bs = detail::atomic_write(bin_path, bin.data(), bin.size());
-        if (!bs.ok()) return bs;
+        const std::string text = j.dump(options.pretty_json ? 2 : -1);
+        // Both files or neither (the .bin used to be renamed into place before the .gltf was tried, so an
+        // unwritable .gltf path left a stray .bin behind).
+        return detail::atomic_write_pair(bin_path, bin.data(), bin.size(), path, text.data(), text.size());
     }
     const std::string text = j.dump(options.pretty_json ? 2 : -1);
     return detail::atomic_write(path, text.data(), text.size());

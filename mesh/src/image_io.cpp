@@ -7,13 +7,65 @@
 #include <stb_image_write.h>
 
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <iterator>
 
 namespace furrow {
 
+namespace {
+
+// stb_image 2.27 (Debian 12's libstb) trusts the code counts of a JPEG Huffman table (DHT): 16 counts of up to
+// 255 each fill a 257-entry size list and a 256-entry value list, so a corrupt table writes up to 4 KB past
+// them (found by fuzz_heightmap; upstream added the same "n > 256" check in stb_image 2.28). The markers are
+// walked the way stb_image walks them (ITU-T T.81 §B.1.1: segments carry their length, entropy-coded data
+// only holds 0xFF as 0xFF00 or a restart marker RSTn) and every table of every DHT segment is checked.
+bool jpeg_huffman_tables_ok(const uint8_t* p, size_t n) {
+    size_t i = 2; // after SOI
+    while (i + 1 < n) {
+        if (p[i] != 0xFF) { // entropy-coded data, or junk stb_image skips the same way
+            ++i;
+            continue;
+        }
+        const uint8_t m = p[i + 1];
+        if (m == 0xFF) { // fill byte
+            ++i;
+            continue;
+        }
+        if (m == 0x00 || m == 0x01 || m == 0xD8 || (m >= 0xD0 && m <= 0xD7)) { // stuffing, TEM, SOI, RSTn
+            i += 2;
+            continue;
+        }
+        if (m == 0xD9 || i + 3 >= n) break; // EOI, or a truncated segment (stb_image fails on it by itself)
+        const size_t length = size_t(p[i + 2]) << 8 | p[i + 3];
+        if (m == 0xC4) {
+            // As stb_image reads it: tables while the segment has length left, each read whole even when it
+            // runs past the segment (or the file, where stb_image reads zeros).
+            long left = long(length) - 2;
+            size_t at = i + 4;
+            while (left > 0 && at < n) {
+                size_t codes = 0;
+                for (size_t k = 1; k <= 16 && at + k < n; ++k) codes += p[at + k];
+                if (codes > 256) return false;
+                left -= long(17 + codes);
+                at += 17 + codes;
+            }
+        }
+        i += 2 + length;
+    }
+    return true;
+}
+
+} // namespace
+
 Status decode_image(ImageF& out, const uint8_t* data, size_t size) {
     if (size == 0 || size > size_t(INT32_MAX)) return Status::error(StatusCode::invalid_input, "image is empty or too large");
+    // JPEG as stb_image recognises it: SOI after any number of 0xFF fill bytes (fuzz_heightmap got past a
+    // check that wanted FF D8 at byte 0).
+    size_t soi = 0;
+    while (soi < size && data[soi] == 0xFF) ++soi;
+    if (soi > 0 && soi < size && data[soi] == 0xD8 && !jpeg_huffman_tables_ok(data + soi - 1, size - soi + 1))
+        return Status::error(StatusCode::invalid_input, "corrupt JPEG: a Huffman table defines more than 256 codes");
     int w = 0, h = 0, c = 0;
     if (!stbi_info_from_memory(data, int(size), &w, &h, &c))
         return Status::error(StatusCode::invalid_input, std::string("not a readable PNG/JPEG image (") + stbi_failure_reason() + ")");
@@ -41,6 +93,10 @@ Status decode_image(ImageF& out, const uint8_t* data, size_t size) {
 }
 
 Status load_png(ImageF& out, const std::string& path) {
+    // A folder opens as an ifstream on Linux and then throws from the read (basic_filebuf::underflow), which
+    // reached the CLI as an internal error (exit 3) for `--mask some_folder`: refuse it up front.
+    std::error_code ec;
+    if (std::filesystem::is_directory(path, ec)) return Status::error(StatusCode::io_error, "is a directory, not an image");
     std::ifstream in(path, std::ios::binary);
     if (!in) return Status::error(StatusCode::io_error, "cannot open image");
     std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(in)), {});

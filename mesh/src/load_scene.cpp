@@ -18,6 +18,10 @@ std::string lower_extension(const std::string& path) {
 
 Status dispatch(Scene& out, const uint8_t* data, size_t size, const std::string& ext, const std::string& base_dir,
                 const LoadOptions& options) {
+    // A .glb must be a GLB container. Without this check a .glb with a wrong magic was parsed as JSON and
+    // reported as a JSON syntax error at column 1, which does not say what is wrong with the file.
+    if (ext == ".glb" && size > 0 && (size < 4 || std::memcmp(data, "glTF", 4) != 0))
+        return Status::error(StatusCode::invalid_input, "invalid GLB: the file does not start with the GLB magic 'glTF'");
     if (ext == ".gltf" || ext == ".glb") return load_gltf_bytes(out, data, size, base_dir, options);
     if (ext == ".stl") return load_stl_bytes(out, std::string(reinterpret_cast<const char*>(data), size), options);
     if (ext == ".obj" || ext == ".ply" || ext == ".off")
@@ -49,6 +53,7 @@ Status load_scene(Scene& out, const std::string& path, const LoadOptions& option
     if (size && !in.read(reinterpret_cast<char*>(bytes.data()), std::streamsize(size)))
         return Status::error(StatusCode::io_error, "read failed");
     std::string base_dir = fs::path(path).parent_path().string();
+    if (base_dir.empty()) base_dir = "."; // a file in the working directory; "" means "from memory" below
     return dispatch(out, bytes.data(), bytes.size(), ext, base_dir, options);
 }
 

@@ -8,6 +8,8 @@
 #include <OpenMesh/Core/IO/importer/BaseImporter.hh>
 #include <OpenMesh/Core/System/omstream.hh>
 
+#include <algorithm>
+#include <cctype>
 #include <charconv>
 #include <cstring>
 #include <cmath>
@@ -130,31 +132,308 @@ private:
 };
 
 // OpenMesh's OBJ reader parses coordinates as float; re-read the `v` lines in double so that a model
-// 1e5 m from the origin keeps its millimetres (the reader's vertex order is the file's `v` order).
+// 1e5 m from the origin keeps its millimetres. Vertex k here must be vertex k of the reader, so the lines
+// are taken exactly as its read_vertices (OBJReader.cc) takes them: trimmed, comments skipped, keyword and
+// three numbers through a stream; a `v` line the stream cannot read is skipped by both. (Before, every
+// `v` line was counted here, "v junk 1 1" too, and from_chars also reads "nan": every later vertex took its
+// neighbour's position; found by fuzz_load_scene.) Nothing is replaced unless the counts agree.
 void reread_obj_positions_double(const std::string& text, std::vector<double>& points) {
-    size_t vi = 0, at = 0;
+    std::vector<double> reread;
+    reread.reserve(points.size());
+    std::istringstream in(text);
+    std::istringstream words;
+    std::string line, key;
+    while (std::getline(in, line)) {
+        const size_t b = line.find_first_not_of(" \t\r\n");
+        if (b == std::string::npos || line[b] == '#' || std::isspace(static_cast<unsigned char>(line[b]))) continue;
+        const size_t e = line.find_last_not_of(" \t\r\n");
+        words.str(line.substr(b, e - b + 1));
+        words.clear();
+        words >> key;
+        if (key != "v") continue;
+        double x, y, z;
+        words >> x >> y >> z;
+        if (!words.fail()) reread.insert(reread.end(), {x, y, z});
+    }
+    if (reread.size() == points.size()) points = std::move(reread);
+}
+
+// OpenMesh's PLY reader (PLYReader.cc) trusts the file throughout. Its header parser (can_u_read) reads
+// tokens until "end_header" and stops early only on a *bad* stream: at the end of the file, or after a count
+// that does not convert, the last keyword stays what it was and the loop never ends; a "property" before any
+// "element" indexes an empty element list. Its body readers loop over element and list counts without
+// looking at the stream: a face claiming 4e9 corners (ASCII text, or an int list count in binary) loops 4e9
+// times, and a failed read leaves the previous count in place for every later face; a "texcoord" list on a
+// face without corners asserts (Debian builds OpenMesh with assertions on). Found by fuzz_load_scene. The
+// reader lives in the shared libOpenMeshCore, so the file is walked here first the way it walks it, and
+// refused unless every read would succeed within the file. Stricter than needed in places (one vertex and
+// one face element, numbers written plainly). PLY: http://paulbourke.net/dataformats/ply/
+struct PlyProperty {
+    std::string name;
+    bool list = false;
+    std::string type, index_type; // value (list entry) type, list count type
+};
+struct PlyElement {
+    std::string name;
+    unsigned long long count = 0;
+    std::vector<PlyProperty> properties;
+};
+
+int ply_type_size(const std::string& t) {
+    if (t == "char" || t == "uchar" || t == "int8" || t == "uint8") return 1;
+    if (t == "short" || t == "ushort" || t == "int16" || t == "uint16") return 2;
+    if (t == "int" || t == "uint" || t == "int32" || t == "uint32" || t == "float" || t == "float32") return 4;
+    if (t == "double" || t == "float64") return 8;
+    return 0; // OpenMesh's Unsupported: consumes nothing
+}
+
+Status check_ply(const std::string& bytes) {
+    auto bad = [](const std::string& m) { return Status::error(StatusCode::invalid_input, "PLY: " + m); };
+    std::istringstream in(bytes);
+    std::string line;
+    std::getline(in, line);
+    while (!line.empty() && std::isspace(static_cast<unsigned char>(line.back()))) line.pop_back();
+    if (line != "ply" && line != "PLY") return bad("the file does not start with 'ply'");
+    std::string keyword, file_type;
+    float version = 0;
+    in >> keyword >> file_type >> version;
+    if (in.fail() || keyword != "format") return bad("no valid format line");
+    if (file_type != "ascii" && file_type != "binary_little_endian" && file_type != "binary_big_endian")
+        return bad("unknown format '" + file_type.substr(0, 24) + "'");
+    std::vector<PlyElement> elements;
+    std::streamoff before_end = 0;
+    for (;;) {
+        before_end = in.tellg();
+        in >> keyword;
+        if (in.fail()) return bad("the header has no end_header");
+        if (keyword == "end_header") break;
+        if (keyword == "comment") {
+            std::getline(in, line);
+        } else if (keyword == "element") {
+            PlyElement e;
+            unsigned int count = 0;
+            in >> e.name >> count;
+            e.count = count;
+            elements.push_back(e);
+        } else if (keyword == "property") {
+            if (elements.empty()) return bad("a property before any element");
+            PlyProperty p;
+            std::string a, b;
+            in >> a;
+            if (a == "list") {
+                p.list = true;
+                in >> p.index_type >> p.type >> p.name;
+                if (p.index_type != "uint8" && p.index_type != "uint16" && p.index_type != "uchar" && p.index_type != "int")
+                    return bad("unsupported list count type '" + p.index_type.substr(0, 16) + "'");
+            } else {
+                in >> b;
+                // "float x" or "x float": OpenMesh takes whichever word is a type.
+                const bool a_type = ply_type_size(a) > 0;
+                p.type = a_type ? a : b;
+                p.name = a_type ? b : a;
+            }
+            std::vector<PlyProperty>& props = elements.back().properties;
+            // Properties of a face listed before its vertex indices are dropped by OpenMesh (it warns).
+            if (elements.back().name == "face" && p.list && (p.name == "vertex_index" || p.name == "vertex_indices"))
+                props.clear();
+            props.push_back(p);
+        }
+        if (in.fail()) return bad("malformed " + keyword.substr(0, 16) + " line");
+    }
+    size_t vertex_elements = 0, face_elements = 0;
+    for (const PlyElement& e : elements) vertex_elements += e.name == "vertex", face_elements += e.name == "face";
+    if (vertex_elements > 1 || face_elements > 1) return bad("more than one vertex or face element");
+    // Every element takes at least one byte of the body (an element of no properties would otherwise loop
+    // its count through nothing, here and in OpenMesh).
+    const auto header_end = in.tellg();
+    const unsigned long long body = header_end < 0 ? 0 : bytes.size() - std::min(bytes.size(), size_t(header_end));
+    for (const PlyElement& e : elements)
+        if (e.count > body) return bad("an element count of " + std::to_string(e.count) + " is more than the file holds");
+
+    if (file_type == "ascii") {
+        // OpenMesh reads on from the token after end_header. Numbers it reads must be plain numbers, so that
+        // each of its reads takes exactly one token and none fails.
+        std::vector<std::string> tokens;
+        for (std::string t; in >> t;) tokens.push_back(t);
+        size_t at = 0;
+        auto unsigned_token = [&](unsigned long long& v) {
+            if (at >= tokens.size()) return false;
+            const std::string& t = tokens[at++];
+            auto r = std::from_chars(t.data(), t.data() + t.size(), v);
+            return r.ec == std::errc() && r.ptr == t.data() + t.size() && v <= 0xFFFFFFFFull;
+        };
+        auto number_token = [&]() {
+            if (at >= tokens.size()) return false;
+            const std::string& t = tokens[at++];
+            double v = 0;
+            auto r = std::from_chars(t.data(), t.data() + t.size(), v);
+            return !t.empty() && (std::isdigit(static_cast<unsigned char>(t[0])) || t[0] == '-' || t[0] == '.') &&
+                   r.ec == std::errc() && r.ptr == t.data() + t.size() && std::abs(v) <= 3.4e38;
+        };
+        for (const PlyElement& e : elements) {
+            const bool face = e.name == "face";
+            for (unsigned long long i = 0; i < e.count; ++i) {
+                unsigned long long corners = 0;
+                bool have_corners = false;
+                for (const PlyProperty& p : e.properties) {
+                    if (face && p.list && (p.name == "vertex_index" || p.name == "vertex_indices" || p.name == "texcoord")) {
+                        unsigned long long n = 0, v = 0;
+                        if (!unsigned_token(n) || n > tokens.size() - at) return bad("a face list count is not valid");
+                        if (p.name == "texcoord" && (!have_corners || corners == 0))
+                            return bad("face texture coordinates without corners");
+                        for (unsigned long long k = 0; k < n; ++k)
+                            if (p.name == "texcoord" ? !number_token() : !unsigned_token(v)) return bad("a face holds something other than numbers");
+                        if (p.name != "texcoord") corners = n, have_corners = true;
+                    } else if (at >= tokens.size()) {
+                        return bad("the file ends before its last element");
+                    } else if (!p.list && ply_type_size(p.type) > 0) {
+                        if (!number_token()) return bad("'" + tokens[at - 1].substr(0, 16) + "' is not a number");
+                    } else {
+                        ++at; // read as a word and dropped
+                    }
+                }
+            }
+            if (face) break; // OpenMesh stops after the faces
+        }
+        return Status::success();
+    }
+
+    // Binary: OpenMesh seeks to 12 bytes (14 after "\r\n") past where the end_header token began.
+    const bool msb = file_type == "binary_big_endian";
+    size_t at = size_t(before_end) + (bytes.compare(size_t(before_end), 2, "\r\n") == 0 ? 14 : 12);
+    auto read_count = [&](const std::string& type, unsigned long long& n) {
+        const int size = ply_type_size(type);
+        if (at + size_t(size) > bytes.size()) return false;
+        uint32_t u = 0;
+        for (int k = 0; k < size; ++k) u |= uint32_t(uint8_t(bytes[at + size_t(msb ? size - 1 - k : k)])) << (8 * k);
+        at += size_t(size);
+        n = type == "int" ? uint64_t(uint32_t(int32_t(u))) : u; // OpenMesh stores it in an unsigned int
+        return true;
+    };
+    for (const PlyElement& e : elements) {
+        const bool face = e.name == "face";
+        if (!face) { // every property one scalar (a list too: OpenMesh consumes one entry-sized value)
+            unsigned long long record = 0;
+            for (const PlyProperty& p : e.properties) record += unsigned(ply_type_size(p.type));
+            if (record && e.count > (bytes.size() - std::min(bytes.size(), at)) / record)
+                return bad("element '" + e.name.substr(0, 16) + "' is longer than the file");
+            at += size_t(e.count * record);
+            continue;
+        }
+        for (unsigned long long i = 0; i < e.count; ++i) {
+            unsigned long long corners = 0;
+            bool have_corners = false;
+            for (const PlyProperty& p : e.properties) {
+                const unsigned long long value = unsigned(ply_type_size(p.type));
+                if (p.list && (p.name == "vertex_index" || p.name == "vertex_indices" || p.name == "texcoord")) {
+                    unsigned long long n = 0;
+                    if (!read_count(p.index_type, n)) return bad("the file ends inside a face");
+                    if (p.name == "texcoord" && (!have_corners || corners == 0))
+                        return bad("face texture coordinates without corners");
+                    if (value && n > (bytes.size() - std::min(bytes.size(), at)) / value)
+                        return bad("a face list is longer than the file");
+                    if (!value && n > bytes.size()) return bad("a face list count is not valid");
+                    at += size_t(n * value);
+                    if (p.name != "texcoord") corners = n, have_corners = true;
+                } else {
+                    at += size_t(value);
+                }
+                if (at > bytes.size()) return bad("the file ends inside a face");
+            }
+        }
+        break; // OpenMesh stops after the faces
+    }
+    return Status::success();
+}
+
+// OpenMesh's OFF reader (OFFReader.cc, read_ascii) checks none of its stream reads: without counts in the
+// header it loops over an uninitialised vertex count (a 2 GB allocation from an empty file), and a face line
+// that fails to read keeps the previous corner count for every remaining face. The file is walked here first
+// with the same reads, each checked, so that OpenMesh only ever sees input it reads to the end. Reading from a
+// stream, OpenMesh never parses the header keyword (IOManager skips can_u_read for streams), so only the ASCII
+// variants whose vertex lines begin with x y z are read correctly: binary and 4D/nD files are refused.
+// Found by fuzz_load_scene. OFF: https://segeval.cs.princeton.edu/public/off_format.html
+Status check_off(const std::string& bytes) {
+    auto bad = [](const std::string& m) { return Status::error(StatusCode::invalid_input, "OFF: " + m); };
+    std::istringstream in(bytes);
+    std::string header;
+    std::getline(in, header);
+    std::istringstream words(header);
+    std::string keyword, more;
+    words >> keyword >> more;
+    std::string k = keyword;
+    if (k.rfind("ST", 0) == 0) k = k.substr(2);
+    if (!k.empty() && k[0] == 'C') k = k.substr(1);
+    if (!k.empty() && k[0] == 'N') k = k.substr(1);
+    if (k != "OFF") return bad("the first line must be OFF (or STOFF, COFF, NOFF...), not '" + keyword.substr(0, 16) + "'");
+    if (more == "BINARY") return Status::error(StatusCode::unsupported, "OFF: binary OFF files are not supported");
+    unsigned int nv = 0, nf = 0, ne = 0;
+    in >> nv >> nf >> ne;
+    if (in.fail()) return bad("no vertex, face and edge counts after the header");
+    const auto at = in.tellg();
+    const size_t body = at < 0 ? 0 : bytes.size() - std::min(bytes.size(), size_t(at));
+    if (nv > body || nf > body) return bad("the counts (" + std::to_string(nv) + " vertices, " + std::to_string(nf) +
+                                           " faces) are more than the file holds");
+    std::string rest;
+    for (unsigned int i = 0; i < nv && !in.eof(); ++i) {
+        float x, y, z;
+        in >> x >> y >> z;
+        if (in.fail()) return bad("vertex " + std::to_string(i) + " is not three numbers");
+        std::getline(in, rest);
+    }
+    for (unsigned int f = 0; f < nf; ++f) {
+        unsigned int corners = 0, index = 0;
+        in >> corners;
+        if (in.fail() || corners > body) return bad("face " + std::to_string(f) + " has no valid corner count");
+        for (unsigned int c = 0; c < corners && !in.fail(); ++c) in >> index;
+        if (in.fail()) return bad("face " + std::to_string(f) + " has fewer indices than its corner count");
+    }
+    return Status::success();
+}
+
+// OpenMesh's OBJ reader asserts on a face corner without a vertex index ("f /1/1", OBJReader.cc: assert(
+// !vhandles.empty())), and Debian builds it with assertions on, so such a file aborted the process; a corner
+// whose index does not parse leaves an uninitialised int in use. Found by fuzz_load_scene. Every corner with a
+// '/' must therefore start with an integer (corners without one are numbers or trailing garbage, which the
+// reader parses or skips).
+Status check_obj_faces(const std::string& text) {
+    size_t at = 0;
     while (at < text.size()) {
         size_t end = text.find('\n', at);
         if (end == std::string::npos) end = text.size();
-        const char* b = text.data() + at;
-        const char* e = text.data() + end;
-        while (b < e && (*b == ' ' || *b == '\t')) ++b;
-        if (e - b > 2 && b[0] == 'v' && (b[1] == ' ' || b[1] == '\t')) {
-            double xyz[3];
-            const char* p = b + 2;
-            bool ok = true;
-            for (double& c : xyz) {
-                while (p < e && (*p == ' ' || *p == '\t')) ++p;
-                auto r = std::from_chars(p, e, c);
-                if (r.ec != std::errc()) { ok = false; break; }
-                p = r.ptr;
+        std::istringstream line(text.substr(at, end - at));
+        std::string key, corner;
+        line >> key;
+        if (key == "f")
+            while (line >> corner) {
+                const size_t slash = corner.find('/');
+                if (slash == std::string::npos) continue;
+                const std::string index = corner.substr(0, slash);
+                int value = 0;
+                const char* b = index.data() + (!index.empty() && index[0] == '+' ? 1 : 0);
+                auto r = std::from_chars(b, index.data() + index.size(), value);
+                if (index.empty() || r.ec != std::errc())
+                    return Status::error(StatusCode::invalid_input, "OBJ: face corner '" + corner.substr(0, 24) + "' has no vertex index");
             }
-            if (ok && vi * 3 + 2 < points.size())
-                for (int k = 0; k < 3; ++k) points[vi * 3 + size_t(k)] = xyz[k];
-            ++vi;
-        }
         at = end + 1;
     }
+    return Status::success();
+}
+
+// furrow reads no OBJ materials, but OpenMesh opens every mtllib file it is told to, relative to the folder
+// of the last file it read or the working directory, and reads it to the end (/dev/zero never ends): the
+// keyword is turned into a comment (same length, so the double re-read of `v` lines is unaffected).
+std::string without_mtllib(std::string text) {
+    size_t at = 0;
+    while (at < text.size()) {
+        size_t b = at;
+        while (b < text.size() && (text[b] == ' ' || text[b] == '\t')) ++b;
+        if (text.compare(b, 6, "mtllib") == 0) text[b] = '#';
+        const size_t end = text.find('\n', at);
+        if (end == std::string::npos) break;
+        at = end + 1;
+    }
+    return text;
 }
 
 } // namespace
@@ -168,7 +447,9 @@ Status load_openmesh_bytes(Scene& out, const std::string& bytes, const std::stri
     OpenMesh::IO::Options opt = OpenMesh::IO::Options::VertexTexCoord | OpenMesh::IO::Options::FaceTexCoord |
                                 OpenMesh::IO::Options::VertexNormal | OpenMesh::IO::Options::VertexColor;
     std::string fmt = ext.substr(1);
-    std::istringstream in(bytes);
+    Status checked = ext == ".ply" ? check_ply(bytes) : ext == ".off" ? check_off(bytes) : check_obj_faces(bytes);
+    if (!checked.ok()) return checked;
+    std::istringstream in(ext == ".obj" ? without_mtllib(bytes) : bytes);
     bool ok = OpenMesh::IO::IOManager().read(in, fmt, rec, opt);
     if (!ok) return Status::error(StatusCode::invalid_input, "could not be parsed as " + fmt + " (OpenMesh reader failed)");
     if (rec.n_vertices() == 0) return Status::error(StatusCode::invalid_input, "contains no vertices");

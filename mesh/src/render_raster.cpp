@@ -139,16 +139,24 @@ float plane_distance(const Vert& v, int plane, const Grid& g) {
     default: return g.gy * v.w - v.y;
     }
 }
-bool outside(const Vert& v, const Grid& g) { // beyond the near plane or the guard band (or NaN)
-    return !(v.z <= v.w && std::abs(v.x) <= g.gx * v.w && std::abs(v.y) <= g.gy * v.w);
+bool outside(const Vert& v, const Grid& g) { // beyond the near plane or the guard band, or not finite
+    // Every vertex that is not outside gets snapped, including those of triangles skipped later as
+    // non-finite: an infinite w passes the guard band test (gx · inf = inf), and w = 0 (a point in the
+    // eye's plane) passes it for x = y = 0; either way snap() converted NaN to an integer, undefined
+    // behaviour (found by fuzz_render).
+    return !(std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.w) && v.w > 0 && v.z <= v.w &&
+             std::abs(v.x) <= g.gx * v.w && std::abs(v.y) <= g.gy * v.w);
 }
 
 // Divides by w and snaps to the sub-sample grid (round to nearest). Every triangle sharing a vertex gets the
 // same integers from the same floats, which is what makes the fill rule exact across shared edges.
+// Kept inside the guard band: clipping huge clip-space coordinates in float can land a vertex far outside
+// it (x/w = 1e31), and converting that to an integer is undefined behaviour (found by fuzz_render). For every
+// vertex that clipping placed correctly the clamp changes nothing.
 Snapped snap(const Vert& v, const Grid& g) {
     double iw = 1.0 / v.w;
-    return {int32_t(fast_floor((v.x * iw * 0.5 + 0.5) * g.ws * kOne + 0.5)),
-            int32_t(fast_floor((0.5 - v.y * iw * 0.5) * g.hs * kOne + 0.5))};
+    const double x = std::clamp(v.x * iw, -double(g.gx), double(g.gx)), y = std::clamp(v.y * iw, -double(g.gy), double(g.gy));
+    return {int32_t(fast_floor((x * 0.5 + 0.5) * g.ws * kOne + 0.5)), int32_t(fast_floor((0.5 - y * 0.5) * g.hs * kOne + 0.5))};
 }
 
 // Orients and culls one snapped triangle, and keeps it if any sample centre lies in its bounding box.
@@ -208,6 +216,16 @@ void clip_and_emit(Setup& s, const Vert* const in[3], const uint32_t in_idx[3], 
         n = m;
     }
     if (n < 3) return;
+    // Finite but huge clip coordinates (1e38) overflow the float plane distances, and the intersection
+    // parameter becomes inf/inf = NaN: such a triangle is counted with the non-finite ones and skipped rather
+    // than snapped from NaN (found by fuzz_render).
+    for (int i = 0; i < n; ++i) {
+        const Vert& v = poly[i].v;
+        if (!(std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z) && v.w > 0 && std::isfinite(v.w))) {
+            ++s.chunk.nan;
+            return;
+        }
+    }
     uint32_t base = uint32_t(s.draw.verts.size());
     uint32_t idx[16];
     Snapped snapped[16];
@@ -324,12 +342,23 @@ struct Shader {
         for (int c = 0; c < 4; ++c) base[size_t(c)] *= at(&Vert::c, c);
         float alpha = base[3];
         if (d.alpha_mode == AlphaMode::mask && !(alpha >= d.alpha_cutoff)) return;
+        // COLOR_0, NORMAL and TEXCOORD come from the file unchecked (only POSITION must be finite): none of
+        // their NaNs or 1e38s may reach the image (found by fuzz_render: NaN pixels in normals mode). Alpha is
+        // kept to [0, 1], NaN counting as 0; a normal's length is taken in double (1e38 squared overflows a
+        // float), and a NaN or zero normal shades as no normal; a non-finite colour channel becomes 0 or 1.
         if (d.alpha_mode != AlphaMode::blend) alpha = 1;
+        else alpha = alpha >= 0 ? std::min(alpha, 1.0f) : 0.0f;
 
         float n[3] = {at(&Vert::n, 0), at(&Vert::n, 1), at(&Vert::n, 2)};
         float nl = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
-        float ns = nl > 0 ? (back ? -1 : 1) / nl : 0.0f;
-        for (float& c : n) c *= ns;
+        if (std::isfinite(nl)) {
+            float ns = nl > 0 ? (back ? -1 : 1) / nl : 0.0f;
+            for (float& c : n) c *= ns;
+        } else {
+            const double dl = std::sqrt(double(n[0]) * n[0] + double(n[1]) * n[1] + double(n[2]) * n[2]);
+            const double ds = std::isfinite(dl) ? (back ? -1 : 1) / dl : 0.0; // dl > 0 here unless NaN
+            for (float& c : n) c = ds != 0 ? float(c * ds) : 0.0f;
+        }
         float rgb[3];
         switch (f.mode) {
         case RenderMode::normals:
@@ -359,6 +388,8 @@ struct Shader {
             }
         }
         }
+        for (float& c : rgb)
+            if (!std::isfinite(c)) c = c > 0 ? 1.0f : 0.0f;
         float* dst = &band.color[4 * i];
         if (d.alpha_mode == AlphaMode::blend) { // "over", premultiplied; blended surfaces leave depth alone
             for (int c = 0; c < 3; ++c) dst[c] = rgb[c] * alpha + dst[c] * (1 - alpha);

@@ -1,12 +1,21 @@
-// Ray casts and point-to-mesh distances on an axis-aligned bounding-box tree.
+// Ray casts, point-to-mesh distances and the shell/base intersection test of compute_shell_frame.
 //
-// Reference: P. Alliez, S. Tayeb, C. Wormser, "3D Fast Intersection and Distance Computation", CGAL User
-// and Reference Manual (AABB Tree package), 5.5. The tree is built once per call and then queried from
-// several threads: both query kinds are const on a built tree (the distance accelerator is built up front,
-// before the parallel loop, because CGAL builds it lazily otherwise).
+// References: P. Alliez, S. Tayeb, C. Wormser, "3D Fast Intersection and Distance Computation", CGAL User and
+// Reference Manual (AABB Tree package), 5.5 (distances_to_mesh, what the benchmark measures with); the
+// geometric tests at the leaves are CGAL's (Simple_cartesian constructions; Epick exact predicates for the
+// intersection test), the traversal is triangle_bvh.h's. T. Möller, B. Trumbore, "Fast, Minimum Storage
+// Ray/Triangle Intersection", JGT 2(1), 1997 (only as a loose pre-filter in front of CGAL's construction).
+// A. Meyer, S. Pion, "FPG: A code generator for fast and certified geometric predicates", RNC 2008 (the
+// error bound of CGAL's semi-static orientation filter, reused by CertainSide).
+//
+// One SurfaceIndex (hierarchy + CGAL triangles) is built per frame and shared by every query; every query
+// loop is a TBB parallel_for writing only its own entries, so results do not depend on the thread count.
+// The fast paths (box and plane pre-filters, certified signs) only ever skip work whose outcome they have
+// proven; every answer is the one CGAL's own test gives.
 //
 // The only CGAL file of furrow::shells (its headers dominate compile time).
 #include "shells_internal.h"
+#include "triangle_bvh.h"
 
 #include <furrow/shells.h>
 
@@ -15,33 +24,88 @@
 #include <CGAL/AABB_triangle_primitive.h>
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/Simple_cartesian.h>
-#include <CGAL/box_intersection_d.h>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <cmath>
+#include <initializer_list>
 #include <limits>
+#include <numeric>
 
 namespace furrow {
 namespace {
 
-// Constructions (ray hit points, closest points) are all this file needs, and it needs them fast: the
+// Constructions (ray hit points, closest points) are all the clamps need, and they need them fast: the
 // results only scale an offset by a safety fraction, so double rounding is harmless.
 using Kernel = CGAL::Simple_cartesian<double>;
 using Point = Kernel::Point_3;
 using Vector = Kernel::Vector_3;
 using Ray = Kernel::Ray_3;
+using Segment = Kernel::Segment_3;
 using Triangle = Kernel::Triangle_3;
-using Iterator = std::vector<Triangle>::const_iterator;
-using Primitive3 = CGAL::AABB_triangle_primitive<Kernel, Iterator>;
-using Traits = CGAL::AABB_traits<Kernel, Primitive3>;
-using Tree = CGAL::AABB_tree<Traits>;
+
+using Exact = CGAL::Exact_predicates_inexact_constructions_kernel;
+
+// The sign of orientation(p, q, r, s) where CGAL's semi-static filter certifies it (the same expression and
+// error bound as CGAL/Filtered_kernel/internal/Static_filters/Orientation_3.h, 5.5), 0 where it does not
+// (or the sign is 0), for one plane (p, q, r) and several s. Most candidate pairs of the intersection test
+// lie on one side of each other's plane; deciding that here skips building the CGAL objects and the full
+// predicate.
+class CertainSide {
+public:
+    CertainSide(const Exact::Point_3& p, const Exact::Point_3& q, const Exact::Point_3& r)
+        : px(p.x()), py(p.y()), pz(p.z()), pqx(q.x() - px), pqy(q.y() - py), pqz(q.z() - pz), prx(r.x() - px), pry(r.y() - py),
+          prz(r.z() - pz), m01(pqx * pry - prx * pqy), ax(std::max(std::abs(pqx), std::abs(prx))),
+          ay(std::max(std::abs(pqy), std::abs(pry))), az(std::max(std::abs(pqz), std::abs(prz))) {}
+    [[gnu::always_inline]] int operator()(const Exact::Point_3& s) const {
+        const double psx = s.x() - px, psy = s.y() - py, psz = s.z() - pz;
+        const double maxx = std::max(ax, std::abs(psx)), maxy = std::max(ay, std::abs(psy)), maxz = std::max(az, std::abs(psz));
+        const double m02 = pqx * psy - psx * pqy, m12 = prx * psy - psx * pry;
+        const double det = m01 * psz - m02 * prz + m12 * pqz;
+        const double eps = 5.1107127829973299e-15 * maxx * maxy * maxz;
+        // CGAL's guards against underflow of eps and overflow of det (on the smallest and largest maximum).
+        const double lo = std::min(std::min(maxx, maxy), maxz), hi = std::max(std::max(maxx, maxy), maxz);
+        if (lo < 1e-97 || !(hi < 1e102)) return 0;
+        return det > eps ? 1 : det < -eps ? -1 : 0;
+    }
+    // All of xs strictly on one side of the plane, certainly.
+    bool apart(std::initializer_list<const Exact::Point_3*> xs) const {
+        int first = 0;
+        for (const Exact::Point_3* x : xs) {
+            const int side = (*this)(*x);
+            if (side == 0 || (first != 0 && side != first)) return false;
+            first = side;
+        }
+        return true;
+    }
+
+private:
+    double px, py, pz, pqx, pqy, pqz, prx, pry, prz, m01, ax, ay, az;
+};
+
+// CGAL::do_intersect(Triangle_3(a, b, c), Segment_3(p, q)), answered without CGAL where certified signs
+// suffice (as in most pairs of neighbouring shell triangles): p and q strictly on one side of the plane
+// cannot meet the triangle; strictly on opposite sides, the segment crosses the plane inside the closed
+// triangle if and only if orientation(p, q, ·, ·) over its three edges has no two opposite signs
+// (T. Möller, "A Fast Triangle-Triangle Intersection Test", JGT 2(2), 1997; the edge test of O. Devillers,
+// P. Guigue, "Faster Triangle-Triangle Intersection Tests", INRIA RR-4488, 2002).
+[[gnu::always_inline]] inline bool segment_meets_triangle(const Exact::Point_3& a, const Exact::Point_3& b, const Exact::Point_3& c, const Exact::Point_3& p,
+                            const Exact::Point_3& q) {
+    const CertainSide plane(a, b, c);
+    const int sp = plane(p), sq = plane(q);
+    if (sp != 0 && sp == sq) return false;
+    if (sp != 0 && sq != 0) {
+        const int s1 = CertainSide(p, q, a)(b), s2 = CertainSide(p, q, b)(c), s3 = CertainSide(p, q, c)(a);
+        if (s1 != 0 && s2 != 0 && s3 != 0) return s1 == s2 && s2 == s3;
+        if ((s1 * s2 < 0) || (s2 * s3 < 0) || (s1 * s3 < 0)) return false;
+    }
+    return CGAL::do_intersect(Exact::Triangle_3(a, b, c), Exact::Segment_3(p, q));
+}
 
 // The pair decision of CGAL Polygon_mesh_processing::self_intersections (as in furrow::mesh's check),
 // with adjacency read from vertex ids.
-using Exact = CGAL::Exact_predicates_inexact_constructions_kernel;
 bool pair_intersects(const std::vector<Exact::Point_3>& pts, const std::array<uint32_t, 3>& a, const std::array<uint32_t, 3>& b) {
     int shared = 0, ia = -1, ib = -1;
     bool in_b[3] = {false, false, false};
@@ -64,118 +128,297 @@ bool pair_intersects(const std::vector<Exact::Point_3>& pts, const std::array<ui
         for (int j = 0; j < 3; ++j)
             if (b[j] != a[u] && b[j] != a[v]) apex_b = b[j];
         const auto &pu = pts[a[u]], &pv = pts[a[v]], &pa = pts[a[apex]], &pb = pts[apex_b];
+        if (CertainSide(pu, pv, pa)(pb) != 0) return false; // certainly not coplanar: no fold
         return CGAL::coplanar(pu, pv, pa, pb) && CGAL::coplanar_orientation(pu, pv, pa, pb) == CGAL::POSITIVE;
     }
-    const Exact::Triangle_3 ta(pts[a[0]], pts[a[1]], pts[a[2]]), tb(pts[b[0]], pts[b[1]], pts[b[2]]);
+    const auto &a0 = pts[a[0]], &a1 = pts[a[1]], &a2 = pts[a[2]], &b0 = pts[b[0]], &b1 = pts[b[1]], &b2 = pts[b[2]];
     if (shared == 1) {
-        const Exact::Segment_3 opposite_a(pts[a[(ia + 1) % 3]], pts[a[(ia + 2) % 3]]);
-        const Exact::Segment_3 opposite_b(pts[b[(ib + 1) % 3]], pts[b[(ib + 2) % 3]]);
-        return CGAL::do_intersect(ta, opposite_b) || CGAL::do_intersect(tb, opposite_a);
+        const auto &oa0 = pts[a[(ia + 1) % 3]], &oa1 = pts[a[(ia + 2) % 3]];
+        const auto &ob0 = pts[b[(ib + 1) % 3]], &ob1 = pts[b[(ib + 2) % 3]];
+        return segment_meets_triangle(a0, a1, a2, ob0, ob1) || segment_meets_triangle(b0, b1, b2, oa0, oa1);
     }
-    return CGAL::do_intersect(ta, tb);
+    // A triangle wholly on one side of the other's plane cannot meet it.
+    if (CertainSide(a0, a1, a2).apart({&b0, &b1, &b2}) || CertainSide(b0, b1, b2).apart({&a0, &a1, &a2})) return false;
+    return CGAL::do_intersect(Exact::Triangle_3(a0, a1, a2), Exact::Triangle_3(b0, b1, b2));
+}
+
+// Möller–Trumbore with a generous tolerance: false only where the ray clearly misses the triangle (or hits
+// it behind the origin), so that CGAL's construction, which decides, runs on a handful of triangles per
+// ray instead of on every triangle of every leaf reached. Near-parallel rays always pass.
+bool may_hit(const double* o, const double* d, const Triangle& tri) {
+    const double a[3] = {tri[0].x(), tri[0].y(), tri[0].z()};
+    const double e1[3] = {tri[1].x() - a[0], tri[1].y() - a[1], tri[1].z() - a[2]};
+    const double e2[3] = {tri[2].x() - a[0], tri[2].y() - a[1], tri[2].z() - a[2]};
+    const double p[3] = {d[1] * e2[2] - d[2] * e2[1], d[2] * e2[0] - d[0] * e2[2], d[0] * e2[1] - d[1] * e2[0]};
+    const double det = e1[0] * p[0] + e1[1] * p[1] + e1[2] * p[2];
+    const double l1 = std::sqrt(e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2]);
+    const double l2 = std::sqrt(e2[0] * e2[0] + e2[1] * e2[1] + e2[2] * e2[2]);
+    if (!(std::abs(det) > 1e-6 * l1 * l2)) return true; // within ~1e-6 rad of the plane's direction: let CGAL decide
+    const double inv = 1.0 / det;
+    const double s[3] = {o[0] - a[0], o[1] - a[1], o[2] - a[2]};
+    constexpr double tol = 1e-6;
+    const double u = (s[0] * p[0] + s[1] * p[1] + s[2] * p[2]) * inv;
+    if (u < -tol || u > 1 + tol) return false;
+    const double q[3] = {s[1] * e1[2] - s[2] * e1[1], s[2] * e1[0] - s[0] * e1[2], s[0] * e1[1] - s[1] * e1[0]};
+    const double v = (d[0] * q[0] + d[1] * q[1] + d[2] * q[2]) * inv;
+    if (v < -tol || u + v > 1 + tol) return false;
+    const double t = (e2[0] * q[0] + e2[1] * q[1] + e2[2] * q[2]) * inv;
+    const double sl = std::sqrt(s[0] * s[0] + s[1] * s[1] + s[2] * s[2]);
+    return !(t < -tol * (sl + l1 + l2));
+}
+
+detail::Box3 box_of(const Point& a, const Point& b, const Point& c) {
+    detail::Box3 box;
+    for (const Point* p : {&a, &b, &c}) {
+        const double x[3] = {p->x(), p->y(), p->z()};
+        box.add(x);
+    }
+    return box;
 }
 
 } // namespace
 
 namespace detail {
 
-size_t crossing_vertices(uint8_t* hit, const std::vector<double>& base, const std::vector<double>& shell,
-                         const std::vector<uint8_t>& moving, const std::vector<std::array<uint32_t, 3>>& triangles,
+struct SurfaceIndex::Impl {
+    const std::vector<double>& points;
+    const std::vector<std::array<uint32_t, 3>>& triangles;
+    std::vector<Triangle> tris;
+    // Each triangle's plane (unit normal through its first corner) and a bound on the rounding of the plane
+    // distance |n·(x − a)| per unit of |x − a|₁ (large for slivers, whose normal is inaccurate): the plane
+    // distance bounds the triangle distance from below, so most triangles are ruled out without CGAL.
+    struct Plane {
+        double a[3], n[3], slack;
+    };
+    std::vector<Plane> planes;
+    Box3 bounds; // of all triangles
+    BoxBvh bvh;
+
+    Impl(const std::vector<double>& p, const std::vector<std::array<uint32_t, 3>>& t) : points(p), triangles(t) {
+        tris.reserve(t.size());
+        planes.resize(t.size());
+        std::vector<Box3> boxes(t.size());
+        for (size_t f = 0; f < t.size(); ++f) {
+            tris.emplace_back(pt(t[f][0]), pt(t[f][1]), pt(t[f][2]));
+            boxes[f] = box_of(tris[f][0], tris[f][1], tris[f][2]);
+            bounds.add(boxes[f]);
+            const double* a = &p[3 * size_t(t[f][0])];
+            const double* b = &p[3 * size_t(t[f][1])];
+            const double* c = &p[3 * size_t(t[f][2])];
+            const double e1[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, e2[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
+            const double n[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]};
+            const double len = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+            const double l1 = std::sqrt(e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2]);
+            const double l2 = std::sqrt(e2[0] * e2[0] + e2[1] * e2[1] + e2[2] * e2[2]);
+            Plane& pl = planes[f];
+            for (int k = 0; k < 3; ++k) pl.a[k] = a[k], pl.n[k] = len > 0 ? n[k] / len : 0.0;
+            pl.slack = len > 0 && std::isfinite(len) ? 1e-14 * (l1 * l2 / len + 1) : HUGE_VAL;
+        }
+        bvh.build(std::move(boxes));
+    }
+    Point pt(uint32_t v) const { return Point(points[3 * size_t(v)], points[3 * size_t(v) + 1], points[3 * size_t(v) + 2]); }
+
+    // Is some triangle nearer than sqrt(r2) to x (squared distance < r2)? Early exit on the first found,
+    // which is written to *witness (a caller asking again nearby tries it first).
+    bool any_within(const Point& x, double r2, uint32_t* witness = nullptr) const {
+        const double p[3] = {x.x(), x.y(), x.z()};
+        const double r = std::sqrt(r2) * (1 + 1e-12);
+        return bvh.for_near(p, r2, [&](uint32_t f, double&) {
+            if (!within(f, x, p, r, r2)) return false;
+            if (witness) *witness = f;
+            return true;
+        });
+    }
+    // Squared distance from x (= p) to triangle f below r2 (r: sqrt(r2), rounded up)? The plane first.
+    bool within(uint32_t f, const Point& x, const double* p, double r, double r2) const {
+        const Plane& pl = planes[f];
+        const double d[3] = {p[0] - pl.a[0], p[1] - pl.a[1], p[2] - pl.a[2]};
+        const double plane = std::abs(pl.n[0] * d[0] + pl.n[1] * d[1] + pl.n[2] * d[2]);
+        if (plane > r + pl.slack * (std::abs(d[0]) + std::abs(d[1]) + std::abs(d[2]))) return false;
+        return CGAL::squared_distance(x, tris[f]) < r2;
+    }
+    // Squared distance from x to the mesh.
+    double squared_distance(const Point& x) const {
+        const double p[3] = {x.x(), x.y(), x.z()};
+        double best = HUGE_VAL;
+        bvh.for_near(p, best, [&](uint32_t f, double& bound) {
+            bound = std::min(bound, CGAL::squared_distance(x, tris[f]));
+            return false;
+        });
+        return best;
+    }
+    // Does the segment cross any triangle?
+    bool crosses(const Segment& s) const {
+        const Box3 box = box_of(s.source(), s.target(), s.target());
+        bool found = false;
+        // Short segments (a tip's bend): their box is a tight enough filter.
+        bvh.for_overlapping(box, [&](uint32_t f) {
+            if (!found && CGAL::do_intersect(s, tris[f])) found = true;
+        });
+        return found;
+    }
+};
+
+SurfaceIndex::SurfaceIndex(const std::vector<double>& points, const std::vector<std::array<uint32_t, 3>>& triangles)
+    : impl_(std::make_unique<Impl>(points, triangles)) {}
+SurfaceIndex::~SurfaceIndex() = default;
+
+// What stays from one intersection test to the next: the base (points, boxes, vertex -> faces), and the
+// shell triangles of the previous call, of which only those around changed vertices are rebuilt.
+struct CrossingTest::State {
+    const SurfaceIndex::Impl& ix;
+    size_t W = 0, T = 0;
+    std::vector<Exact::Point_3> pts;                // base vertex v at v, its shell point at W + v
+    std::vector<uint32_t> shell_id;                 // v or W + v (a vertex that does not move is shared)
+    std::vector<Box3> bbox;                         // base boxes (empty: collinear, takes no part)
+    std::vector<uint32_t> ring_start, ring_faces;   // vertex -> faces
+    std::vector<std::array<uint32_t, 3>> stri;      // per face: its shell triangle
+    std::vector<uint8_t> is_shell;                  // per face: has a moving corner and is not collinear
+    std::vector<Box3> sbox;                         // per face: the shell triangle's box (empty if none)
+    // A shell triangle lies near its base face: the base hierarchy's shape, refitted to the shell boxes,
+    // serves the shell without a second build (one tree holding both would have boxes as tall as the fur).
+    BoxBvh shells;
+
+    explicit State(const SurfaceIndex::Impl& index) : ix(index), W(index.points.size() / 3), T(index.triangles.size()) {
+        pts.resize(2 * W);
+        for (size_t v = 0; v < W; ++v)
+            pts[v] = pts[W + v] = Exact::Point_3(ix.points[3 * v], ix.points[3 * v + 1], ix.points[3 * v + 2]);
+        shell_id.resize(W);
+        std::iota(shell_id.begin(), shell_id.end(), 0u);
+        bbox.resize(T);
+        ring_start.assign(W + 1, 0);
+        for (size_t f = 0; f < T; ++f) {
+            const auto& t = ix.triangles[f];
+            if (!CGAL::collinear(pts[t[0]], pts[t[1]], pts[t[2]])) bbox[f] = box_of_ids(t);
+            for (uint32_t v : t) ++ring_start[v + 1];
+        }
+        for (size_t v = 0; v < W; ++v) ring_start[v + 1] += ring_start[v];
+        ring_faces.resize(ring_start[W]);
+        std::vector<uint32_t> fill(ring_start.begin(), ring_start.end() - 1);
+        for (size_t f = 0; f < T; ++f)
+            for (uint32_t v : ix.triangles[f]) ring_faces[fill[v]++] = uint32_t(f);
+        stri.resize(T);
+        is_shell.assign(T, 0);
+        sbox.resize(T);
+        shells.refit(ix.bvh, sbox);
+    }
+    Box3 box_of_ids(const std::array<uint32_t, 3>& t) const {
+        Box3 box;
+        for (uint32_t v : t) {
+            const double x[3] = {pts[v].x(), pts[v].y(), pts[v].z()};
+            box.add(x);
+        }
+        return box;
+    }
+    void rebuild_face(size_t f, const std::vector<uint8_t>& moving) {
+        const auto& t = ix.triangles[f];
+        stri[f] = {shell_id[t[0]], shell_id[t[1]], shell_id[t[2]]};
+        // Only triangles with a moving corner are shell triangles; a collinear one can cross nothing properly.
+        is_shell[f] = (moving[t[0]] || moving[t[1]] || moving[t[2]]) && !CGAL::collinear(pts[stri[f][0]], pts[stri[f][1]], pts[stri[f][2]]);
+        sbox[f] = is_shell[f] ? box_of_ids(stri[f]) : Box3{};
+    }
+};
+
+CrossingTest::CrossingTest(const SurfaceIndex& index) : state_(std::make_unique<State>(index.impl())) {}
+CrossingTest::~CrossingTest() = default;
+
+size_t CrossingTest::run(uint8_t* hit, const std::vector<double>& shell, const std::vector<uint8_t>& moving,
                          const std::vector<uint8_t>* changed) {
-    const size_t W = moving.size();
-    // Points: base vertices 0..W-1, then a shell copy W + v for every vertex that moves.
-    std::vector<Exact::Point_3> pts;
-    pts.reserve(2 * W);
-    for (size_t v = 0; v < W; ++v) pts.emplace_back(base[3 * v], base[3 * v + 1], base[3 * v + 2]);
-    std::vector<uint32_t> shell_id(W);
+    State& st = *state_;
+    const size_t W = st.W, T = st.T;
+    const auto& triangles = st.ix.triangles;
+    // Shell points and triangles: all of them without `changed` (the first run), afterwards only those
+    // around vertices that changed (nothing else moved).
+    std::vector<uint8_t> touched_face(T, changed ? 0 : 1);
     for (size_t v = 0; v < W; ++v) {
-        if (moving[v]) {
-            shell_id[v] = uint32_t(pts.size());
-            pts.emplace_back(shell[3 * v], shell[3 * v + 1], shell[3 * v + 2]);
-        } else {
-            shell_id[v] = uint32_t(v);
-        }
+        if (changed && !(*changed)[v]) continue;
+        if (moving[v]) st.pts[W + v] = Exact::Point_3(shell[3 * v], shell[3 * v + 1], shell[3 * v + 2]);
+        st.shell_id[v] = moving[v] ? uint32_t(W + v) : uint32_t(v);
+        if (changed)
+            for (uint32_t i = st.ring_start[v]; i < st.ring_start[v + 1]; ++i) touched_face[st.ring_faces[i]] = 1;
     }
-    // Triangles: the base ones (0..T-1) and the moving shell ones (T + f).
-    std::vector<std::array<uint32_t, 3>> tris;
-    std::vector<uint32_t> source; // shell triangle -> base face, base triangles: UINT32_MAX
-    for (const auto& t : triangles) {
-        tris.push_back(t);
-        source.push_back(UINT32_MAX);
-    }
-    for (size_t f = 0; f < triangles.size(); ++f) {
-        const auto& t = triangles[f];
-        if (!moving[t[0]] && !moving[t[1]] && !moving[t[2]]) continue;
-        tris.push_back({shell_id[t[0]], shell_id[t[1]], shell_id[t[2]]});
-        source.push_back(uint32_t(f));
-    }
-    using Box = CGAL::Box_intersection_d::Box_with_info_d<double, 3, size_t, CGAL::Box_intersection_d::ID_FROM_BOX_ADDRESS>;
-    std::vector<Box> boxes;
-    boxes.reserve(tris.size());
-    for (size_t i = 0; i < tris.size(); ++i) {
-        const auto& t = tris[i];
-        if (CGAL::collinear(pts[t[0]], pts[t[1]], pts[t[2]])) continue;
-        boxes.emplace_back(pts[t[0]].bbox() + pts[t[1]].bbox() + pts[t[2]].bbox(), i);
-    }
-    // Only pairs with a shell triangle are of interest: the shell boxes (or, after a repair, those around
-    // changed vertices) against all boxes, so that the many overlapping base-base neighbours are never
-    // enumerated.
-    std::vector<const Box*> bases, shells, touched;
-    for (const Box& b : boxes) {
-        const uint32_t f = source[b.info()];
-        if (f == UINT32_MAX) {
-            bases.push_back(&b);
-            continue;
-        }
-        shells.push_back(&b);
-        if (!changed || (*changed)[triangles[f][0]] || (*changed)[triangles[f][1]] || (*changed)[triangles[f][2]])
-            touched.push_back(&b);
+    std::vector<uint32_t> touched; // shell triangles (by face) whose pairs are tested
+    for (size_t f = 0; f < T; ++f) {
+        if (!touched_face[f]) continue;
+        st.rebuild_face(f, moving);
+        if (st.is_shell[f]) touched.push_back(uint32_t(f));
     }
     if (touched.empty()) return 0;
-    std::vector<std::pair<size_t, size_t>> candidates;
-    auto report = [&](const Box* x, const Box* y) {
-        if (x->info() != y->info()) candidates.emplace_back(std::min(x->info(), y->info()), std::max(x->info(), y->info()));
+    st.shells.refit(st.sbox);
+    const BoxBvh& shells = st.shells;
+
+    // Candidate pairs with a touched shell triangle: against the base, and against the other shell triangles
+    // (each unordered pair once). The base's own overlapping neighbours are never enumerated. Many touched
+    // triangles: both trees descended together; a few (after a repair): one query each.
+    struct Candidate {
+        uint32_t f;     // shell triangle (by base face)
+        uint32_t other; // < T: base face; else T + shell triangle (by base face)
     };
-    // Shell against base, and shell against shell; the base's own overlapping neighbours are never
-    // enumerated. After a repair only the shell triangles around changed vertices are tested.
-    CGAL::box_intersection_d<CGAL::Sequential_tag>(touched.begin(), touched.end(), bases.begin(), bases.end(), report);
-    if (changed)
-        CGAL::box_intersection_d<CGAL::Sequential_tag>(touched.begin(), touched.end(), shells.begin(), shells.end(), report);
-    else
-        CGAL::box_self_intersection_d<CGAL::Sequential_tag>(shells.begin(), shells.end(), report);
-    std::sort(candidates.begin(), candidates.end()); // a fixed order, whatever order the boxes came in
-    candidates.erase(std::unique(candidates.begin(), candidates.end()), candidates.end());
-    std::vector<uint8_t> crossing(candidates.size(), 0);
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, candidates.size(), 256), [&](const tbb::blocked_range<size_t>& r) {
-        for (size_t i = r.begin(); i != r.end(); ++i)
-            crossing[i] = pair_intersects(pts, tris[candidates[i].first], tris[candidates[i].second]);
-    });
-    size_t count = 0;
-    for (size_t i = 0; i < candidates.size(); ++i) {
-        if (!crossing[i]) continue;
-        ++count;
-        for (size_t t : {candidates[i].first, candidates[i].second})
-            if (source[t] != UINT32_MAX)
-                for (uint32_t v : triangles[source[t]]) hit[v] = 1;
+    std::vector<Candidate> cand;
+    auto add_base = [&](uint32_t f, uint32_t g) {
+        if (st.bbox[g].overlaps(st.sbox[f])) cand.push_back({f, g});
+    };
+    // once: the enumeration yields each unordered pair once already; otherwise a pair of two touched
+    // triangles comes from both and is kept from the lower one.
+    auto add_shell = [&](uint32_t f, uint32_t g, bool once) { // f touched
+        if (g == f || !st.is_shell[g] || (!once && touched_face[g] && g < f) || !st.sbox[g].overlaps(st.sbox[f])) return;
+        cand.push_back({std::min(f, g), uint32_t(T) + std::max(f, g)});
+    };
+    if (touched.size() * 8 > T) {
+        BoxBvh asking;
+        if (changed) {
+            std::vector<Box3> touched_box(T);
+            for (uint32_t f : touched) touched_box[f] = st.sbox[f];
+            asking.refit(st.ix.bvh, touched_box);
+        }
+        const BoxBvh& query = changed ? asking : shells;
+        for (const auto& [f, g] : query.overlapping_pairs(st.ix.bvh))
+            if (st.is_shell[f]) add_base(f, g);
+        for (const auto& [f, g] : query.overlapping_pairs(shells))
+            if (st.is_shell[f]) add_shell(f, g, !changed); // query == shells: each pair once, in either order
+    } else {
+        for (uint32_t f : touched) {
+            st.ix.bvh.for_overlapping(st.sbox[f], [&](uint32_t g) { add_base(f, g); });
+            shells.for_overlapping(st.sbox[f], [&](uint32_t g) { add_shell(f, g, false); });
+        }
     }
-    return count;
+    std::vector<uint8_t> crossing(cand.size(), 0);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, cand.size(), 256), [&](const tbb::blocked_range<size_t>& r) {
+        for (size_t k = r.begin(); k != r.end(); ++k) {
+            const Candidate& c = cand[k];
+            crossing[k] = c.other < T ? pair_intersects(st.pts, triangles[c.other], st.stri[c.f])
+                                      : pair_intersects(st.pts, st.stri[c.f], st.stri[c.other - T]);
+        }
+    });
+    std::vector<std::pair<uint32_t, uint32_t>> pairs;
+    for (size_t k = 0; k < cand.size(); ++k)
+        if (crossing[k]) pairs.emplace_back(cand[k].f, cand[k].other);
+    std::sort(pairs.begin(), pairs.end());
+    pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
+    for (const auto& [f, other] : pairs) {
+        for (uint32_t v : triangles[f]) hit[v] = 1;
+        if (other >= T)
+            for (uint32_t v : triangles[other - T]) hit[v] = 1;
+    }
+    return pairs.size();
 }
 
-
-void free_distances(double* out, const std::vector<double>& points, const std::vector<std::array<uint32_t, 3>>& triangles,
-                    const uint32_t* query_vertex, const double* dirs, size_t query_count) {
+void free_distances(double* out, const SurfaceIndex& index, const uint32_t* query_vertex, const double* dirs, size_t query_count) {
     const double inf = std::numeric_limits<double>::infinity();
-    if (triangles.empty()) {
+    const SurfaceIndex::Impl& ix = index.impl();
+    if (ix.triangles.empty()) {
         std::fill(out, out + query_count, inf);
         return;
     }
-    std::vector<Triangle> tris;
-    tris.reserve(triangles.size());
-    auto pt = [&](uint32_t v) { return Point(points[3 * size_t(v)], points[3 * size_t(v) + 1], points[3 * size_t(v) + 2]); };
-    for (const auto& t : triangles) tris.emplace_back(pt(t[0]), pt(t[1]), pt(t[2]));
-    Tree tree(tris.begin(), tris.end());
-    tree.build();
-    const Iterator first = tris.begin();
+    // CGAL builds the ray from its source and source + direction: with a unit direction on a mesh far below
+    // unit size, those two points hold almost none of the mesh's precision (exact arithmetic showed hits on
+    // triangles the ray misses by far), and far above it the second point rounds back onto the first. Meshes
+    // that extreme get a direction of about their own size (a power of two: the scaling is exact); any
+    // other mesh keeps the unit direction.
+    double extent = 0;
+    for (int k = 0; k < 3; ++k) extent = std::max(extent, ix.bounds.hi[k] - ix.bounds.lo[k]);
+    const int level = extent > 0 && std::isfinite(extent) ? std::ilogb(extent) : 0;
+    const double ray_scale = std::abs(level) > 20 ? std::ldexp(1.0, level) : 1.0;
     tbb::parallel_for(tbb::blocked_range<size_t>(0, query_count, 256), [&](const tbb::blocked_range<size_t>& r) {
         for (size_t q = r.begin(); q != r.end(); ++q) {
             const uint32_t v = query_vertex[q];
@@ -184,61 +427,80 @@ void free_distances(double* out, const std::vector<double>& points, const std::v
                 out[q] = inf;
                 continue;
             }
-            const Point origin = pt(v);
-            // Faces around the vertex touch the ray at its origin; they are the surface being offset, not
-            // an obstacle in front of it.
-            auto skip = [&](const Iterator& id) {
-                const auto& t = triangles[size_t(id - first)];
-                return t[0] == v || t[1] == v || t[2] == v;
-            };
-            double best = inf;
-            try {
-                auto hit = tree.first_intersection(Ray(origin, d), skip);
-                if (hit) {
-                    if (const Point* p = boost::get<Point>(&hit->first)) {
-                        best = std::sqrt(CGAL::squared_distance(origin, *p));
-                    } else if (const auto* s = boost::get<Kernel::Segment_3>(&hit->first)) {
+            const Point origin = ix.pt(v);
+            const Ray ray(origin, ray_scale * d);
+            // CGAL's first_intersection ranks hits by this ray parameter (the largest direction component).
+            const Vector rv = ray.to_vector();
+            int max_i = 0;
+            for (int i = 1; i < 3; ++i)
+                if (std::abs(rv[i]) > std::abs(rv[max_i])) max_i = i;
+            auto param = [&](const Point& p) { return Vector(origin, p)[max_i] / rv[max_i]; };
+            const double o[3] = {origin.x(), origin.y(), origin.z()}, dd[3] = {d.x(), d.y(), d.z()};
+            const double unit = std::sqrt(d.squared_length());
+            double best_param = inf, best = inf;
+            bool failed = false;
+            double t_max = inf; // along dd, in units of |d|
+            ix.bvh.for_ray(o, dd, t_max, [&](uint32_t f, double& limit) {
+                // Faces around the vertex touch the ray at its origin; they are the surface being offset,
+                // not an obstacle in front of it.
+                const auto& t = ix.triangles[f];
+                if (failed || t[0] == v || t[1] == v || t[2] == v) return;
+                if (!may_hit(o, dd, ix.tris[f])) return;
+                try {
+                    auto hit = CGAL::intersection(ray, ix.tris[f]);
+                    if (!hit) return;
+                    double pr, dist;
+                    if (const Point* p = boost::get<Point>(&*hit)) {
+                        pr = param(*p);
+                        dist = std::sqrt(CGAL::squared_distance(origin, *p));
+                    } else if (const Segment* s = boost::get<Segment>(&*hit)) {
                         // The ray runs inside a coplanar face: its nearer end is where it is blocked.
-                        best = std::sqrt(std::min(CGAL::squared_distance(origin, s->source()),
-                                                  CGAL::squared_distance(origin, s->target())));
+                        pr = std::min(param(s->source()), param(s->target()));
+                        dist = std::sqrt(std::min(CGAL::squared_distance(origin, s->source()), CGAL::squared_distance(origin, s->target())));
                     } else {
-                        best = 0;
+                        pr = 0, dist = 0;
                     }
+                    if (pr < best_param) {
+                        best_param = pr;
+                        best = dist;
+                        // Boxes entered beyond the nearest hit so far cannot hold a nearer one (slack for
+                        // the parameter being measured along one axis).
+                        limit = std::min(limit, (dist * (1 + 1e-9) + 1e-300) / unit);
+                    }
+                } catch (...) {
+                    failed = true; // a failed construction: be safe, treat the vertex as blocked
                 }
-            } catch (...) {
-                best = 0; // a failed construction: be safe, treat the vertex as blocked
-            }
-            out[q] = best;
+            });
+            out[q] = failed ? 0.0 : best;
         }
     });
 }
 
-void owned_lengths(double* out, const std::vector<double>& points, const std::vector<std::array<uint32_t, 3>>& triangles,
-                   const uint32_t* ring_start, const uint32_t* ring_faces, const uint32_t* query_vertex, const double* dirs,
-                   const double* lengths, double ratio, size_t query_count) {
-    if (triangles.empty()) {
+void owned_lengths(double* out, const SurfaceIndex& index, const uint32_t* ring_start, const uint32_t* ring_faces,
+                   const uint32_t* query_vertex, const double* dirs, const double* lengths, double ratio, size_t query_count) {
+    const SurfaceIndex::Impl& ix = index.impl();
+    if (ix.triangles.empty()) {
         std::copy(lengths, lengths + query_count, out);
         return;
     }
-    std::vector<Triangle> tris;
-    tris.reserve(triangles.size());
-    auto pt = [&](uint32_t v) { return Point(points[3 * size_t(v)], points[3 * size_t(v) + 1], points[3 * size_t(v) + 2]); };
-    for (const auto& t : triangles) tris.emplace_back(pt(t[0]), pt(t[1]), pt(t[2]));
-    Tree tree(tris.begin(), tris.end());
-    tree.build();
-    tree.accelerate_distance_queries();
     tbb::parallel_for(tbb::blocked_range<size_t>(0, query_count, 128), [&](const tbb::blocked_range<size_t>& r) {
         for (size_t q = r.begin(); q != r.end(); ++q) {
             const uint32_t v = query_vertex[q];
-            const Point p = pt(v);
+            const Point p = ix.pt(v);
             const Vector d(dirs[3 * q], dirs[3 * q + 1], dirs[3 * q + 2]);
+            // Owned: no part of the mesh is nearer than `ratio` × the distance to v's own faces. v's own faces
+            // are never nearer than that (ratio < 1), so "anything nearer?" with an early exit decides it.
+            // The triangle that broke ownership last time is the likeliest to break it again along the same
+            // ray: tried first, it saves the search on about half of the bisection steps.
+            uint32_t witness = UINT32_MAX;
             auto owned = [&](double t) {
                 const Point x = p + t * d;
                 double own = std::numeric_limits<double>::infinity();
                 for (uint32_t i = ring_start[v]; i < ring_start[v + 1]; ++i)
-                    own = std::min(own, CGAL::squared_distance(x, tris[ring_faces[i]]));
-                const double all = tree.squared_distance(x);
-                return all >= ratio * ratio * own;
+                    own = std::min(own, CGAL::squared_distance(x, ix.tris[ring_faces[i]]));
+                const double r2 = ratio * ratio * own;
+                if (witness != UINT32_MAX && CGAL::squared_distance(x, ix.tris[witness]) < r2) return false;
+                return !ix.any_within(x, r2, &witness);
             };
             const double h = lengths[q];
             if (!(h > 0) || owned(h)) {
@@ -256,25 +518,19 @@ void owned_lengths(double* out, const std::vector<double>& points, const std::ve
     });
 }
 
-void bend_limits(double* out, const std::vector<double>& points, const std::vector<std::array<uint32_t, 3>>& triangles,
-                 const uint32_t* ring_start, const uint32_t* ring_faces, const uint32_t* query_vertex,
-                 const double* straight, const double* bent, double clearance, size_t query_count) {
-    if (triangles.empty()) {
+void bend_limits(double* out, const SurfaceIndex& index, const uint32_t* ring_start, const uint32_t* ring_faces,
+                 const uint32_t* query_vertex, const double* straight, const double* bent, double clearance, size_t query_count) {
+    const SurfaceIndex::Impl& ix = index.impl();
+    if (ix.triangles.empty()) {
         std::fill(out, out + query_count, 1.0);
         return;
     }
-    std::vector<Triangle> tris;
-    tris.reserve(triangles.size());
-    auto pt = [&](uint32_t v) { return Point(points[3 * size_t(v)], points[3 * size_t(v) + 1], points[3 * size_t(v) + 2]); };
-    for (const auto& t : triangles) tris.emplace_back(pt(t[0]), pt(t[1]), pt(t[2]));
-    Tree tree(tris.begin(), tris.end());
-    tree.build();
-    tree.accelerate_distance_queries();
+    const auto& triangles = ix.triangles;
     tbb::parallel_for(tbb::blocked_range<size_t>(0, query_count, 64), [&](const tbb::blocked_range<size_t>& r) {
         std::vector<uint32_t> faces, verts, next;
         for (size_t q = r.begin(); q != r.end(); ++q) {
             const uint32_t v = query_vertex[q];
-            const Point p = pt(v);
+            const Point p = ix.pt(v);
             const Vector a(straight[3 * q], straight[3 * q + 1], straight[3 * q + 2]);
             const Vector b(bent[3 * q], bent[3 * q + 1], bent[3 * q + 2]);
             // The neighbourhood the bent tip may still belong to: rings of faces around v, as many as the
@@ -283,10 +539,13 @@ void bend_limits(double* out, const std::vector<double>& points, const std::vect
             int edges = 0;
             for (uint32_t i = ring_start[v]; i < ring_start[v + 1]; ++i)
                 for (uint32_t u : triangles[ring_faces[i]])
-                    if (u != v) edge += std::sqrt(CGAL::squared_distance(p, pt(u))), ++edges;
+                    if (u != v) edge += std::sqrt(CGAL::squared_distance(p, ix.pt(u))), ++edges;
             edge = edges ? edge / edges : 0;
             const double bend = std::sqrt((b - a).squared_length());
-            const int rings = edge > 0 ? std::min(6, 1 + int(std::ceil(bend / edge))) : 1;
+            // Capped while still a double: a bend 1e9 edges long made int(ceil(bend / edge)) overflow
+            // (undefined behaviour, found by fuzz_shells); NaN takes the widest neighbourhood.
+            const double wanted = std::ceil(bend / edge);
+            const int rings = !(edge > 0) ? 1 : wanted < 5 ? 1 + int(wanted) : 6;
             faces.clear();
             verts.assign(1, v);
             for (int k = 0; k < rings; ++k) {
@@ -300,17 +559,17 @@ void bend_limits(double* out, const std::vector<double>& points, const std::vect
                     }
                 verts.swap(next);
             }
-            const double need = clearance * clearance * tree.squared_distance(p + a);
-            // The tip keeps its clearance, does not pass through the surface on the way (a tip pushed
-            // through a thin wall can be far from the mesh again on the other side), and stays nearer to its
-            // own neighbourhood than to any other part of the surface.
+            const double need = clearance * clearance * ix.squared_distance(p + a);
+            // The tip keeps its clearance (distance to the mesh >= need), stays nearer to its own
+            // neighbourhood than to any other part of the surface (>= 0.98² × own), and does not pass through
+            // the surface on the way (a tip pushed through a thin wall can be far from the mesh again on the
+            // other side). The first two are one "anything nearer?" test.
             auto ok = [&](double sigma) {
                 const Point tip = p + a + sigma * (b - a);
-                const double all = tree.squared_distance(tip);
-                if (all < need || tree.do_intersect(Kernel::Segment_3(p + a, tip))) return false;
                 double own = std::numeric_limits<double>::infinity();
-                for (uint32_t f : faces) own = std::min(own, CGAL::squared_distance(tip, tris[f]));
-                return all >= 0.98 * 0.98 * own;
+                for (uint32_t f : faces) own = std::min(own, CGAL::squared_distance(tip, ix.tris[f]));
+                if (ix.any_within(tip, std::max(need, 0.98 * 0.98 * own))) return false;
+                return !ix.crosses(Segment(p + a, tip));
             };
             if (ok(1.0)) {
                 out[q] = 1.0;
@@ -330,6 +589,8 @@ void bend_limits(double* out, const std::vector<double>& points, const std::vect
 
 void distances_to_mesh(double* out, const float* points, size_t point_count, const float* positions, size_t vertex_count,
                        const uint32_t* indices, size_t index_count) {
+    using Iterator = std::vector<Triangle>::const_iterator;
+    using Tree = CGAL::AABB_tree<CGAL::AABB_traits<Kernel, CGAL::AABB_triangle_primitive<Kernel, Iterator>>>;
     std::vector<Triangle> tris;
     tris.reserve(index_count / 3);
     auto pt = [&](uint32_t v) { return Point(positions[3 * size_t(v)], positions[3 * size_t(v) + 1], positions[3 * size_t(v) + 2]); };
@@ -342,6 +603,8 @@ void distances_to_mesh(double* out, const float* points, size_t point_count, con
         std::fill(out, out + point_count, std::numeric_limits<double>::infinity());
         return;
     }
+    // The benchmark's reference measurement: CGAL's own tree and closest-point query, independent of the
+    // hierarchy the clamps use.
     Tree tree(tris.begin(), tris.end());
     tree.build();
     tree.accelerate_distance_queries();

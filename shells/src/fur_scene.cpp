@@ -20,8 +20,10 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/task_group.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <map>
 #include <unordered_map>
@@ -103,11 +105,11 @@ Placement placement_of(const Scene& scene, const std::vector<Mat4>& world, int n
     return pl;
 }
 
-int add_texture(Scene& scene, const std::string& name, const std::vector<uint8_t>& rgba, int w, int h, int wrap_t) {
+int add_texture(Scene& scene, const std::string& name, const std::vector<uint8_t>& png, int wrap_t) {
     Image im;
     im.name = name;
     im.mime_type = "image/png";
-    im.encoded = encode_png_rgba8(rgba.data(), w, h);
+    im.encoded = png;
     scene.images.push_back(std::move(im));
     Sampler s;
     s.mag_filter = 9729;  // LINEAR
@@ -139,6 +141,24 @@ int add_material(Scene& scene, const std::string& name, int texture, int texcoor
 // Decoded base-colour textures, by image index (decoded once per call).
 struct TextureCache {
     std::map<int, ImageF> images;
+    // Decodes the image of the texture that vertex_albedo will sample for p, as a task of `tasks` (PNG and
+    // JPEG decoding is sequential and can cost as much as the frame of a large mesh; it does not depend on
+    // the frame, so it runs on another core meanwhile). The map entry is made here, on the calling thread;
+    // the task only fills it, and get() must not run before the tasks are waited for.
+    void prefetch(const Scene& scene, const Primitive& p, tbb::task_group& tasks) {
+        if (p.material < 0 || p.material >= int(scene.materials.size())) return;
+        const Material& m = scene.materials[size_t(p.material)];
+        const std::vector<float>& uv = m.base_color_texture.texcoord == 1 ? p.uv1 : p.uv0;
+        const int texture = m.base_color_texture.texture;
+        if (uv.size() != 2 * p.vertex_count() || texture < 0 || texture >= int(scene.textures.size())) return;
+        const int image = scene.textures[size_t(texture)].image;
+        if (image < 0 || image >= int(scene.images.size()) || images.count(image)) return;
+        ImageF* slot = &images[image];
+        const std::vector<uint8_t>* bytes = &scene.images[size_t(image)].encoded;
+        tasks.run([slot, bytes] {
+            if (bytes->empty() || !decode_image(*slot, bytes->data(), bytes->size()).ok()) *slot = ImageF{};
+        });
+    }
     const ImageF* get(const Scene& scene, int texture) {
         if (texture < 0 || texture >= int(scene.textures.size())) return nullptr;
         int image = scene.textures[size_t(texture)].image;
@@ -194,6 +214,14 @@ struct ShellVertices {
     std::vector<uint32_t> indices; // kept triangles, in output vertex indices
 };
 
+// A strand-texture coordinate as a float. The texture repeats, and beyond 2^24 a float has no fractional
+// bits left, so the pattern is lost there anyway; clamping keeps the coordinate finite when the tile is tiny
+// against the mesh or the UV layout nearly degenerate (found by fuzz_shells: float(uv · 1e45) = inf).
+float tile_coord(double x) {
+    constexpr double kMax = 16777216.0;
+    return std::isnan(x) ? 0.0f : float(std::clamp(x, -kMax, kMax)); // NaN: 0 · inf for a UV of 0
+}
+
 ShellVertices shell_vertices(const Primitive& p, const std::vector<uint32_t>& tris, const std::vector<uint8_t>& keep,
                              double tile_obj) {
     ShellVertices sv;
@@ -223,8 +251,8 @@ ShellVertices shell_vertices(const Primitive& p, const std::vector<uint32_t>& tr
                 if (map[v] == UINT32_MAX) {
                     map[v] = uint32_t(sv.src.size());
                     sv.src.push_back(v);
-                    sv.uv1.push_back(float(double(p.uv0[2 * v]) * k));
-                    sv.uv1.push_back(float(double(p.uv0[2 * v + 1]) * k));
+                    sv.uv1.push_back(tile_coord(double(p.uv0[2 * v]) * k));
+                    sv.uv1.push_back(tile_coord(double(p.uv0[2 * v + 1]) * k));
                 }
                 sv.indices.push_back(map[v]);
             }
@@ -247,7 +275,7 @@ ShellVertices shell_vertices(const Primitive& p, const std::vector<uint32_t>& tr
             if (fresh) {
                 sv.src.push_back(v);
                 int i0 = (axis + 1) % 3, i1 = (axis + 2) % 3;
-                float u = float(pos(v, i0) / tile_obj), w = float(pos(v, i1) / tile_obj);
+                float u = tile_coord(pos(v, i0) / tile_obj), w = tile_coord(pos(v, i1) / tile_obj);
                 sv.uv1.push_back(u);
                 sv.uv1.push_back(w);
                 sv.uv0.push_back(u);
@@ -297,6 +325,7 @@ void copy_attributes(Primitive& out, const Primitive& base, const std::vector<ui
 } // namespace
 
 Status add_fur_shells(Scene& scene, const FurOptions& opt, FurReport* report) {
+    const auto started = std::chrono::steady_clock::now();
     FurReport local;
     FurReport& rep = report ? *report : local;
     rep = FurReport{};
@@ -366,12 +395,27 @@ Status add_fur_shells(Scene& scene, const FurOptions& opt, FurReport* report) {
     }
     if (work.empty()) return Status::error(StatusCode::invalid_input, "no triangles to grow fur on");
 
+    // The strand textures depend on the options alone: drawn and encoded (or found in the cache) on another
+    // core while the frames are computed, as are the base-colour textures (below). Waited for on every way
+    // out.
+    std::shared_ptr<const std::vector<uint8_t>> density_png, fin_png;
+    TextureCache cache; // before the task group: its tasks write into it until they are waited for
+    tbb::task_group texture_task;
+    struct Join {
+        tbb::task_group& g;
+        ~Join() { g.wait(); }
+    } join_textures{texture_task};
+    texture_task.run([&] {
+        density_png = detail::strand_texture_png(opt.strands, false);
+        if (opt.fins) fin_png = detail::strand_texture_png(opt.strands, true);
+    });
+
     // --- grow: the frame and the vertex set per base primitive
     std::vector<Grown> grown(work.size());
     std::vector<Placement> placement(scene.meshes.size());
     for (size_t mi = 0; mi < scene.meshes.size(); ++mi)
         if (mesh_node[mi] >= 0) placement[mi] = placement_of(scene, world, mesh_node[mi], so.gravity);
-    TextureCache cache;
+    for (const auto& [mi, pi] : work) cache.prefetch(scene, scene.meshes[mi].primitives[pi], texture_task);
     for (size_t wi = 0; wi < work.size(); ++wi) {
         Grown& g = grown[wi];
         g.mesh = work[wi].first;
@@ -390,6 +434,13 @@ Status add_fur_shells(Scene& scene, const FurOptions& opt, FurReport* report) {
         }
         for (uint32_t i : g.tris)
             if (i >= n) return Status::error(StatusCode::invalid_input, "mesh " + std::to_string(g.mesh) + ": index out of range");
+        // Shells are offsets of the base positions: one NaN or infinite corner puts NaN into the shells and their
+        // strand UVs (found by fuzz_shells). load_scene refuses such positions unless allow_non_finite is set.
+        for (uint32_t i : g.tris)
+            if (!std::isfinite(p.positions[3 * size_t(i)]) || !std::isfinite(p.positions[3 * size_t(i) + 1]) ||
+                !std::isfinite(p.positions[3 * size_t(i) + 2]))
+                return Status::error(StatusCode::invalid_input, "mesh " + std::to_string(g.mesh) + " primitive " +
+                                                                    std::to_string(g.prim) + ": a triangle corner has a non-finite position");
         std::vector<float> mask, comb;
         if (has_mask) {
             mask.resize(n);
@@ -442,7 +493,6 @@ Status add_fur_shells(Scene& scene, const FurOptions& opt, FurReport* report) {
         g.dropped = T - size_t(std::count(keep.begin(), keep.end(), uint8_t(1)));
         const double tile_world = opt.tile_size > 0 ? opt.tile_size : 4.0 * std::max(so.length, 1e-12);
         g.sv = shell_vertices(p, g.tris, keep, tile_world / pl.scale);
-        g.albedo = vertex_albedo(scene, p, cache);
         if (opt.keep_frames) rep.frames.push_back(FurFrame{g.mesh, g.prim, o.length, g.tris, g.frame});
         rep.primitives += 1;
         rep.base_triangles += T;
@@ -454,13 +504,14 @@ Status add_fur_shells(Scene& scene, const FurOptions& opt, FurReport* report) {
         rep.bald_vertices += g.frame.bald_vertices;
     }
 
+    texture_task.wait();
+    for (Grown& g : grown) g.albedo = vertex_albedo(scene, scene.meshes[g.mesh].primitives[g.prim], cache);
+
     // --- textures and materials (appended: existing indices stay valid)
-    const StrandTextureOptions& st = opt.strands;
-    const int tex_size = std::clamp(st.size, 16, 4096);
-    const int density_tex = add_texture(scene, "fur_strands", make_strand_texture(st), tex_size, tex_size, 10497);
+    const int density_tex = add_texture(scene, "fur_strands", *density_png, 10497);
     int fin_material = -1;
     if (opt.fins) {
-        const int fin_tex = add_texture(scene, "fur_fins", make_fin_texture(st), tex_size, std::max(8, tex_size / 2), 33071);
+        const int fin_tex = add_texture(scene, "fur_fins", *fin_png, 33071);
         fin_material = add_material(scene, "fur_fins", fin_tex, 0, 0.5f, true);
     }
     const int N = so.layers;
@@ -488,6 +539,8 @@ Status add_fur_shells(Scene& scene, const FurOptions& opt, FurReport* report) {
     }
 
     // --- build the primitives of every level
+    const auto setup_done = std::chrono::steady_clock::now();
+    rep.setup_seconds = std::chrono::duration<double>(setup_done - started).count();
     const size_t original_meshes = scene.meshes.size();
     std::vector<std::vector<Primitive>> added(size_t(levels) * original_meshes); // [level][mesh]
     for (const Grown& g : grown) {
@@ -497,73 +550,99 @@ Status add_fur_shells(Scene& scene, const FurOptions& opt, FurReport* report) {
         Primitive proto;
         copy_attributes(proto, base, g.sv.src, g.sv.uv0);
         proto.uv1 = g.sv.uv1;
-        std::vector<float> dir(3 * m), len(m);
-        for (size_t i = 0; i < m; ++i) {
-            uint32_t v = g.sv.src[i];
-            for (int k = 0; k < 3; ++k) dir[3 * i + k] = g.frame.direction[3 * v + k];
+        // Everything a shell vertex is made of, gathered once per output vertex: each shell is then one
+        // streaming pass over these arrays (no indirection through the base vertex per shell).
+        std::vector<float> len(m), dir(3 * m), root(3 * m), lean(3 * m), sag(3 * m), albedo(3 * m);
+        parallel(m, 4096, [&](size_t i) {
+            const uint32_t v = g.sv.src[i];
             len[i] = g.frame.length[v];
-        }
-        auto make_shell = [&](int layer, int layers, Primitive& out) {
+            for (size_t k = 0; k < 3; ++k) {
+                const size_t j = 3 * size_t(v) + k;
+                root[3 * i + k] = base.positions[j];
+                dir[3 * i + k] = g.frame.direction[j];
+                lean[3 * i + k] = g.frame.lean[j];
+                sag[3 * i + k] = g.frame.sag[j];
+                albedo[3 * i + k] = g.albedo[j];
+            }
+        });
+        auto make_shell = [&](int layer, int layers, float* positions, float* colors) {
             const double t = double(layer) / layers, s = std::pow(t, so.spacing_power), t3 = t * t * t;
             const float shade = float(opt.root_shade + (1.0 - opt.root_shade) * s);
-            out.positions.resize(3 * m);
-            out.colors.resize(4 * m);
             for (size_t i = 0; i < m; ++i) {
-                const uint32_t v = g.sv.src[i];
-                const double h = g.frame.length[v];
-                for (int k = 0; k < 3; ++k) {
-                    const size_t j = 3 * size_t(v) + size_t(k);
+                const double h = len[i];
+                for (size_t k = 0; k < 3; ++k) {
+                    const size_t j = 3 * i + k;
                     // Same expression as shell_positions: copies of a position land on the same float.
-                    out.positions[3 * i + k] = float(double(base.positions[j]) + h * (s * double(g.frame.direction[j]) + s * double(g.frame.lean[j]) +
-                                                                                     t3 * double(g.frame.sag[j])));
-                    out.colors[4 * i + k] = g.albedo[3 * v + k] * shade;
+                    positions[j] = float(double(root[j]) + h * (s * double(dir[j]) + s * double(lean[j]) + t3 * double(sag[j])));
+                    colors[4 * i + k] = albedo[j] * shade;
                 }
-                out.colors[4 * i + 3] = 1.0f;
+                colors[4 * i + 3] = 1.0f;
             }
         };
         for (int k = 0; k < levels; ++k) {
             const int n_k = layers_of(k);
             std::vector<Primitive>& dst = added[size_t(k) * original_meshes + g.mesh];
             if (opt.layout == ShellLayout::viewer) {
-                std::vector<Primitive> shells(size_t(n_k), proto);
+                // One task per shell, copies of the shared attributes included: the copying is most of the
+                // bytes, so it must not run on one thread.
+                std::vector<Primitive> shells(static_cast<size_t>(n_k));
                 parallel(size_t(n_k), 1, [&](size_t i) {
-                    make_shell(int(i) + 1, n_k, shells[i]);
-                    shells[i].indices = g.sv.indices;
-                    shells[i].material = shell_material[size_t(k)][i];
+                    Primitive& out = shells[i];
+                    out = proto;
+                    out.positions.resize(3 * m);
+                    out.colors.resize(4 * m);
+                    make_shell(int(i) + 1, n_k, out.positions.data(), out.colors.data());
+                    out.indices = g.sv.indices;
+                    out.material = shell_material[size_t(k)][i];
                 });
-                for (auto& s : shells) {
-                    rep.shell_triangles += s.indices.size() / 3;
-                    dst.push_back(std::move(s));
+                for (auto& sh : shells) {
+                    rep.shell_triangles += sh.indices.size() / 3;
+                    dst.push_back(std::move(sh));
                 }
             } else {
-                std::vector<Primitive> shells{size_t(n_k)};
-                parallel(size_t(n_k), 1, [&](size_t i) { make_shell(int(i) + 1, n_k, shells[i]); });
+                // All shells in one primitive: every array sized once, each shell fills its own slice.
                 Primitive all;
                 all.material = engine_material;
-                auto repeat = [&](std::vector<float>& dst_v, const std::vector<float>& src_v) {
-                    dst_v.clear();
-                    for (int i = 0; i < n_k; ++i) dst_v.insert(dst_v.end(), src_v.begin(), src_v.end());
-                };
-                repeat(all.normals, proto.normals);
-                repeat(all.uv0, proto.uv0);
-                repeat(all.uv1, proto.uv1);
-                repeat(all.weights, proto.weights);
-                for (int i = 0; i < n_k; ++i) all.joints.insert(all.joints.end(), proto.joints.begin(), proto.joints.end());
+                const size_t copies = size_t(n_k);
+                auto sized = [&](std::vector<float>& v, const std::vector<float>& per_shell) { v.resize(copies * per_shell.size()); };
+                all.positions.resize(copies * 3 * m);
+                all.colors.resize(copies * 4 * m);
+                all.indices.resize(copies * g.sv.indices.size());
+                sized(all.normals, proto.normals);
+                sized(all.uv0, proto.uv0);
+                sized(all.uv1, proto.uv1);
+                sized(all.weights, proto.weights);
+                all.joints.resize(copies * proto.joints.size());
                 all.targets.resize(proto.targets.size());
                 for (size_t t = 0; t < proto.targets.size(); ++t) {
-                    repeat(all.targets[t].position_deltas, proto.targets[t].position_deltas);
-                    repeat(all.targets[t].normal_deltas, proto.targets[t].normal_deltas);
+                    sized(all.targets[t].position_deltas, proto.targets[t].position_deltas);
+                    sized(all.targets[t].normal_deltas, proto.targets[t].normal_deltas);
                 }
                 CustomAttribute layer{"_FUR_LAYER", 1, {}}, length{"_FUR_LENGTH", 1, {}}, direction{"_FUR_DIRECTION", 3, {}};
-                for (int i = 0; i < n_k; ++i) {
-                    const uint32_t offset = uint32_t(size_t(i) * m);
-                    all.positions.insert(all.positions.end(), shells[size_t(i)].positions.begin(), shells[size_t(i)].positions.end());
-                    all.colors.insert(all.colors.end(), shells[size_t(i)].colors.begin(), shells[size_t(i)].colors.end());
-                    for (uint32_t x : g.sv.indices) all.indices.push_back(offset + x);
-                    layer.values.insert(layer.values.end(), m, float(shell_height_fraction(i + 1, n_k, so.spacing_power)));
-                    length.values.insert(length.values.end(), len.begin(), len.end());
-                    direction.values.insert(direction.values.end(), dir.begin(), dir.end());
-                }
+                layer.values.resize(copies * m);
+                length.values.resize(copies * m);
+                direction.values.resize(copies * 3 * m);
+                parallel(copies, 1, [&](size_t i) {
+                    auto put = [&](std::vector<float>& v, const std::vector<float>& per_shell) {
+                        std::copy(per_shell.begin(), per_shell.end(), v.begin() + std::ptrdiff_t(i * per_shell.size()));
+                    };
+                    make_shell(int(i) + 1, n_k, all.positions.data() + i * 3 * m, all.colors.data() + i * 4 * m);
+                    const uint32_t offset = uint32_t(i * m);
+                    uint32_t* idx = all.indices.data() + i * g.sv.indices.size();
+                    for (size_t x = 0; x < g.sv.indices.size(); ++x) idx[x] = offset + g.sv.indices[x];
+                    put(all.normals, proto.normals);
+                    put(all.uv0, proto.uv0);
+                    put(all.uv1, proto.uv1);
+                    put(all.weights, proto.weights);
+                    std::copy(proto.joints.begin(), proto.joints.end(), all.joints.begin() + std::ptrdiff_t(i * proto.joints.size()));
+                    for (size_t t = 0; t < proto.targets.size(); ++t) {
+                        put(all.targets[t].position_deltas, proto.targets[t].position_deltas);
+                        put(all.targets[t].normal_deltas, proto.targets[t].normal_deltas);
+                    }
+                    std::fill_n(layer.values.begin() + std::ptrdiff_t(i * m), m, float(shell_height_fraction(int(i) + 1, n_k, so.spacing_power)));
+                    put(length.values, len);
+                    put(direction.values, dir);
+                });
                 all.custom = {std::move(layer), std::move(length), std::move(direction)};
                 rep.shell_triangles += all.indices.size() / 3;
                 dst.push_back(std::move(all));
@@ -622,7 +701,7 @@ Status add_fur_shells(Scene& scene, const FurOptions& opt, FurReport* report) {
                 for (int q = 0; q < 4; ++q) {
                     src.push_back(corners[q]);
                     is_tip.push_back(q >= 2);
-                    fin_uv.push_back(float(us[q]));
+                    fin_uv.push_back(tile_coord(us[q])); // edge / fin span overflowed a float too (fuzz_shells)
                     fin_uv.push_back(float(vs[q]));
                     for (int k = 0; k < 3; ++k) fin_normal.push_back(float(fnrm[size_t(k)]));
                 }
@@ -660,7 +739,8 @@ Status add_fur_shells(Scene& scene, const FurOptions& opt, FurReport* report) {
     for (size_t mi = 0; mi < original_meshes; ++mi) {
         auto& lvl0 = added[mi];
         if (lvl0.empty()) continue;
-        std::vector<Primitive> base_prims = scene.meshes[mi].primitives;
+        std::vector<Primitive> base_prims; // the LOD meshes' own copy of the skin (none without LOD levels)
+        if (levels > 1) base_prims = scene.meshes[mi].primitives;
         for (auto& p : lvl0) {
             scene.meshes[mi].primitives.push_back(std::move(p));
             ++rep.shell_primitives;
@@ -689,6 +769,7 @@ Status add_fur_shells(Scene& scene, const FurOptions& opt, FurReport* report) {
             rep.lod_nodes.push_back(int(scene.nodes.size()) - 1);
         }
     }
+    rep.emit_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - setup_done).count();
     return Status::success();
 }
 

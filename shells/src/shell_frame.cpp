@@ -43,6 +43,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <numeric>
 #include <set>
 
@@ -285,6 +286,13 @@ Status compute_shell_frame(ShellFrame& out, const float* positions, size_t verte
         if (o.droop > 0) sag[w] = o.droop * along_surface(g);
     });
 
+    // One hierarchy over the welded triangles, built once, serves every clamp query and the final
+    // intersection test: building one per query kind cost as much as the queries on small meshes.
+    std::vector<double> base_pts(3 * W);
+    for (size_t w = 0; w < W; ++w) base_pts[3 * w] = P[w].x, base_pts[3 * w + 1] = P[w].y, base_pts[3 * w + 2] = P[w].z;
+    std::unique_ptr<detail::SurfaceIndex> index;
+    if (T > 0) index = std::make_unique<detail::SurfaceIndex>(base_pts, tri);
+
     // --- feature clamp: rays along the direction, and along the bent tip when comb/droop bend it
     if (o.feature_clamp && T > 0) {
         std::vector<uint32_t> qv;
@@ -303,10 +311,8 @@ Status compute_shell_frame(ShellFrame& out, const float* positions, size_t verte
                 qneed.push_back(tl);
             }
         }
-        std::vector<double> pts(3 * W);
-        for (size_t w = 0; w < W; ++w) pts[3 * w] = P[w].x, pts[3 * w + 1] = P[w].y, pts[3 * w + 2] = P[w].z;
         std::vector<double> dist(qv.size());
-        detail::free_distances(dist.data(), pts, tri, qv.data(), qd.data(), qv.size());
+        detail::free_distances(dist.data(), *index, qv.data(), qd.data(), qv.size());
         for (size_t q = 0; q < qv.size(); ++q) {
             uint32_t w = qv[q];
             double allowed = o.safe_fraction * dist[q] / qneed[q];
@@ -330,7 +336,7 @@ Status compute_shell_frame(ShellFrame& out, const float* positions, size_t verte
         }
         // 2 % slack: on a curved surface the offset point's nearest point drifts off the 1-ring a little.
         std::vector<double> owned(qv.size());
-        detail::owned_lengths(owned.data(), pts, tri, start.data(), vf.data(), qv.data(), qd.data(), ql.data(), 0.98, qv.size());
+        detail::owned_lengths(owned.data(), *index, start.data(), vf.data(), qv.data(), qd.data(), ql.data(), 0.98, qv.size());
         for (size_t q = 0; q < qv.size(); ++q) {
             uint32_t w = qv[q];
             double allowed = 2.0 * o.safe_fraction * owned[q];
@@ -353,7 +359,7 @@ Status compute_shell_frame(ShellFrame& out, const float* positions, size_t verte
             bent.insert(bent.end(), {b.x, b.y, b.z});
         }
         std::vector<double> sigma(qv.size());
-        detail::bend_limits(sigma.data(), pts, tri, start.data(), vf.data(), qv.data(), straight.data(), bent.data(), 0.995, qv.size());
+        detail::bend_limits(sigma.data(), *index, start.data(), vf.data(), qv.data(), straight.data(), bent.data(), 0.995, qv.size());
         for (size_t q = 0; q < qv.size(); ++q)
             if (sigma[q] < 1.0) {
                 const uint32_t w = qv[q];
@@ -390,21 +396,31 @@ Status compute_shell_frame(ShellFrame& out, const float* positions, size_t verte
             return H[w] * ((ds * D[w] + ds * lean[w]) + (3 * t * t) * sag[w]);
         };
         std::vector<double> limit(T, 1.0);
-        std::vector<uint8_t> active(T, 1);
+        std::vector<uint8_t> listed(T, 0); // fold_pass's scratch: all 0 between passes
         const double r = o.min_area_ratio;
-        // `seed`: only triangles around these vertices can have changed (null: all of them).
+        // `seed`: only triangles around these vertices can have changed (null: all of them). Each pass
+        // evaluates only the listed triangles (ascending): after the first pass they are the few around the
+        // vertices it shortened, and a pass over all T triangles and W vertices would cost more than they do.
         auto fold_pass = [&](const std::vector<uint8_t>* seed) {
-            if (!seed) std::fill(active.begin(), active.end(), uint8_t(1));
-            else {
-                std::fill(active.begin(), active.end(), uint8_t(0));
+            std::vector<uint32_t> faces, verts;
+            auto add_faces_of = [&](size_t w) {
+                for (uint32_t i = start[w]; i < start[w + 1]; ++i)
+                    if (!listed[vf[i]]) listed[vf[i]] = 1, faces.push_back(vf[i]);
+            };
+            if (!seed) {
+                faces.resize(T);
+                std::iota(faces.begin(), faces.end(), 0u);
+            } else {
                 for (size_t w = 0; w < W; ++w)
-                    if ((*seed)[w])
-                        for (uint32_t i = start[w]; i < start[w + 1]; ++i) active[vf[i]] = 1;
+                    if ((*seed)[w]) add_faces_of(w);
+                for (uint32_t f : faces) listed[f] = 0;
+                std::sort(faces.begin(), faces.end());
             }
-            for (int iteration = 0; iteration < 200; ++iteration) {
-                parallel(T, 512, [&](size_t f) {
+            std::vector<double> scale;
+            for (int iteration = 0; iteration < 200 && !faces.empty(); ++iteration) {
+                parallel(faces.size(), 256, [&](size_t q) {
+                    const uint32_t f = faces[q];
                     limit[f] = 1.0;
-                    if (!active[f]) return;
                     const auto& t = tri[f];
                     if (!(H[t[0]] > 0 || H[t[1]] > 0 || H[t[2]] > 0)) return;
                     const V3 e1 = P[t[1]] - P[t[0]], e2 = P[t[2]] - P[t[0]];
@@ -427,22 +443,32 @@ Status compute_shell_frame(ShellFrame& out, const float* positions, size_t verte
                         if (k < 1.0 - 1e-9) limit[f] = std::min(limit[f], k * 0.999);
                     }
                 });
-                bool any = false;
-                for (size_t f = 0; f < T && !any; ++f) any = limit[f] < 1.0;
-                if (!any) break;
-                std::vector<double> scale(W, 1.0);
-                parallel(W, 1024, [&](size_t w) {
-                    for (uint32_t i = start[w]; i < start[w + 1]; ++i) scale[w] = std::min(scale[w], limit[vf[i]]);
+                // The corners of limited triangles scale by the smallest limit around them (an unlisted
+                // triangle's limit is 1).
+                verts.clear();
+                for (uint32_t f : faces)
+                    if (limit[f] < 1.0)
+                        for (uint32_t w : tri[f]) verts.push_back(w);
+                if (verts.empty()) break;
+                std::sort(verts.begin(), verts.end());
+                verts.erase(std::unique(verts.begin(), verts.end()), verts.end());
+                scale.assign(verts.size(), 1.0);
+                parallel(verts.size(), 1024, [&](size_t q) {
+                    const uint32_t w = verts[q];
+                    for (uint32_t i = start[w]; i < start[w + 1]; ++i) scale[q] = std::min(scale[q], limit[vf[i]]);
                 });
+                for (uint32_t f : faces) limit[f] = 1.0;
                 // After many passes a stubborn configuration is resolved the blunt way: no fur there.
                 const bool last_resort = iteration >= 100;
-                std::fill(active.begin(), active.end(), 0);
-                for (size_t w = 0; w < W; ++w) {
-                    if (scale[w] >= 1.0) continue;
-                    H[w] = last_resort ? 0.0 : H[w] * scale[w];
+                faces.clear();
+                for (size_t q = 0; q < verts.size(); ++q) {
+                    const uint32_t w = verts[q];
+                    H[w] = last_resort ? 0.0 : H[w] * scale[q];
                     flags[w] |= clamp_fold;
-                    for (uint32_t i = start[w]; i < start[w + 1]; ++i) active[vf[i]] = 1;
+                    add_faces_of(w);
                 }
+                for (uint32_t f : faces) listed[f] = 0;
+                std::sort(faces.begin(), faces.end());
             }
         };
         fold_pass(nullptr);
@@ -450,8 +476,8 @@ Status compute_shell_frame(ShellFrame& out, const float* positions, size_t verte
         // Verification: the local limits above do not see two distant parts of one shell meeting (both sides
         // of a thin ear, fur across a crevice). Intersect the outermost shell with itself and with the base
         // (exact predicates); shorten the fur at every vertex of an offending shell triangle and repeat.
-        std::vector<double> top(3 * W), base_pts(3 * W);
-        for (size_t w = 0; w < W; ++w) base_pts[3 * w] = P[w].x, base_pts[3 * w + 1] = P[w].y, base_pts[3 * w + 2] = P[w].z;
+        std::vector<double> top(3 * W);
+        detail::CrossingTest crossing(*index);
         std::vector<double> last_h(H);
         std::vector<uint8_t> changed;
         for (int round = 0; round < 8; ++round) {
@@ -462,7 +488,7 @@ Status compute_shell_frame(ShellFrame& out, const float* positions, size_t verte
                 moving[w] = H[w] > 0;
             }
             std::vector<uint8_t> hit(W, 0);
-            if (detail::crossing_vertices(hit.data(), base_pts, top, moving, tri, round ? &changed : nullptr) == 0) break;
+            if (crossing.run(hit.data(), top, moving, round ? &changed : nullptr) == 0) break;
             for (size_t w = 0; w < W; ++w)
                 if (hit[w] && H[w] > 0) {
                     H[w] = round < 6 ? 0.5 * H[w] : 0.0;

@@ -2,49 +2,78 @@
 #pragma once
 
 #include <furrow/mesh.h>
+#include <furrow/shells.h>
 
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 namespace furrow::detail {
 
-// feature_distance.cpp (CGAL): for each query, the distance along the unit direction dirs[3q..3q+2] from
-// points[query_vertex[q]] to the first triangle that does not contain that vertex; +infinity if the ray
-// leaves the mesh. `points` xyz and `triangles` are the welded mesh (no repeated corner).
-void free_distances(double* out, const std::vector<double>& points,
-                    const std::vector<std::array<uint32_t, 3>>& triangles, const uint32_t* query_vertex,
-                    const double* dirs, size_t query_count);
+// feature_distance.cpp: the welded triangles (`points` xyz, `triangles` with no repeated corner) with a
+// bounding-volume hierarchy (triangle_bvh.h) and their CGAL triangles, built once per frame and shared by
+// every query below. Keeps references to both arrays: they must outlive it.
+class SurfaceIndex {
+public:
+    SurfaceIndex(const std::vector<double>& points, const std::vector<std::array<uint32_t, 3>>& triangles);
+    ~SurfaceIndex();
+    SurfaceIndex(const SurfaceIndex&) = delete;
+    SurfaceIndex& operator=(const SurfaceIndex&) = delete;
+    struct Impl;
+    const Impl& impl() const { return *impl_; }
 
-// feature_distance.cpp (CGAL): the medial-axis limit. For each query vertex v with unit direction d and
-// length H, the largest t <= H such that the point q = p + t·d is still "owned" by v: its distance to the
-// whole mesh is at least `ratio` × its distance to v's own faces (ring_start/ring_faces: CSR vertex ->
-// incident triangles). Past that point q is nearer to another part of the surface than to v's own faces: the
-// fur of two surface parts (the walls of an inner corner, the sides of a gap) would cross there.
-void owned_lengths(double* out, const std::vector<double>& points, const std::vector<std::array<uint32_t, 3>>& triangles,
-                   const uint32_t* ring_start, const uint32_t* ring_faces, const uint32_t* query_vertex, const double* dirs,
-                   const double* lengths, double ratio, size_t query_count);
+private:
+    std::unique_ptr<Impl> impl_;
+};
 
-// feature_distance.cpp (CGAL): how much of a sideways bend (comb, droop) each tip can take. For query q,
-// with straight tip offset a (3 values) and bent tip offset b, the largest sigma in [0, 1] such that the tip
-// t = p + a + sigma·(b − a) (1) is reached from p + a without crossing the mesh, (2) is at least
-// `clearance` × as far from the mesh as p + a, and (3) is still owned by v: its distance to the mesh is at
-// least 0.98 × its distance to the faces within a few rings of v (enough rings to cover the bend).
-void bend_limits(double* out, const std::vector<double>& points, const std::vector<std::array<uint32_t, 3>>& triangles,
-                 const uint32_t* ring_start, const uint32_t* ring_faces, const uint32_t* query_vertex,
-                 const double* straight, const double* bent, double clearance, size_t query_count);
+// For each query, the distance along the unit direction dirs[3q..3q+2] from points[query_vertex[q]] to the
+// first triangle that does not contain that vertex; +infinity if the ray leaves the mesh.
+void free_distances(double* out, const SurfaceIndex& index, const uint32_t* query_vertex, const double* dirs,
+                    size_t query_count);
 
-// feature_distance.cpp (CGAL): intersections of an offset shell with itself and with its base. `base` and
-// `shell` hold one xyz point per welded vertex, `moving[v]` says whether the shell point differs from the
-// base point (a vertex that does not move is shared by both). Every vertex of a shell triangle that
-// properly intersects another shell triangle or a base triangle (adjacent triangles: only when they fold
-// onto each other) gets hit[v] = 1. Returns the number of such pairs. Exact predicates (Epick).
-// `changed` (optional): only pairs with a shell triangle that has a changed vertex are tested (after a
-// repair, nothing else can have started to intersect).
-size_t crossing_vertices(uint8_t* hit, const std::vector<double>& base, const std::vector<double>& shell,
-                         const std::vector<uint8_t>& moving, const std::vector<std::array<uint32_t, 3>>& triangles,
-                         const std::vector<uint8_t>* changed = nullptr);
+// The medial-axis limit. For each query vertex v with unit direction d and length H, the largest t <= H such
+// that the point q = p + t·d is still "owned" by v: its distance to the whole mesh is at least `ratio` × its
+// distance to v's own faces (ring_start/ring_faces: CSR vertex -> incident triangles). Past that point q is
+// nearer to another part of the surface than to v's own faces: the fur of two surface parts (the walls of an
+// inner corner, the sides of a gap) would cross there.
+void owned_lengths(double* out, const SurfaceIndex& index, const uint32_t* ring_start, const uint32_t* ring_faces,
+                   const uint32_t* query_vertex, const double* dirs, const double* lengths, double ratio, size_t query_count);
+
+// How much of a sideways bend (comb, droop) each tip can take. For query q, with straight tip offset a (3
+// values) and bent tip offset b, the largest sigma in [0, 1] such that the tip t = p + a + sigma·(b − a) (1) is
+// reached from p + a without crossing the mesh, (2) is at least `clearance` × as far from the mesh as p + a,
+// and (3) is still owned by v: its distance to the mesh is at least 0.98 × its distance to the faces within a
+// few rings of v (enough rings to cover the bend).
+void bend_limits(double* out, const SurfaceIndex& index, const uint32_t* ring_start, const uint32_t* ring_faces,
+                 const uint32_t* query_vertex, const double* straight, const double* bent, double clearance, size_t query_count);
+
+// Intersections of an offset shell with itself and with its base (the index's points and triangles), for
+// the repair rounds of compute_shell_frame. run(): `shell` holds one xyz point per welded vertex,
+// `moving[v]` says whether the shell point differs from the base point (a vertex that does not move is
+// shared by both). Every vertex of a shell triangle that properly intersects another shell triangle or a
+// base triangle (adjacent triangles: only when they fold onto each other) gets hit[v] = 1. Returns the
+// number of such pairs. Exact predicates (Epick). `changed` (after the first run): the vertices whose shell
+// point changed since the previous run; only pairs with a shell triangle around them are tested (after a
+// repair, nothing else can have started to intersect), and only their triangles are rebuilt.
+class CrossingTest {
+public:
+    explicit CrossingTest(const SurfaceIndex& index);
+    ~CrossingTest();
+    CrossingTest(const CrossingTest&) = delete;
+    CrossingTest& operator=(const CrossingTest&) = delete;
+    size_t run(uint8_t* hit, const std::vector<double>& shell, const std::vector<uint8_t>& moving,
+               const std::vector<uint8_t>* changed = nullptr);
+
+private:
+    struct State;
+    std::unique_ptr<State> state_;
+};
+
+// strand_texture.cpp: the PNG bytes of make_strand_texture (fin = false) or make_fin_texture (fin = true) for
+// these options, encoded once per process and option set (a small, thread-safe cache).
+std::shared_ptr<const std::vector<uint8_t>> strand_texture_png(const StrandTextureOptions& options, bool fin);
 
 // texture_sampling.cpp: bilinear sample of channel c at glTF uv (v = 0 on the top row), texel centres at
 // (x + 0.5) / width; wrap: 10497 REPEAT, 33648 MIRRORED_REPEAT, 33071 CLAMP_TO_EDGE.

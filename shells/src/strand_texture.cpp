@@ -9,10 +9,19 @@
 // Deterministic: strands come from a SplitMix64 stream of the seed (S. Vigna; G. Steele, D. Lea,
 // C. Flood, "Fast Splittable Pseudorandom Number Generators", OOPSLA 2014) and are drawn in a fixed order;
 // each texel keeps the maximum, which does not depend on the order anyway.
+//
+// add_fur_shells stores both textures as PNG, and the deflate step of the encoder costs more than drawing
+// them (about 10 ms for the default 256² tile, as much as growing fur on a few thousand triangles): the
+// encoded bytes depend on the options alone, so they are kept for the next call with the same options.
+#include "shells_internal.h"
+
 #include <furrow/shells.h>
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
+#include <deque>
+#include <mutex>
 
 namespace furrow {
 namespace {
@@ -115,4 +124,39 @@ std::vector<uint8_t> make_fin_texture(const StrandTextureOptions& options) {
     return rgba;
 }
 
+namespace detail {
+
+std::shared_ptr<const std::vector<uint8_t>> strand_texture_png(const StrandTextureOptions& options, bool fin) {
+    const StrandTextureOptions o = sane(options);
+    struct Entry {
+        StrandTextureOptions key;
+        bool fin;
+        std::shared_ptr<const std::vector<uint8_t>> png;
+    };
+    auto same = [&](const Entry& e) {
+        // Bitwise on the doubles: the same options always map to the same bytes, and nothing else does.
+        return e.fin == fin && e.key.size == o.size && e.key.strands == o.strands && e.key.seed == o.seed &&
+               std::memcmp(&e.key.radius, &o.radius, sizeof(double)) == 0 &&
+               std::memcmp(&e.key.min_height, &o.min_height, sizeof(double)) == 0;
+    };
+    static std::mutex mutex;
+    static std::deque<Entry> cache; // a few entries (two per option set in use), oldest first
+    {
+        std::lock_guard<std::mutex> lock(mutex);
+        for (const Entry& e : cache)
+            if (same(e)) return e.png;
+    }
+    // Encoded outside the lock: two threads asking at once both encode, and get equal bytes.
+    const int w = o.size, h = fin ? std::max(8, o.size / 2) : o.size;
+    const std::vector<uint8_t> rgba = fin ? make_fin_texture(o) : make_strand_texture(o);
+    auto png = std::make_shared<const std::vector<uint8_t>>(encode_png_rgba8(rgba.data(), w, h));
+    std::lock_guard<std::mutex> lock(mutex);
+    for (const Entry& e : cache)
+        if (same(e)) return e.png;
+    cache.push_back(Entry{o, fin, png});
+    if (cache.size() > 8) cache.pop_front();
+    return png;
+}
+
+} // namespace detail
 } // namespace furrow

@@ -258,6 +258,8 @@ size_t orient_faces(PreparedMesh& m) {
 
 } // namespace
 
+Status check_surface_options(const SurfaceOptions& options) { return check_options(options); }
+
 Status prepare_mesh(PreparedMesh& m, const TessellateInput& in, const SurfaceOptions& o) {
     if (Status s = check_options(o); !s.ok()) return s;
     if (Status s = check_input(in, o); !s.ok()) return s;

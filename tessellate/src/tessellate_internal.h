@@ -109,6 +109,9 @@ struct PreparedMesh {
 
 // prepare_mesh.cpp: validation, weld, repair, classification (everything but OpenSubdiv).
 Status prepare_mesh(PreparedMesh& m, const TessellateInput& in, const SurfaceOptions& options);
+// The SurfaceOptions checks of prepare_mesh on their own (tessellate_scene runs them even when no mesh has
+// anything to tessellate).
+Status check_surface_options(const SurfaceOptions& options);
 // build_surfaces.cpp: the refiner and the Bfr factory over the smooth faces; faces without a limit surface
 // become linear. Then owners are chosen (they depend on which faces are smooth).
 Status build_surfaces(PreparedMesh& m);

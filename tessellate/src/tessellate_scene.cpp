@@ -297,6 +297,19 @@ Status tessellate_scene(Scene& scene, const TessellateOptions& options, SceneTes
     SceneTessellateReport& rep = report ? *report : local;
     rep = SceneTessellateReport{};
     if (Status s = validate_rates(options.rates); !s.ok()) return s;
+    // Checked here too: prepare() checks them only for meshes that have triangles, so a scene without any
+    // returned ok for any options at all (found by fuzz_tessellate).
+    if (Status s = check_surface_options(options.surface); !s.ok()) return s;
+    // A triangle primitive with faces but no positions has nothing to tessellate and is left out of the merge
+    // below, so it came back unchanged with indices naming vertices that do not exist (found by
+    // fuzz_tessellate): refuse it as the index out of range that it is.
+    for (size_t mi = 0; mi < scene.meshes.size(); ++mi)
+        for (size_t pi = 0; pi < scene.meshes[mi].primitives.size(); ++pi) {
+            const Primitive& p = scene.meshes[mi].primitives[pi];
+            if (p.mode == PrimitiveMode::triangles && p.positions.empty() && !p.indices.empty())
+                return Status::error(StatusCode::invalid_input, "mesh " + std::to_string(mi) + " primitive " + std::to_string(pi) +
+                                                                    ": faces but no vertices (index out of range)");
+        }
     const auto world = scene.world_matrices();
     struct Job {
         size_t mesh;

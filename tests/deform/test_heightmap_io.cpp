@@ -69,6 +69,32 @@ TEST(SaveHeightmap, Png16RoundTripWithinItsQuantum) {
     EXPECT_DOUBLE_EQ(back.frame.texel, h.frame.texel);
 }
 
+// A map without a frame (what a plain PFM loads as) saves with texel 0 and must load back frame-less, in
+// both formats (fuzz_heightmap found that the saved file was refused: "texel must be > 0").
+TEST(SaveHeightmap, AFramelessMapRoundTripsFramelessInBothFormats) {
+    Heightmap h;
+    h.frame.width = 3, h.frame.height = 2;
+    h.values = {0.0f, -0.25f, 0.5f, -1.0f, 0.125f, 0.0f};
+    const auto dir = temp_dir();
+    for (const char* name : {"h.pfm", "h.png"}) {
+        ASSERT_TRUE(save_heightmap(h, (dir / name).string()).ok()) << name;
+        Heightmap back;
+        Status s = load_heightmap(back, (dir / name).string());
+        ASSERT_TRUE(s.ok()) << name << ": " << s.message;
+        EXPECT_EQ(back.frame.width, 3) << name;
+        EXPECT_EQ(back.frame.height, 2) << name;
+        EXPECT_EQ(back.frame.texel, 0.0) << name;
+        ASSERT_EQ(back.values.size(), h.values.size()) << name;
+        for (size_t k = 0; k < h.values.size(); ++k) EXPECT_NEAR(back.values[k], h.values[k], 1e-4) << name << " texel " << k;
+    }
+    // A negative texel is still a bad frame, not an empty one.
+    write_text(dir / "neg.pfm", std::string("Pf\n1 1\n-1.0\n") + std::string(4, '\0') +
+                                    "\n# furrow-heightmap {\"origin\":[0,0,0],\"axis_u\":[1,0,0],\"axis_v\":[0,0,1],\"up\":[0,1,0],"
+                                    "\"texel\":-1,\"width\":1,\"height\":1}\n");
+    Heightmap bad;
+    EXPECT_EQ(load_heightmap(bad, (dir / "neg.pfm").string()).code, StatusCode::invalid_input);
+}
+
 TEST(LoadHeightmap, RejectsAPngWithoutScaleAndBadFiles) {
     const auto dir = temp_dir();
     ImageF im;

@@ -362,6 +362,39 @@ TEST(SnowField, ContactRaysFollowAHill) {
     EXPECT_NEAR(h, g, 0.003);
 }
 
+// Collider values may be anything finite: a path point 4e28 m away or a 1e30 m capsule asked for more sweep
+// steps and texels than an int holds (undefined behaviour, found by fuzz_colliders). Now the steps are capped
+// and the trench still reaches the near end of the path.
+TEST(SnowField, CollidersOfAbsurdSizeOrDistanceStampSafely) {
+    SnowOptions o = fine(0.02);
+    o.rim_width = 0.1;
+    SnowField f = make_field(flat_ground(4, 4), o);
+    Collider far = capsule(0.1, 0.5, {{4.4e28, 0.05, 0}, {0.5, 0.05, 0.5}});
+    far.heading = {0, 75};
+    ASSERT_TRUE(f.add_collider(far).ok());
+    ASSERT_TRUE(f.add_collider(sphere(1e30, {{-1, 1e30 + 1, -1}})).ok());
+    f.update();
+    for (float v : f.heightmap().values) ASSERT_TRUE(std::isfinite(v));
+    EXPECT_LT(texel_at(f.heightmap(), 0.5, 0.5), -0.04); // the capsule's end sample, 0.05 deep
+    EXPECT_TRUE(std::isfinite(f.removed_volume()));
+    EXPECT_TRUE(std::isfinite(f.raised_volume()));
+}
+
+// Headings are unwrapped so that a sweep turns the short way; subtracting 360 in a loop never ended for a
+// heading of 1e30, where h − 360 == h (found by fuzz_stamp). Both the path and the runtime API.
+TEST(SnowField, HugeHeadingsDoNotHang) {
+    SnowField f = make_field(flat_ground(4, 4), fine(0.02));
+    ASSERT_TRUE(f.add_collider(box({0.4, 0.2, 0.6}, 0, {{-0.5, 0.05, 0}, {0.5, 0.05, 0}})).ok());
+    Collider spun = box({0.4, 0.2, 0.6}, 0, {{-0.5, 0.05, 0.8}, {0.5, 0.05, 0.8}});
+    spun.heading = {0, 1e30};
+    ASSERT_TRUE(f.add_collider(spun).ok());
+    ColliderPose from{{0.5, 0.05, -0.8}, -1e300, 0}, to{{-0.5, 0.05, -0.8}, 1e300, 0};
+    ASSERT_TRUE(f.stamp(spun, to, &from).ok());
+    f.update();
+    for (float v : f.heightmap().values) ASSERT_TRUE(std::isfinite(v));
+    EXPECT_LT(texel_at(f.heightmap(), 0.5, 0.8), -0.04); // both ends of the spun box pressed in
+}
+
 TEST(SnowField, AColliderInTheAirMakesNoContact) {
     SnowField f = make_field(flat_ground(4, 1), fine(0.02));
     StampStats st;

@@ -207,6 +207,16 @@ TEST(StampScene, NoContactLeavesTheSceneUnchanged) {
     for (float v : h.values) ASSERT_EQ(v, 0.0f);
 }
 
+// scene_triangles reads an index out of range as a degenerate corner, but the ground is written back with its
+// own indices: an ok stamp used to return a scene with the bad index still in it (found by fuzz_stamp).
+TEST(StampScene, IndexOutOfRangeIsAnError) {
+    Scene scene = ground_scene(flat_ground(2, 4));
+    scene.meshes[0].primitives[0].indices[4] = 1000;
+    Status s = stamp_scene(scene, set_of({sphere(0.3, {{0, 0.2, 0}})}), StampOptions{});
+    EXPECT_EQ(s.code, StatusCode::invalid_input);
+    EXPECT_NE(s.message.find("index 1000"), std::string::npos) << s.message;
+}
+
 TEST(StampScene, WarnsAboutOverhangs) {
     Primitive g = flat_ground(4, 8);
     const uint32_t b = uint32_t(g.vertex_count());

@@ -198,3 +198,139 @@ TEST(load_scene, ObjWithSeamsSplitsVerticesAndKeepsDoublePrecision) {
 }
 
 } // namespace
+
+namespace {
+Status load_text(Scene& s, const std::string& text, const std::string& ext) {
+    return load_scene_from_memory(s, reinterpret_cast<const uint8_t*>(text.data()), text.size(), ext);
+}
+} // namespace
+
+// OpenMesh's PLY header parser never returns on a header without end_header and indexes an empty element list
+// for a property before any element (found by fuzz_load_scene); such headers are refused before it runs.
+TEST(load_scene, PlyHeadersOpenMeshCannotSurviveAreRefused) {
+    const std::string body = "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
+    Scene s;
+    Status st = load_text(s, "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+                             "element face 1\nproperty list uchar int vertex_indices\nend_hekder\n" + body, ".ply");
+    EXPECT_EQ(st.code, StatusCode::invalid_input);
+    EXPECT_NE(st.message.find("end_header"), std::string::npos) << st.message;
+    st = load_text(s, "ply\nformat ascii 1.0\nproperty float x\nelement vertex 3\nend_header\n" + body, ".ply");
+    EXPECT_EQ(st.code, StatusCode::invalid_input);
+    EXPECT_NE(st.message.find("before any element"), std::string::npos) << st.message;
+    st = load_text(s, "ply\nformat ascii 1.0\nelement vertex 4000000000\nproperty float x\nproperty float y\n"
+                      "property float z\nend_header\n" + body, ".ply");
+    EXPECT_EQ(st.code, StatusCode::invalid_input);
+    st = load_text(s, "ply\nformat ascii 1.0\nelement vertex three\nend_header\n" + body, ".ply");
+    EXPECT_EQ(st.code, StatusCode::invalid_input);
+    // The body is walked too: a face of 4e9 corners, texture coordinates on a face without corners, and a
+    // binary int list count of -1 (4e9 as OpenMesh reads it) looped or asserted in OpenMesh.
+    const std::string head = "element vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\n";
+    st = load_text(s, "ply\nformat ascii 1.0\n" + head + "property list uchar int vertex_indices\nend_header\n"
+                      "0 0 0\n1 0 0\n0 1 0\n4000000000 0 1 2\n", ".ply");
+    EXPECT_EQ(st.code, StatusCode::invalid_input);
+    st = load_text(s, "ply\nformat ascii 1.0\n" + head + "property list uchar int vertex_indices\n"
+                      "property list uchar float texcoord\nend_header\n0 0 0\n1 0 0\n0 1 0\n0 6 0 0 1 0 0 1\n", ".ply");
+    EXPECT_EQ(st.code, StatusCode::invalid_input);
+    std::string binary = "ply\nformat binary_little_endian 1.0\n" + head + "property list int int vertex_indices\nend_header\n";
+    const float xyz[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+    binary.append(reinterpret_cast<const char*>(xyz), sizeof xyz);
+    const int32_t face[4] = {-1, 0, 1, 2};
+    binary.append(reinterpret_cast<const char*>(face), sizeof face);
+    EXPECT_EQ(load_text(s, binary, ".ply").code, StatusCode::invalid_input);
+    binary.replace(binary.size() - 16, 4, std::string("\x03\0\0\0", 4)); // a count of 3: the same file is fine
+    st = load_text(s, binary, ".ply");
+    ASSERT_TRUE(st.ok()) << st.message;
+    EXPECT_EQ(s.meshes[0].primitives[0].indices.size(), 3u);
+    // The same file with a proper header loads.
+    st = load_text(s, "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+                      "element face 1\nproperty list uchar int vertex_indices\nend_header\n" + body, ".ply");
+    ASSERT_TRUE(st.ok()) << st.message;
+    EXPECT_EQ(s.meshes[0].primitives[0].vertex_count(), 3u);
+    EXPECT_EQ(s.meshes[0].primitives[0].indices.size(), 3u);
+}
+
+// OpenMesh's OFF reader reads its counts unchecked: an empty file asked for 2 GB, a short face list repeated
+// its last corner count (fuzz_load_scene). Checked first now; a valid file with a quad keeps it.
+TEST(load_scene, OffFilesAreCheckedBeforeOpenMeshReadsThem) {
+    Scene s;
+    EXPECT_EQ(load_text(s, "", ".off").code, StatusCode::invalid_input);
+    EXPECT_EQ(load_text(s, "OFF\n", ".off").code, StatusCode::invalid_input);
+    EXPECT_EQ(load_text(s, "OFF\n4 2 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n4 0 1 2 3\n", ".off").code, StatusCode::invalid_input);
+    EXPECT_EQ(load_text(s, "OFF\n4 1 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n4000000 0 1 2 3\n", ".off").code, StatusCode::invalid_input);
+    EXPECT_EQ(load_text(s, "OFF\n4 1 0\n0 0 0\n1 0 0\nx y z\n0 1 0\n4 0 1 2 3\n", ".off").code, StatusCode::invalid_input);
+    EXPECT_EQ(load_text(s, "OFF BINARY\n", ".off").code, StatusCode::unsupported);
+    EXPECT_EQ(load_text(s, "4OFF\n1 0 0\n0 0 0 1\n", ".off").code, StatusCode::invalid_input);
+    Status st = load_text(s, "NOFF\n4 1 0\n0 0 0 0 0 1\n1 0 0 0 0 1\n1 1 0 0 0 1\n0 1 0 0 0 1\n4 0 1 2 3\n", ".off");
+    ASSERT_TRUE(st.ok()) << st.message;
+    const Primitive& p = s.meshes[0].primitives[0];
+    EXPECT_EQ(p.vertex_count(), 4u);
+    EXPECT_EQ(p.face_sizes, std::vector<uint32_t>{4});
+    EXPECT_EQ(p.positions[6], 1.0f); // vertex 2 is (1, 1, 0): the normals after x y z were not read as positions
+    EXPECT_EQ(p.positions[7], 1.0f);
+}
+
+// OpenMesh asserts on an OBJ face corner without a vertex index, and Debian builds it with assertions on: the
+// process aborted (fuzz_load_scene). And furrow reads no materials, so mtllib is not opened (a /dev/zero
+// material file was read forever).
+TEST(load_scene, ObjCornersWithoutVertexIndexAndMtllibAreHandled) {
+    const std::string verts = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvn 0 0 1\n";
+    Scene s;
+    for (const char* face : {"f /1 2 3\n", "f 1 2 //1\n", "f x/1 2/1 3/1\n"}) {
+        Status st = load_text(s, verts + face, ".obj");
+        EXPECT_EQ(st.code, StatusCode::invalid_input) << face;
+        EXPECT_NE(st.message.find("vertex index"), std::string::npos) << st.message;
+    }
+    Status st = load_text(s, "mtllib /dev/zero\n" + verts + "usemtl skin\nf 1/1/1 2/1/1 3/1/1 # a comment\n", ".obj");
+    ASSERT_TRUE(st.ok()) << st.message;
+    EXPECT_EQ(s.meshes[0].primitives[0].indices.size(), 3u);
+}
+
+// The double-precision re-read of OBJ `v` lines counted a line the OpenMesh reader skips ("v junk 1 1"), so
+// every later vertex got its neighbour's position, one of them an infinite float (found by fuzz_load_scene).
+TEST(load_scene, ObjDoubleRereadMatchesTheReaderVertexForVertex) {
+    Scene s;
+    Status st = load_text(s, "v 0 0 0\nv junk 1 1\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", ".obj");
+    ASSERT_TRUE(st.ok()) << st.message;
+    const std::vector<float> expected{0, 0, 0, 1, 0, 0, 0, 1, 0};
+    EXPECT_EQ(s.meshes[0].primitives[0].positions, expected);
+    // The reader skips a coordinate beyond the float range; read here as a finite double, it used to be put
+    // back into vertex 0 and stored as an infinite float. Now the counts disagree, nothing is replaced, and
+    // the face names a vertex the reader never made.
+    EXPECT_EQ(load_text(s, "v 1e39 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\n", ".obj").code, StatusCode::invalid_input);
+    st = load_text(s, "v 1e39 0 0\nv 0 1 0\nv 0 0 1\nv 1 1 1\nf 1 2 3\n", ".obj");
+    ASSERT_TRUE(st.ok()) << st.message;
+    for (float x : s.meshes[0].primitives[0].positions) EXPECT_TRUE(std::isfinite(x));
+}
+
+// load_scene_from_memory resolves no external URI (mesh.h), but tinygltf opened absolute paths and looked up
+// relative ones in the working directory, so the result depended on where the process ran (found while
+// fuzzing it). A file in the working directory still finds its .bin.
+TEST(load_scene, FromMemoryNoExternalFileIsRead) {
+    const auto dir = temp_dir();
+    const std::vector<uint8_t> bin{0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 128, 63, 0, 0, 0, 0, 0, 0, 0, 0,
+                                   0, 0, 0, 0, 0, 0, 128, 63, 0, 0, 0, 0};
+    auto gltf = [&](const std::string& uri) {
+        return "{\"asset\":{\"version\":\"2.0\"},\"scenes\":[{\"nodes\":[0]}],\"nodes\":[{\"mesh\":0}],"
+               "\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0}}]}],\"accessors\":[{\"bufferView\":0,"
+               "\"componentType\":5126,\"count\":3,\"type\":\"VEC3\",\"min\":[0,0,0],\"max\":[1,1,0]}],"
+               "\"bufferViews\":[{\"buffer\":0,\"byteLength\":36}],\"buffers\":[{\"byteLength\":36,\"uri\":\"" + uri + "\"}]}";
+    };
+    write_bytes(dir / "tri.bin", bin);
+    Scene s;
+    Status st = load_json(s, gltf((dir / "tri.bin").string()));
+    EXPECT_EQ(st.code, StatusCode::invalid_input);
+    EXPECT_NE(st.message.find("not found"), std::string::npos) << st.message; // nothing about the file got out
+    // The same document as a file beside its .bin loads, also from the working directory ("" parent).
+    write_text(dir / "tri.gltf", gltf("tri.bin"));
+    st = load_scene(s, (dir / "tri.gltf").string());
+    ASSERT_TRUE(st.ok()) << st.message;
+    const auto here = std::filesystem::current_path();
+    const std::string name = "load_scene_cwd_" + std::to_string(::testing::UnitTest::GetInstance()->random_seed());
+    write_bytes(here / (name + ".bin"), bin);
+    write_text(here / (name + ".gltf"), gltf(name + ".bin"));
+    st = load_scene(s, name + ".gltf");
+    std::filesystem::remove(here / (name + ".bin"));
+    std::filesystem::remove(here / (name + ".gltf"));
+    ASSERT_TRUE(st.ok()) << st.message;
+    EXPECT_EQ(s.meshes[0].primitives[0].vertex_count(), 3u);
+}

@@ -822,6 +822,30 @@ TEST(render_scene, SkipsAndCountsNanTriangles) {
     EXPECT_NE(r.warnings[0].find("2 triangles"), std::string::npos);
 }
 
+// Finite positions near FLT_MAX (or a bounding box that large, which the automatic framing backs off from)
+// overflow to infinite clip coordinates. Such vertices used to be snapped to the sample grid anyway (NaN
+// converted to an integer: undefined behaviour, found by fuzz_render; see tests/fuzz/regressions/render).
+// Whatever is drawn, the image and its depths stay finite.
+TEST(render_scene, HugeFiniteCoordinatesGiveAFiniteImage) {
+    const float big = 3.0e38f;
+    Primitive huge;
+    huge.positions = {big, 0, 0, 0, big, 0, -big, -big, big, 1, 1, -big, big, big, big};
+    huge.indices = {0, 1, 2, 0, 3, 4, 2, 3, 1};
+    const Scene scene = scene_of({quad(0, 0, 32, 32), huge});
+    for (int view = 0; view < 3; ++view) {
+        RenderOptions o = view == 0 ? pixel_view(32, 32) : RenderOptions{};
+        if (view == 0) o.camera.near_plane = 1;
+        if (view > 0) o.width = o.height = 32;
+        o.camera.orthographic = view == 2;
+        RenderResult r;
+        Status st = render_scene(r, scene, o);
+        ASSERT_TRUE(st.ok()) << st.message;
+        EXPECT_EQ(r.triangles, 5u);
+        for (float v : r.color.pixels) ASSERT_TRUE(v >= 0 && v <= 1) << "view " << view;
+        for (float d : r.depth.pixels) ASSERT_TRUE(d >= 0) << "view " << view; // +inf where empty, never NaN
+    }
+}
+
 TEST(render_scene, MissingTextureWarnsOnceAndUsesFactor) {
     Material a, b;
     a.base_color = {0.5f, 0.25f, 1, 1};

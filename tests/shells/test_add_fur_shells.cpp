@@ -278,6 +278,41 @@ TEST(add_fur_shells, RejectsBadInput) {
     EXPECT_EQ(add_fur_shells(no_triangles, fur(4, 0.05)).code, StatusCode::invalid_input);
 }
 
+// A NaN corner used to put NaN into the shells and their strand UVs (fuzz_shells); a NaN in a vertex no
+// triangle uses is harmless and stays allowed.
+TEST(add_fur_shells, NonFiniteTriangleCornerIsAnError) {
+    Scene s = sphere_scene();
+    s.meshes[0].primitives[0].positions[3 * 5 + 1] = std::nanf("");
+    Status st = add_fur_shells(s, fur(4, 0.05));
+    EXPECT_EQ(st.code, StatusCode::invalid_input);
+    EXPECT_NE(st.message.find("non-finite"), std::string::npos) << st.message;
+    EXPECT_EQ(s.meshes[0].primitives.size(), 1u); // nothing added on failure
+    Scene spare = sphere_scene();
+    Primitive& p = spare.meshes[0].primitives[0];
+    p.positions.insert(p.positions.end(), {std::nanf(""), 0.0f, 0.0f});
+    p.normals.insert(p.normals.end(), {0.0f, 1.0f, 0.0f});
+    p.uv0.insert(p.uv0.end(), {0.0f, 0.0f});
+    ASSERT_TRUE(add_fur_shells(spare, fur(4, 0.05)).ok());
+}
+
+// Strand UVs are the base UVs (or box-projected positions) divided by the tile size, which may be any
+// finite value > 0: a tile of 1e-300 m made them float(5e299) = inf (fuzz_shells). They stay finite now.
+TEST(add_fur_shells, StrandUvsStayFiniteForAnyTileSize) {
+    for (bool uvs : {true, false}) {
+        Scene s = uvs ? sphere_scene() : make_scene(shapes::icosphere(0.5f, 2));
+        FurOptions o = fur(2, 0.05);
+        o.tile_size = 1e-300;
+        ASSERT_TRUE(add_fur_shells(s, o).ok());
+        ASSERT_GT(s.meshes[0].primitives.size(), 1u);
+        for (size_t k = 1; k < s.meshes[0].primitives.size(); ++k) {
+            const Primitive& p = s.meshes[0].primitives[k];
+            ASSERT_FALSE(p.uv1.empty());
+            for (float x : p.uv1) ASSERT_TRUE(std::isfinite(x)) << (uvs ? "UV layout" : "box projection") << ", primitive " << k;
+            for (float x : p.uv0) ASSERT_TRUE(std::isfinite(x)) << (uvs ? "UV layout" : "box projection") << ", primitive " << k;
+        }
+    }
+}
+
 TEST(add_fur_shells, SilhouetteGrowsWithLength) {
     RenderOptions ro;
     ro.width = ro.height = 128;

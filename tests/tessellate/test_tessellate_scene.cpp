@@ -200,3 +200,29 @@ TEST(tessellate_scene, ErrorLeavesSceneUnchanged) {
     EXPECT_NE(st.message.find("mesh 0 \"grid\""), std::string::npos) << st.message;
     EXPECT_EQ(s.meshes[0].primitives[0].indices, before);
 }
+
+// A triangle primitive with faces but no positions used to be skipped and handed back unchanged, indices still
+// naming vertices that do not exist (found by fuzz_tessellate): it is an index out of range.
+TEST(tessellate_scene, FacesWithoutVerticesAreAnError) {
+    Scene s = make_scene(shapes::quad_grid(2, 2, 2, 2), "grid");
+    Primitive empty;
+    empty.indices = {0, 0, 0};
+    s.meshes[0].primitives.push_back(empty);
+    Status st = tessellate_scene(s, uniform_options(SubdivisionScheme::bilinear, 2));
+    EXPECT_EQ(st.code, StatusCode::invalid_input);
+    EXPECT_NE(st.message.find("primitive 1"), std::string::npos) << st.message;
+    EXPECT_EQ(s.meshes[0].primitives[0].indices, shapes::quad_grid(2, 2, 2, 2).indices); // left as it was
+}
+
+// Surface options used to be checked only by the meshes that had triangles to tessellate: a scene without any
+// accepted every option (found by fuzz_tessellate).
+TEST(tessellate_scene, OptionsAreCheckedEvenWithNothingToTessellate) {
+    Scene empty;
+    TessellateOptions o = uniform_options(SubdivisionScheme::catmark, 2);
+    ASSERT_TRUE(tessellate_scene(empty, o).ok());
+    o.surface.accuracy = 11;
+    EXPECT_EQ(tessellate_scene(empty, o).code, StatusCode::invalid_argument);
+    o = uniform_options(SubdivisionScheme::catmark, 2);
+    o.surface.weld_tolerance = -1;
+    EXPECT_EQ(tessellate_scene(empty, o).code, StatusCode::invalid_argument);
+}

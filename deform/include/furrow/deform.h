@@ -141,7 +141,8 @@ struct Heightmap {
 // value = offset + scale × sample / 65535). Both are written atomically (temp file + rename).
 Status save_heightmap(const Heightmap& heightmap, const std::string& path);
 // Loads either format. A PFM without the furrow line gets an empty frame (width/height only, texel 0): it
-// is then stretched over whatever grid it is applied to (SnowField::set_base). A PNG must carry its scale.
+// is then stretched over whatever grid it is applied to (SnowField::set_base); saved, such a map records
+// texel 0 and loads back frame-less. A PNG must carry its scale.
 Status load_heightmap(Heightmap& out, const std::string& path);
 
 // ---------------------------------------------------------------------------------------------------------
@@ -253,7 +254,8 @@ public:
 
     // World-space triangles of the (tessellated) ground, undeformed. Welds by exact position, computes the
     // undeformed normals and buckets the vertices by texel. `ground` (SnowField::ground()) is needed only
-    // for top_only.
+    // for top_only. Errors: an empty frame (invalid_argument); indices that are not triangles or out of range,
+    // a NaN or infinite position (invalid_input).
     Status prepare(const float* positions, size_t vertex_count, const uint32_t* indices, size_t index_count,
                    const HeightmapFrame& frame, const DisplaceOptions& options = {}, const Heightmap* ground = nullptr);
 
@@ -320,7 +322,8 @@ struct StampReport {
 // attributes present on every primitive of a mesh) are kept; tangents are dropped (a warning says so); a mesh
 // drawn by several nodes is copied per node. Skinned or morphed meshes are displaced without tessellation.
 // When no collider touches the ground (and no base is given) the scene is left unchanged (report.changed =
-// false). heightmap_out, if given, receives the output heightmap.
+// false). heightmap_out, if given, receives the output heightmap. A triangle index out of range or a NaN or
+// infinite vertex position is an invalid_input error.
 Status stamp_scene(Scene& scene, const ColliderSet& colliders, const StampOptions& options,
                    StampReport* report = nullptr, Heightmap* heightmap_out = nullptr);
 

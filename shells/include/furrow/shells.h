@@ -160,6 +160,10 @@ struct FurReport {
     std::vector<int> lod_nodes;     // LOD level k >= 1: node index (outside the default scene), per source node
     std::vector<FurFrame> frames;   // with FurOptions::keep_frames
     std::vector<std::string> warnings;
+    // Wall time of the two stages, for benchmarks: setup = everything done once per base primitive (frames
+    // with their clamps and intersection test, vertex sets, albedo, strand textures); emit = building and
+    // attaching the shell, fin and LOD primitives (grows with the number of shells).
+    double setup_seconds = 0, emit_seconds = 0;
 };
 
 // Grows fur on every triangle primitive of every mesh reached from a node. The base primitives stay as they
@@ -167,7 +171,8 @@ struct FurReport {
 // (JOINTS_0/WEIGHTS_0 copied) and morph targets (position and normal deltas copied). LOD levels 1..K-1 go
 // into new meshes on new nodes outside the default scene (a viewer shows level 0; an engine picks a level by
 // node name "<node>_fur_lod<k>"). Errors (invalid_argument): options out of range, a mask or comb with no
-// TEXCOORD_0 to sample it at, a mask channel the image lacks; (invalid_input): no triangle to grow fur on.
+// TEXCOORD_0 to sample it at, a mask channel the image lacks; (invalid_input): no triangle to grow fur on, a
+// triangle corner with a NaN or infinite position.
 Status add_fur_shells(Scene& scene, const FurOptions& options, FurReport* report = nullptr);
 
 } // namespace furrow

@@ -1,0 +1,340 @@
+// A bounding-volume hierarchy over axis-aligned boxes (one per triangle), in double, for the queries of
+// feature_distance.cpp: boxes overlapping a box, boxes along a ray (nearest first), boxes within a distance
+// of a point (nearest first). Only the traversal lives here; what a leaf does (CGAL constructions and
+// predicates) is the caller's, so the geometric decisions stay those of CGAL.
+//
+// Reference: C. Ericson, "Real-Time Collision Detection", Morgan Kaufmann 2005, chapter 6 (top-down
+// construction, stack-based descent, descending two hierarchies together) and section 5.3.3 (ray against
+// box by slabs). The split is the median along the longest axis of the box centres: no cost model (as the
+// surface area heuristic would use), but O(n log n), balanced (depth ~ log2(n / leaf size), which bounds
+// the traversal stack) and fully determined by the input.
+//
+// Why not CGAL's AABB_tree: its ray query constructs an intersection with every primitive of every leaf it
+// reaches (the do_intersect filter is commented out in AABB_ray_intersection.h), its distance query needs a
+// kd-tree of sample points to start, and neither can answer "is anything nearer than r?" with an early exit
+// (the medial-axis test only needs that). Measured on the 69k-triangle Stanford bunny, the three trees and
+// their queries took 1.0 s of a 2.3 s add_fur_shells.
+//
+// Robustness: every box is grown by a margin (1e-9 of the larger of the extent and the largest coordinate)
+// so that rounding in the slab and box-distance tests can only let an extra box through, never drop one;
+// the leaf test decides.
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <limits>
+#include <utility>
+#include <vector>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+namespace furrow::detail {
+
+struct Box3 {
+    double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL};
+    double hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
+    void add(const double* p) {
+        for (int k = 0; k < 3; ++k) lo[k] = std::min(lo[k], p[k]), hi[k] = std::max(hi[k], p[k]);
+    }
+    void add(const Box3& b) {
+        for (int k = 0; k < 3; ++k) lo[k] = std::min(lo[k], b.lo[k]), hi[k] = std::max(hi[k], b.hi[k]);
+    }
+    // Closed boxes: touching counts (as CGAL::box_intersection_d's default topology).
+    bool overlaps(const Box3& b) const {
+        return lo[0] <= b.hi[0] && b.lo[0] <= hi[0] && lo[1] <= b.hi[1] && b.lo[1] <= hi[1] && lo[2] <= b.hi[2] && b.lo[2] <= hi[2];
+    }
+    double squared_distance(const double* p) const {
+        // Branch-free (max instead of comparisons): the traversals call this for every child they look at,
+        // and which side of a box the point lies on is unpredictable.
+        const double dx = std::max(std::max(lo[0] - p[0], p[0] - hi[0]), 0.0);
+        const double dy = std::max(std::max(lo[1] - p[1], p[1] - hi[1]), 0.0);
+        const double dz = std::max(std::max(lo[2] - p[2], p[2] - hi[2]), 0.0);
+        return dx * dx + dy * dy + dz * dz;
+    }
+    // Entry parameter of the ray o + t·d (t in [0, t_max]) into the box, or +infinity if it misses.
+    double ray_entry(const double* o, const double* inv_d, const double* d, double t_max) const {
+        double t0 = 0, t1 = t_max;
+        for (int k = 0; k < 3; ++k) {
+            if (d[k] == 0) {
+                if (o[k] < lo[k] || o[k] > hi[k]) return HUGE_VAL;
+                continue;
+            }
+            double ta = (lo[k] - o[k]) * inv_d[k], tb = (hi[k] - o[k]) * inv_d[k];
+            if (ta > tb) std::swap(ta, tb);
+            t0 = std::max(t0, ta); // a NaN (0 · inf) leaves the bound as it was: conservative
+            t1 = std::min(t1, tb);
+            if (t0 > t1) return HUGE_VAL;
+        }
+        return t0;
+    }
+};
+
+class BoxBvh {
+public:
+    // Primitive i has box boxes[i] (an empty box leaves it out).
+    void build(std::vector<Box3> boxes) {
+        nodes_.clear();
+        prims_.clear();
+        double reach = 0;
+        Box3 all;
+        for (size_t i = 0; i < boxes.size(); ++i) {
+            if (!(boxes[i].lo[0] <= boxes[i].hi[0])) continue; // empty, or NaN corners
+            prims_.push_back(uint32_t(i));
+            all.add(boxes[i]);
+        }
+        if (prims_.empty()) {
+            boxes_.clear();
+            return;
+        }
+        for (int k = 0; k < 3; ++k) reach = std::max({reach, all.hi[k] - all.lo[k], std::abs(all.lo[k]), std::abs(all.hi[k])});
+        const double margin = 1e-9 * reach + 1e-300;
+        // Boxes in leaf order, grown by the margin, so that a leaf reads them contiguously.
+        std::vector<double> centre(3 * boxes.size());
+        for (uint32_t i : prims_)
+            for (int k = 0; k < 3; ++k) centre[3 * i + k] = 0.5 * (boxes[i].lo[k] + boxes[i].hi[k]);
+        nodes_.reserve(2 * (prims_.size() / kLeaf + 1));
+        nodes_.emplace_back();
+        build_node(0, 0, uint32_t(prims_.size()), boxes, centre);
+        boxes_.resize(prims_.size());
+        for (size_t j = 0; j < prims_.size(); ++j) {
+            boxes_[j] = boxes[prims_[j]];
+            for (int k = 0; k < 3; ++k) boxes_[j].lo[k] -= margin, boxes_[j].hi[k] += margin;
+        }
+        for (Node& n : nodes_)
+            for (int k = 0; k < 3; ++k) n.box.lo[k] -= margin, n.box.hi[k] += margin;
+    }
+
+    // This tree's shape over other boxes of the same primitives (a shell triangle's box for its base face):
+    // only the boxes are recomputed, bottom-up, in O(n). Primitives with an empty box take no part.
+    void refit(const BoxBvh& shape, const std::vector<Box3>& boxes) {
+        nodes_ = shape.nodes_;
+        prims_ = shape.prims_;
+        refit(boxes);
+    }
+    // The same, keeping this tree's own shape (boxes[i] for primitive i, as at the build).
+    void refit(const std::vector<Box3>& boxes) {
+        boxes_.resize(prims_.size());
+        double reach = 0;
+        for (size_t j = 0; j < prims_.size(); ++j) {
+            boxes_[j] = boxes[prims_[j]];
+            if (boxes_[j].lo[0] <= boxes_[j].hi[0])
+                for (int k = 0; k < 3; ++k)
+                    reach = std::max({reach, boxes_[j].hi[k] - boxes_[j].lo[k], std::abs(boxes_[j].lo[k]), std::abs(boxes_[j].hi[k])});
+        }
+        const double margin = 1e-9 * reach + 1e-300;
+        for (Box3& b : boxes_)
+            for (int k = 0; k < 3; ++k) b.lo[k] -= margin, b.hi[k] += margin; // an empty box stays empty
+        // Children always come after their parent (build_node allocates them later): one backward pass.
+        for (size_t i = nodes_.size(); i-- > 0;) {
+            Node& n = nodes_[i];
+            n.box = Box3{};
+            if (n.count > 0)
+                for (uint32_t j = n.first; j < n.first + n.count; ++j) n.box.add(boxes_[j]);
+            else
+                n.box.add(nodes_[n.first].box), n.box.add(nodes_[n.first + 1].box);
+        }
+    }
+
+    bool empty() const { return prims_.empty(); }
+
+    // f(prim) for every primitive whose (grown) box overlaps q.
+    template <class F>
+    void for_overlapping(const Box3& q, F&& f) const {
+        if (nodes_.empty()) return;
+        uint32_t stack[kStack];
+        int top = 0;
+        stack[top++] = 0;
+        while (top > 0) {
+            const Node& n = nodes_[stack[--top]];
+            if (!n.box.overlaps(q)) continue;
+            if (n.count > 0) {
+                for (uint32_t j = n.first; j < n.first + n.count; ++j)
+                    if (boxes_[j].overlaps(q)) f(prims_[j]);
+            } else {
+                stack[top++] = n.first;
+                stack[top++] = n.first + 1;
+            }
+        }
+    }
+
+    // Every pair (a primitive of this tree, one of `other`) whose boxes overlap, found by descending both
+    // trees together (Ericson, chapter 6): the upper levels are visited once for all pairs instead of once per
+    // query box. With other == this, each unordered pair of distinct primitives comes once. Parallel: the
+    // node pairs are expanded breadth-first into independent tasks in a fixed order, each task lists its own
+    // pairs, and the lists are joined in task order, so the result is the same for any thread count.
+    std::vector<std::pair<uint32_t, uint32_t>> overlapping_pairs(const BoxBvh& other) const {
+        using Pair = std::pair<uint32_t, uint32_t>;
+        std::vector<Pair> out;
+        if (nodes_.empty() || other.nodes_.empty()) return out;
+        const bool self = &other == this;
+        std::vector<Pair> frontier{{0, 0}}, next;
+        for (int depth = 0; depth < 12 && frontier.size() < 256; ++depth) {
+            next.clear();
+            bool split = false;
+            for (const Pair& xy : frontier) split |= expand(other, self, xy, next, nullptr);
+            frontier.swap(next);
+            if (!split) break;
+        }
+        std::vector<std::vector<Pair>> lists(frontier.size());
+        tbb::parallel_for(tbb::blocked_range<size_t>(0, frontier.size(), 1), [&](const tbb::blocked_range<size_t>& r) {
+            std::vector<Pair> stack;
+            for (size_t k = r.begin(); k != r.end(); ++k) {
+                stack.assign(1, frontier[k]);
+                while (!stack.empty()) {
+                    const Pair xy = stack.back();
+                    stack.pop_back();
+                    expand(other, self, xy, stack, &lists[k]);
+                }
+            }
+        });
+        size_t total = 0;
+        for (const auto& l : lists) total += l.size();
+        out.reserve(total);
+        for (const auto& l : lists) out.insert(out.end(), l.begin(), l.end());
+        return out;
+    }
+
+    // Primitives whose box the ray o + t·d (t in [0, t_max]) enters, nearer boxes first; f(prim, t_max) may
+    // lower t_max (the nearest hit so far), which prunes everything that starts beyond it.
+    template <class F>
+    void for_ray(const double* o, const double* d, double& t_max, F&& f) const {
+        if (nodes_.empty()) return;
+        double inv[3];
+        for (int k = 0; k < 3; ++k) inv[k] = d[k] != 0 ? 1.0 / d[k] : 0.0;
+        uint32_t stack[kStack];
+        double entry[kStack];
+        int top = 0;
+        const double root = nodes_[0].box.ray_entry(o, inv, d, t_max);
+        if (root == HUGE_VAL) return;
+        stack[top] = 0, entry[top++] = root;
+        while (top > 0) {
+            --top;
+            if (entry[top] > t_max) continue;
+            const Node& n = nodes_[stack[top]];
+            if (n.count > 0) {
+                for (uint32_t j = n.first; j < n.first + n.count; ++j)
+                    if (boxes_[j].ray_entry(o, inv, d, t_max) != HUGE_VAL) f(prims_[j], t_max);
+                continue;
+            }
+            const double ta = nodes_[n.first].box.ray_entry(o, inv, d, t_max);
+            const double tb = nodes_[n.first + 1].box.ray_entry(o, inv, d, t_max);
+            // Push the farther child first so that the nearer one is visited first.
+            const bool a_first = ta <= tb;
+            const uint32_t near_id = a_first ? n.first : n.first + 1, far_id = a_first ? n.first + 1 : n.first;
+            const double near_t = a_first ? ta : tb, far_t = a_first ? tb : ta;
+            if (far_t != HUGE_VAL) stack[top] = far_id, entry[top++] = far_t;
+            if (near_t != HUGE_VAL) stack[top] = near_id, entry[top++] = near_t;
+        }
+    }
+
+    // Primitives whose box lies within squared distance r2 of p, nearer boxes first; f(prim, r2) may lower
+    // r2 (a nearest-point search) and returns true to stop the search (an emptiness test that found
+    // something). Returns whether f stopped it.
+    template <class F>
+    bool for_near(const double* p, double& r2, F&& f) const {
+        if (nodes_.empty()) return false;
+        uint32_t stack[kStack];
+        double dist[kStack];
+        int top = 0;
+        stack[top] = 0, dist[top++] = nodes_[0].box.squared_distance(p);
+        while (top > 0) {
+            --top;
+            if (!(dist[top] < r2)) continue;
+            const Node& n = nodes_[stack[top]];
+            if (n.count > 0) {
+                for (uint32_t j = n.first; j < n.first + n.count; ++j)
+                    if (boxes_[j].squared_distance(p) < r2 && f(prims_[j], r2)) return true;
+                continue;
+            }
+            const double da = nodes_[n.first].box.squared_distance(p), db = nodes_[n.first + 1].box.squared_distance(p);
+            const bool a_first = da <= db;
+            stack[top] = a_first ? n.first + 1 : n.first, dist[top++] = a_first ? db : da;
+            stack[top] = a_first ? n.first : n.first + 1, dist[top++] = a_first ? da : db;
+        }
+        return false;
+    }
+
+private:
+    static constexpr uint32_t kLeaf = 4;
+    static constexpr int kStack = 128; // a median split halves the count: depth <= log2(2^32 / kLeaf) + 1
+    struct Node {
+        Box3 box;
+        uint32_t first = 0; // leaf: first index into prims_/boxes_; inner: left child (right = first + 1)
+        uint32_t count = 0; // leaf: number of primitives; inner: 0
+    };
+
+    // One step of the paired descent from node pair xy: overlapping child pairs go to `next`; at two leaves
+    // the overlapping primitive pairs go to `pairs` (or, when null, the leaf pair itself goes to `next`).
+    // Returns whether xy was split.
+    bool expand(const BoxBvh& other, bool self, std::pair<uint32_t, uint32_t> xy, std::vector<std::pair<uint32_t, uint32_t>>& next,
+                std::vector<std::pair<uint32_t, uint32_t>>* pairs) const {
+        const auto [x, y] = xy;
+        const Node &a = nodes_[x], &b = other.nodes_[y];
+        if (!a.box.overlaps(b.box)) return false;
+        const bool same = self && x == y;
+        if (a.count > 0 && b.count > 0) {
+            if (!pairs) {
+                next.push_back(xy);
+                return false;
+            }
+            for (uint32_t i = a.first; i < a.first + a.count; ++i)
+                for (uint32_t j = same ? i + 1 : b.first; j < b.first + b.count; ++j)
+                    if (boxes_[i].overlaps(other.boxes_[j])) pairs->emplace_back(prims_[i], other.prims_[j]);
+            return false;
+        }
+        if (same) { // (l, l), (l, r), (r, r): the pair (r, l) is (l, r) again
+            next.emplace_back(a.first, a.first);
+            next.emplace_back(a.first, a.first + 1);
+            next.emplace_back(a.first + 1, a.first + 1);
+        } else if (a.count > 0) {
+            next.emplace_back(x, b.first);
+            next.emplace_back(x, b.first + 1);
+        } else if (b.count > 0) {
+            next.emplace_back(a.first, y);
+            next.emplace_back(a.first + 1, y);
+        } else {
+            for (uint32_t i = 0; i < 2; ++i)
+                for (uint32_t j = 0; j < 2; ++j) next.emplace_back(a.first + i, b.first + j);
+        }
+        return true;
+    }
+
+    void build_node(uint32_t node, uint32_t begin, uint32_t end, const std::vector<Box3>& boxes, const std::vector<double>& centre) {
+        Box3 box, centres;
+        for (uint32_t j = begin; j < end; ++j) {
+            box.add(boxes[prims_[j]]);
+            centres.add(&centre[3 * size_t(prims_[j])]);
+        }
+        nodes_[node].box = box;
+        if (end - begin <= kLeaf) {
+            nodes_[node].first = begin;
+            nodes_[node].count = end - begin;
+            return;
+        }
+        int axis = 0;
+        for (int k = 1; k < 3; ++k)
+            if (centres.hi[k] - centres.lo[k] > centres.hi[axis] - centres.lo[axis]) axis = k;
+        const uint32_t mid = begin + (end - begin) / 2;
+        // Ties broken by primitive index: the split, hence the tree, depends on nothing but the input.
+        std::nth_element(prims_.begin() + begin, prims_.begin() + mid, prims_.begin() + end, [&](uint32_t a, uint32_t b) {
+            const double ca = centre[3 * size_t(a) + size_t(axis)], cb = centre[3 * size_t(b) + size_t(axis)];
+            return ca < cb || (ca == cb && a < b);
+        });
+        const uint32_t left = uint32_t(nodes_.size());
+        nodes_.emplace_back();
+        nodes_.emplace_back();
+        nodes_[node].first = left;
+        nodes_[node].count = 0;
+        build_node(left, begin, mid, boxes, centre);
+        build_node(left + 1, mid, end, boxes, centre);
+    }
+
+    std::vector<Node> nodes_;
+    std::vector<uint32_t> prims_; // primitive ids in leaf order
+    std::vector<Box3> boxes_;     // their grown boxes, same order
+};
+
+} // namespace furrow::detail
