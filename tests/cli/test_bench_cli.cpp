@@ -4,21 +4,12 @@
 #include "test_support.h"
 
 #include <cmath>
-#include <fstream>
 #include <set>
-#include <sstream>
 
 using namespace furrow;
 using namespace furrow::test;
 
 namespace {
-
-std::string read_text(const std::filesystem::path& f) {
-    std::ifstream in(f, std::ios::binary);
-    std::stringstream ss;
-    ss << in.rdbuf();
-    return ss.str();
-}
 
 size_t count(const std::string& s, const std::string& what) {
     size_t n = 0;

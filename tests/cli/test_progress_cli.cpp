@@ -3,19 +3,10 @@
 #include "test_support.h"
 
 #include <cstdlib>
-#include <fstream>
-#include <sstream>
 
 using namespace furrow::test;
 
 namespace {
-
-std::string read_text(const std::filesystem::path& f) {
-    std::ifstream in(f, std::ios::binary);
-    std::stringstream ss;
-    ss << in.rdbuf();
-    return ss.str();
-}
 
 bool have_script() { return std::system("command -v script >/dev/null 2>&1") == 0; }
 

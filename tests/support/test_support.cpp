@@ -88,6 +88,11 @@ std::string validate_gltf(const fs::path& file) {
     return "validator exit " + std::to_string(r.exit_code) + ":\n" + r.out + r.err;
 }
 
+std::string read_text(const fs::path& file) {
+    const std::vector<uint8_t> b = read_bytes(file);
+    return std::string(b.begin(), b.end());
+}
+
 std::vector<uint8_t> read_bytes(const fs::path& file) {
     std::ifstream in(file, std::ios::binary);
     return std::vector<uint8_t>(std::istreambuf_iterator<char>(in), {});

@@ -36,6 +36,7 @@ std::string validate_gltf(const std::filesystem::path& file);
     } while (0)
 
 std::vector<uint8_t> read_bytes(const std::filesystem::path& file);
+std::string read_text(const std::filesystem::path& file); // the bytes as a string
 void write_bytes(const std::filesystem::path& file, const std::vector<uint8_t>& bytes);
 void write_text(const std::filesystem::path& file, const std::string& text);
 // Files in a folder (names only, sorted): to assert that a failed command left nothing behind.
