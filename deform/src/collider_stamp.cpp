@@ -348,18 +348,26 @@ StampResult stamp_sweep(const StampTarget& T, const Collider& c, const LocalPose
     // Only the part of the path from which the shape can reach the grid is stepped: where the centre is within
     // R (plus a texel) of it, an interval of the straight path (Liang–Barsky clipping against the grown grid
     // box). A path from 4e28 m away stepped 1e6 times through empty space first (found by fuzz_stamp).
+    // Each end of the clipped part is taken from the nearer end of the path: from 4e28 m away, t = 1 − 1e-28
+    // is 1 in double, but the same point is s = 1e-28 measured from the other end.
     if (!(std::isfinite(from.u) && std::isfinite(from.v) && std::isfinite(to.u) && std::isfinite(to.v))) return res;
-    double ta = 0, tb = 1;
-    auto clip = [&](double p, double q) { // keeps the t in [ta, tb] with p·t <= q
-        if (p == 0) return q >= 0;
-        const double r = q / p;
-        if (p < 0) ta = std::max(ta, r);
-        else tb = std::min(tb, r);
-        return ta <= tb;
+    const double m = R + t;
+    auto clip = [&](const LocalPose& a, const LocalPose& b, double& lo, double& hi) { // a + (b − a)·x, x in [lo, hi]
+        lo = 0, hi = 1;
+        auto side = [&](double p, double q) { // keeps the x with p·x <= q
+            if (p == 0) return q >= 0;
+            const double r = q / p;
+            if (p < 0) lo = std::max(lo, r);
+            else hi = std::min(hi, r);
+            return lo <= hi;
+        };
+        const double du = b.u - a.u, dv = b.v - a.v;
+        return side(-du, a.u + m) && side(du, U + m - a.u) && side(-dv, a.v + m) && side(dv, V + m - a.v);
     };
-    const double m = R + t, du = to.u - from.u, dv = to.v - from.v;
-    if (!(clip(-du, from.u + m) && clip(du, U + m - from.u) && clip(-dv, from.v + m) && clip(dv, V + m - from.v))) return res;
-    const LocalPose p0 = lerp(from, to, ta), p1 = lerp(from, to, tb);
+    double ta, tb, sa, sb; // t from `from`, s from `to`: entry at t = ta (s = sb), exit at t = tb (s = sa)
+    if (!clip(from, to, ta, tb) || !clip(to, from, sa, sb)) return res;
+    const LocalPose p0 = ta <= 0.5 ? lerp(from, to, ta) : lerp(to, from, sb);
+    const LocalPose p1 = tb >= 0.5 ? lerp(to, from, sa) : lerp(from, to, tb);
     const double dist = std::hypot(p1.u - p0.u, p1.v - p0.v);
     const double turn = std::abs(p1.heading - p0.heading);
     // Step counts are clamped while still doubles: a path point 1e28 m away or a collider 1e27 m long asks
@@ -375,8 +383,10 @@ StampResult stamp_sweep(const StampTarget& T, const Collider& c, const LocalPose
     };
     const double R_turn = std::min(R, std::max(farthest_texel(p0), farthest_texel(p1)));
     if (c.shape == ColliderShape::image) {
-        // Stamps every half texel of travel (of the centre or the far corner).
-        const double travel = std::max(dist + std::abs(p1.w - p0.w), turn * R_turn);
+        // Stamps every half texel of travel (of the centre or the far corner). Vertical travel only has to
+        // give a pressing foot its second stamp; counted up to the grid's size, a print dropped from 1e30 m
+        // no longer takes 1e6 stamps (found by fuzz_stamp), and nothing smaller changes.
+        const double travel = std::max(dist + std::min(std::abs(p1.w - p0.w), U + V), turn * R_turn);
         const int n = travel > 0 ? steps(travel / (0.5 * t)) : 0;
         for (int k = 0; k <= n; ++k) stamp_image(T, c, n ? lerp(p0, p1, double(k) / n) : p0, decay, res);
         return res;

@@ -410,10 +410,58 @@ bool keep_image_bytes(tinygltf::Image* image, const int index, std::string* err,
     return true;
 }
 
-// Extensions whose presence changes how geometry must be read; anything else is carried through.
-const std::set<std::string> k_geometry_extensions_understood{"KHR_mesh_quantization"};
-const std::set<std::string> k_unsupported_required{"KHR_draco_mesh_compression", "EXT_meshopt_compression",
-                                                   "KHR_meshopt_compression", "EXT_mesh_gpu_instancing"};
+// Required extensions furrow reads or carries through faithfully (glTF 2.0, 3.12: a loader must refuse an
+// asset that requires an extension it does not support). KHR_mesh_quantization is decoded; the others only
+// touch materials, textures or lights, which are written back unchanged. Anything else that is required
+// (Draco, meshopt, GPU instancing, a vendor's private extension) changes what the data means: refused, by
+// name, rather than read as if it were plain glTF.
+bool required_extension_supported(const std::string& e) {
+    static const std::set<std::string> k_supported{"KHR_mesh_quantization", "KHR_texture_transform", "KHR_texture_basisu",
+                                                   "KHR_lights_punctual", "KHR_materials_variants", "EXT_texture_webp",
+                                                   "KHR_materials_emissive_strength"};
+    return k_supported.count(e) || e.rfind("KHR_materials_", 0) == 0;
+}
+
+// Without KHR_mesh_quantization, glTF 2.0 (3.7.2.1) allows only FLOAT positions, normals and tangents, and
+// FLOAT or normalized unsigned byte/short texture coordinates. A quantized POSITION in a file that does not
+// declare the extension used to be dequantized silently; other tools refuse or misread such a file.
+Status check_core_attribute_types(const tinygltf::Model& m) {
+    if (std::find(m.extensionsUsed.begin(), m.extensionsUsed.end(), "KHR_mesh_quantization") != m.extensionsUsed.end())
+        return Status::success();
+    auto check = [&](const std::map<std::string, int>& attrs, const std::string& where) {
+        for (const auto& [name, index] : attrs) {
+            if (index < 0 || size_t(index) >= m.accessors.size()) continue; // reported where it is read
+            const auto& a = m.accessors[size_t(index)];
+            // UNSIGNED_INT and unknown types are refused where the attribute is read, with their own message.
+            if (a.componentType < TINYGLTF_COMPONENT_TYPE_BYTE || a.componentType > TINYGLTF_COMPONENT_TYPE_FLOAT ||
+                a.componentType == TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT || a.componentType == TINYGLTF_COMPONENT_TYPE_INT)
+                continue;
+            const bool is_float = a.componentType == TINYGLTF_COMPONENT_TYPE_FLOAT;
+            bool ok = true;
+            if (name == "POSITION" || name == "NORMAL" || name == "TANGENT") ok = is_float;
+            else if (name.rfind("TEXCOORD_", 0) == 0)
+                ok = is_float || (a.normalized && (a.componentType == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE ||
+                                                   a.componentType == TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT));
+            if (!ok)
+                return Status::error(StatusCode::invalid_input,
+                                     where + " " + name + ": componentType " + std::to_string(a.componentType) +
+                                         (a.normalized ? " (normalized)" : "") +
+                                         " needs KHR_mesh_quantization, which the file does not declare in extensionsUsed");
+        }
+        return Status::success();
+    };
+    for (size_t mi = 0; mi < m.meshes.size(); ++mi)
+        for (size_t pi = 0; pi < m.meshes[mi].primitives.size(); ++pi) {
+            const auto& prim = m.meshes[mi].primitives[pi];
+            Status s = check(prim.attributes, prim_name(mi, pi));
+            if (!s.ok()) return s;
+            for (size_t ti = 0; ti < prim.targets.size(); ++ti) {
+                s = check(prim.targets[ti], prim_name(mi, pi) + " morph target " + std::to_string(ti));
+                if (!s.ok()) return s;
+            }
+        }
+    return Status::success();
+}
 
 Status check_node_graph(const tinygltf::Model& m) {
     // Each node has at most one parent and there are no cycles (glTF 3.5.3).
@@ -438,10 +486,12 @@ Status check_node_graph(const tinygltf::Model& m) {
 
 Status convert_model(Scene& out, tinygltf::Model&& model, const LoadOptions& options) {
     for (const auto& e : model.extensionsRequired) {
-        if (k_unsupported_required.count(e))
+        if (!required_extension_supported(e))
             return Status::error(StatusCode::unsupported, "required extension " + e + " is not supported");
     }
     Status s = check_node_graph(model);
+    if (!s.ok()) return s;
+    s = check_core_attribute_types(model);
     if (!s.ok()) return s;
     Scene scene;
     for (size_t mi = 0; mi < model.meshes.size(); ++mi) {

@@ -396,14 +396,28 @@ Status check_off(const std::string& bytes) {
 // whose index does not parse leaves an uninitialised int in use. Found by fuzz_load_scene. Every corner with a
 // '/' must therefore start with an integer (corners without one are numbers or trailing garbage, which the
 // reader parses or skips).
-Status check_obj_faces(const std::string& text) {
-    size_t at = 0;
+// A `v` line whose three coordinates the reader's stream cannot read ("v nan 0 0", "v 1e39 0 0", "v 1 2") is
+// skipped by the reader, and every later vertex shifts by one: the file was then refused with "faces
+// reference vertices that do not exist", or loaded wrong. It is refused here, by line.
+Status check_obj(const std::string& text) {
+    size_t at = 0, line_number = 0;
     while (at < text.size()) {
         size_t end = text.find('\n', at);
         if (end == std::string::npos) end = text.size();
+        ++line_number;
         std::istringstream line(text.substr(at, end - at));
         std::string key, corner;
         line >> key;
+        if (key == "v") {
+            float x, y, z; // as the reader reads them (OBJReader.cc: floats through a stream)
+            line >> x >> y >> z;
+            if (line.fail() || !std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z)) {
+                std::string shown = text.substr(at, std::min<size_t>(end - at, 40));
+                while (!shown.empty() && (shown.back() == '\r' || shown.back() == ' ')) shown.pop_back();
+                return Status::error(StatusCode::invalid_input, "OBJ line " + std::to_string(line_number) + " '" + shown +
+                                                                    "': a vertex needs three finite numbers");
+            }
+        }
         if (key == "f")
             while (line >> corner) {
                 const size_t slash = corner.find('/');
@@ -447,7 +461,7 @@ Status load_openmesh_bytes(Scene& out, const std::string& bytes, const std::stri
     OpenMesh::IO::Options opt = OpenMesh::IO::Options::VertexTexCoord | OpenMesh::IO::Options::FaceTexCoord |
                                 OpenMesh::IO::Options::VertexNormal | OpenMesh::IO::Options::VertexColor;
     std::string fmt = ext.substr(1);
-    Status checked = ext == ".ply" ? check_ply(bytes) : ext == ".off" ? check_off(bytes) : check_obj_faces(bytes);
+    Status checked = ext == ".ply" ? check_ply(bytes) : ext == ".off" ? check_off(bytes) : check_obj(bytes);
     if (!checked.ok()) return checked;
     std::istringstream in(ext == ".obj" ? without_mtllib(bytes) : bytes);
     bool ok = OpenMesh::IO::IOManager().read(in, fmt, rec, opt);

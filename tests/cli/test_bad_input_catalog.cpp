@@ -269,6 +269,9 @@ std::vector<Case> catalog() {
     c.push_back({"ObjWithoutVertices", text_file("empty.obj", "# nothing here\n"), cat({"shells", "@/empty.obj", "-o", "@/out.glb"}, kShells), 1,
                  "@/empty.obj", "no vertices"});
     // An OBJ face referring to vertex 9 of 3.
+    // A vertex line with NaN: named by line, not reported as faces pointing at missing vertices.
+    c.push_back({"ObjNanVertex", text_file("nan.obj", "v 0 0 0\nv nan 1 0\nv 0 1 0\nf 1 2 3\n"), {"check", "@/nan.obj"}, 1,
+                 "@/nan.obj", "OBJ line 2 'v nan 1 0': a vertex needs three finite numbers"});
     c.push_back({"ObjFaceIndexOutOfRange", text_file("face.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n"),
                  cat({"tessellate", "@/face.obj", "-o", "@/out.glb"}, {"--uniform", "2"}), 1, "@/face.obj", "do not exist"});
 
@@ -377,6 +380,13 @@ std::vector<Case> catalog() {
                  }),
                  {"render", "@/meshopt.gltf", "-o", "@/out.png", "--size", "32x24"}, 1, "@/meshopt.gltf",
                  "EXT_meshopt_compression is not supported"});
+    // A required extension nobody knows (glTF 3.12: the asset must not be loaded).
+    c.push_back({"UnknownRequiredExtension", quad_gltf("vendor.gltf", [](json& j) {
+                     j["extensionsUsed"] = {"VENDOR_secret_geometry"};
+                     j["extensionsRequired"] = {"VENDOR_secret_geometry"};
+                 }),
+                 cat({"tessellate", "@/vendor.gltf", "-o", "@/out.glb"}, {"--uniform", "2"}), 1, "@/vendor.gltf",
+                 "VENDOR_secret_geometry is not supported"});
     // A Draco-compressed primitive without extensionsRequired.
     c.push_back({"DracoPrimitive", quad_gltf("dprim.gltf", [](json& j) {
                      j["extensionsUsed"] = {"KHR_draco_mesh_compression"};

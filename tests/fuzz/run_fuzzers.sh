@@ -9,6 +9,10 @@
 # BUILD_DIR/tests/fuzz/findings/<target>/, logs to BUILD_DIR/tests/fuzz/logs/<target>.log. Exit status 1
 # when any target found something, with the path of each finding on stderr.
 #
+# FUZZ_RUNS=K makes a run reproducible (what CI does): libFuzzer's random seed is fixed (-seed=1), each target
+# stops after K inputs (SECONDS stays as a cap) and its working corpus starts empty, so every machine explores
+# the same inputs (unless the cap stops it first).
+#
 # To keep a finding as a regression test: minimise it (BUILD_DIR/tests/fuzz/fuzz_<target> -minimize_crash=1
 # -runs=10000 FILE), fix the bug, and commit the input as tests/fuzz/regressions/<target>/<what-it-was>.
 set -euo pipefail
@@ -36,6 +40,11 @@ run_one() {
   [ -x "$exe" ] || { echo "$exe is missing: build the target furrow_fuzzers of a FURROW_FUZZ=ON build" >&2; return 1; }
   # Findings are per run (the log of an earlier run still names its own).
   rm -rf "$fuzz/findings/$t"
+  local budget=()
+  if [ -n "${FUZZ_RUNS:-}" ]; then
+    budget=(-seed=1 -runs="$FUZZ_RUNS")
+    rm -rf "$fuzz/corpus/$t"
+  fi
   mkdir -p "$fuzz/corpus/$t" "$fuzz/findings/$t" "$fuzz/logs"
   local extra=()
   [ -d "$src/regressions/$t" ] && extra+=("$src/regressions/$t")
@@ -44,7 +53,7 @@ run_one() {
   # -timeout: one input runs in milliseconds, so 10 s is a hang. -rss_limit_mb: a size guard that lets a
   # 2 GB allocation through is a finding too. The first folder is the working corpus (written to), the
   # others are read only.
-  "$exe" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 -print_final_stats=1 \
+  "$exe" -max_total_time="$seconds" "${budget[@]}" -timeout=10 -rss_limit_mb=2048 -print_final_stats=1 \
     -artifact_prefix="$fuzz/findings/$t/" "${dict[@]}" \
     "$fuzz/corpus/$t" "$fuzz/seeds/$t" "${extra[@]}" >"$fuzz/logs/$t.log" 2>&1 || true
   local execs
@@ -52,7 +61,7 @@ run_one() {
   printf '  %-11s %8s execs in %ss, corpus %s inputs\n' "$t" "$execs" "$seconds" "$(ls "$fuzz/corpus/$t" | wc -l)"
 }
 
-echo "== fuzzing ${targets[*]} for ${seconds}s each, $jobs at a time"
+echo "== fuzzing ${targets[*]} for ${FUZZ_RUNS:+$FUZZ_RUNS inputs (seed 1) or }${seconds}s each, $jobs at a time"
 running=0
 for t in "${targets[@]}"; do
   run_one "$t" &
