@@ -58,7 +58,9 @@ run_one() {
     "$fuzz/corpus/$t" "$fuzz/seeds/$t" "${extra[@]}" >"$fuzz/logs/$t.log" 2>&1 || true
   local execs
   execs=$(grep -o 'stat::number_of_executed_units: [0-9]*' "$fuzz/logs/$t.log" | grep -o '[0-9]*$' || echo "?")
-  printf '  %-11s %8s execs in %ss, corpus %s inputs\n' "$t" "$execs" "$seconds" "$(ls "$fuzz/corpus/$t" | wc -l)"
+  local took
+  took=$(grep -o 'Done [0-9]* runs in [0-9]*' "$fuzz/logs/$t.log" | grep -o '[0-9]*$' || echo "?")
+  printf '  %-11s %8s execs in %ss, corpus %s inputs\n' "$t" "$execs" "$took" "$(ls "$fuzz/corpus/$t" | wc -l)"
 }
 
 echo "== fuzzing ${targets[*]} for ${FUZZ_RUNS:+$FUZZ_RUNS inputs (seed 1) or }${seconds}s each, $jobs at a time"
