@@ -131,33 +131,6 @@ private:
     bool valid(VertexHandle vh) const { return vh.is_valid() && size_t(vh.idx()) < points.size() / 3; }
 };
 
-// OpenMesh's OBJ reader parses coordinates as float; re-read the `v` lines in double so that a model
-// 1e5 m from the origin keeps its millimetres. Vertex k here must be vertex k of the reader, so the lines
-// are taken exactly as its read_vertices (OBJReader.cc) takes them: trimmed, comments skipped, keyword and
-// three numbers through a stream; a `v` line the stream cannot read is skipped by both. (Before, every
-// `v` line was counted here, "v junk 1 1" too, and from_chars also reads "nan": every later vertex took its
-// neighbour's position; found by fuzz_load_scene.) Nothing is replaced unless the counts agree.
-void reread_obj_positions_double(const std::string& text, std::vector<double>& points) {
-    std::vector<double> reread;
-    reread.reserve(points.size());
-    std::istringstream in(text);
-    std::istringstream words;
-    std::string line, key;
-    while (std::getline(in, line)) {
-        const size_t b = line.find_first_not_of(" \t\r\n");
-        if (b == std::string::npos || line[b] == '#' || std::isspace(static_cast<unsigned char>(line[b]))) continue;
-        const size_t e = line.find_last_not_of(" \t\r\n");
-        words.str(line.substr(b, e - b + 1));
-        words.clear();
-        words >> key;
-        if (key != "v") continue;
-        double x, y, z;
-        words >> x >> y >> z;
-        if (!words.fail()) reread.insert(reread.end(), {x, y, z});
-    }
-    if (reread.size() == points.size()) points = std::move(reread);
-}
-
 // OpenMesh's PLY reader (PLYReader.cc) trusts the file throughout. Its header parser (can_u_read) reads
 // tokens until "end_header" and stops early only on a *bad* stream: at the end of the file, or after a count
 // that does not convert, the last keyword stays what it was and the loop never ends; a "property" before any
@@ -396,10 +369,15 @@ Status check_off(const std::string& bytes) {
 // whose index does not parse leaves an uninitialised int in use. Found by fuzz_load_scene. Every corner with a
 // '/' must therefore start with an integer (corners without one are numbers or trailing garbage, which the
 // reader parses or skips).
-// A `v` line whose three coordinates the reader's stream cannot read ("v nan 0 0", "v 1e39 0 0", "v 1 2") is
-// skipped by the reader, and every later vertex shifts by one: the file was then refused with "faces
+// A `v` line whose three coordinates the reader's float stream cannot read ("v nan 0 0", "v 1e39 0 0", "v 1 2")
+// is skipped by the reader, and every later vertex shifts by one: the file was then refused with "faces
 // reference vertices that do not exist", or loaded wrong. It is refused here, by line.
-Status check_obj(const std::string& text) {
+// The same pass keeps the coordinates in double (`points`): the reader parses floats, and a model 1e5 m from
+// the origin would lose its millimetres. Vertex k here is vertex k of the reader: both take the lines
+// trimmed, comments skipped, the keyword and three numbers through a stream, and any line the reader would
+// skip is refused.
+Status check_obj(const std::string& text, std::vector<double>& points) {
+    points.clear();
     size_t at = 0, line_number = 0;
     while (at < text.size()) {
         size_t end = text.find('\n', at);
@@ -409,14 +387,17 @@ Status check_obj(const std::string& text) {
         std::string key, corner;
         line >> key;
         if (key == "v") {
-            float x, y, z; // as the reader reads them (OBJReader.cc: floats through a stream)
+            double x, y, z;
             line >> x >> y >> z;
-            if (line.fail() || !std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z)) {
+            // A float stream fails exactly where the double stream fails or the value overflows a float.
+            auto fits = [](double d) { return std::isfinite(static_cast<float>(d)); };
+            if (line.fail() || !fits(x) || !fits(y) || !fits(z)) {
                 std::string shown = text.substr(at, std::min<size_t>(end - at, 40));
                 while (!shown.empty() && (shown.back() == '\r' || shown.back() == ' ')) shown.pop_back();
                 return Status::error(StatusCode::invalid_input, "OBJ line " + std::to_string(line_number) + " '" + shown +
                                                                     "': a vertex needs three finite numbers");
             }
+            points.insert(points.end(), {x, y, z});
         }
         if (key == "f")
             while (line >> corner) {
@@ -461,13 +442,14 @@ Status load_openmesh_bytes(Scene& out, const std::string& bytes, const std::stri
     OpenMesh::IO::Options opt = OpenMesh::IO::Options::VertexTexCoord | OpenMesh::IO::Options::FaceTexCoord |
                                 OpenMesh::IO::Options::VertexNormal | OpenMesh::IO::Options::VertexColor;
     std::string fmt = ext.substr(1);
-    Status checked = ext == ".ply" ? check_ply(bytes) : ext == ".off" ? check_off(bytes) : check_obj(bytes);
+    std::vector<double> obj_points; // OBJ: the `v` coordinates in double
+    Status checked = ext == ".ply" ? check_ply(bytes) : ext == ".off" ? check_off(bytes) : check_obj(bytes, obj_points);
     if (!checked.ok()) return checked;
     std::istringstream in(ext == ".obj" ? without_mtllib(bytes) : bytes);
     bool ok = OpenMesh::IO::IOManager().read(in, fmt, rec, opt);
     if (!ok) return Status::error(StatusCode::invalid_input, "could not be parsed as " + fmt + " (OpenMesh reader failed)");
     if (rec.n_vertices() == 0) return Status::error(StatusCode::invalid_input, "contains no vertices");
-    if (ext == ".obj") reread_obj_positions_double(bytes, rec.points);
+    if (ext == ".obj" && obj_points.size() == rec.points.size()) rec.points = std::move(obj_points);
 
     // Corners become glTF-style vertices: one per distinct (reader vertex, corner uv) pair, so UV seams split.
     Primitive p;
