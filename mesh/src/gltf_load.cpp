@@ -417,8 +417,7 @@ bool keep_image_bytes(tinygltf::Image* image, const int index, std::string* err,
 // name, rather than read as if it were plain glTF.
 bool required_extension_supported(const std::string& e) {
     static const std::set<std::string> k_supported{"KHR_mesh_quantization", "KHR_texture_transform", "KHR_texture_basisu",
-                                                   "KHR_lights_punctual", "KHR_materials_variants", "EXT_texture_webp",
-                                                   "KHR_materials_emissive_strength"};
+                                                   "KHR_lights_punctual", "EXT_texture_webp"};
     return k_supported.count(e) || e.rfind("KHR_materials_", 0) == 0;
 }
 
