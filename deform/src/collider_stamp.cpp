@@ -20,6 +20,7 @@
 #include <algorithm>
 #include <atomic>
 #include <functional>
+#include <vector>
 
 namespace furrow::detail {
 namespace {
@@ -352,6 +353,22 @@ StampResult stamp_sweep(const StampTarget& T, const Collider& c, const LocalPose
     // is 1 in double, but the same point is s = 1e-28 measured from the other end.
     if (!(std::isfinite(from.u) && std::isfinite(from.v) && std::isfinite(to.u) && std::isfinite(to.v))) return res;
     const double m = R + t;
+    // Slabs the centre must stay within: |(centre − c)·n| <= half, n a unit direction in the (u, v) plane.
+    struct Slab {
+        double nu, nv, cu, cv, half;
+    };
+    std::vector<Slab> slabs{{1, 0, 0.5 * U, 0.5 * V, 0.5 * U + m}, {0, 1, 0.5 * U, 0.5 * V, 0.5 * V + m}};
+    // An image brush that does not turn is a rectangle sliding along the path: it touches the grid only while
+    // the grid's bounding circle overlaps the rectangle, which for a long thin brush is a much shorter part of
+    // the path than the bounding circle of the brush gives (a 1e25 x 1e11 m brush slid 1e6 times across a 10 m
+    // field, found by fuzz_stamp).
+    const bool fixed_heading = to.heading == from.heading;
+    if (c.shape == ColliderShape::image && fixed_heading) {
+        const Axes ax = axes(from.heading);
+        const double grid_r = 0.5 * std::hypot(U, V) + t;
+        slabs.push_back({ax.ex_u, ax.ex_v, 0.5 * U, 0.5 * V, 0.5 * c.size[0] + grid_r});
+        slabs.push_back({ax.ez_u, ax.ez_v, 0.5 * U, 0.5 * V, 0.5 * c.size[1] + grid_r});
+    }
     auto clip = [&](const LocalPose& a, const LocalPose& b, double& lo, double& hi) { // a + (b − a)·x, x in [lo, hi]
         lo = 0, hi = 1;
         auto side = [&](double p, double q) { // keeps the x with p·x <= q
@@ -361,8 +378,11 @@ StampResult stamp_sweep(const StampTarget& T, const Collider& c, const LocalPose
             else hi = std::min(hi, r);
             return lo <= hi;
         };
-        const double du = b.u - a.u, dv = b.v - a.v;
-        return side(-du, a.u + m) && side(du, U + m - a.u) && side(-dv, a.v + m) && side(dv, V + m - a.v);
+        for (const Slab& sl : slabs) {
+            const double d = (b.u - a.u) * sl.nu + (b.v - a.v) * sl.nv, off = (a.u - sl.cu) * sl.nu + (a.v - sl.cv) * sl.nv;
+            if (!side(d, sl.half - off) || !side(-d, sl.half + off)) return false;
+        }
+        return true;
     };
     double ta, tb, sa, sb; // t from `from`, s from `to`: entry at t = ta (s = sb), exit at t = tb (s = sa)
     if (!clip(from, to, ta, tb) || !clip(to, from, sa, sb)) return res;
@@ -386,8 +406,21 @@ StampResult stamp_sweep(const StampTarget& T, const Collider& c, const LocalPose
         // Stamps every half texel of travel (of the centre or the far corner). Vertical travel only has to
         // give a pressing foot its second stamp; counted up to the grid's size, a print dropped from 1e30 m
         // no longer takes 1e6 stamps (found by fuzz_stamp), and nothing smaller changes.
-        const double travel = std::max(dist + std::min(std::abs(p1.w - p0.w), U + V), turn * R_turn);
-        const int n = travel > 0 ? steps(travel / (0.5 * t)) : 0;
+        const double vertical = std::min(std::abs(p1.w - p0.w), U + V);
+        double n_wanted = std::max(dist + vertical, turn * R_turn) / (0.5 * t);
+        if (fixed_heading && c.brush && c.brush->width > 0 && c.brush->height > 0) {
+            // Sliding without turning: along each brush axis a step may move the brush by half a texel or by
+            // half a brush pixel, whichever is larger. Every texel the rectangle passes over is still covered by
+            // a stamp (a step is shorter than the brush), and each texel's sample moves by at most half a
+            // brush pixel between stamps. A brush pixel 1e24 m wide no longer asks for a stamp every texel.
+            const Axes ax = axes(p0.heading);
+            const double du = p1.u - p0.u, dv = p1.v - p0.v;
+            const double along_x = std::abs(du * ax.ex_u + dv * ax.ex_v), along_z = std::abs(du * ax.ez_u + dv * ax.ez_v);
+            const double step_x = 0.5 * std::max(t, c.size[0] / c.brush->width), step_z = 0.5 * std::max(t, c.size[1] / c.brush->height);
+            // (With pixels finer than texels this is the half-texel count above.)
+            n_wanted = (std::hypot(along_x * (0.5 * t / step_x), along_z * (0.5 * t / step_z)) + vertical) / (0.5 * t);
+        }
+        const int n = n_wanted > 0 ? steps(n_wanted) : 0;
         for (int k = 0; k <= n; ++k) stamp_image(T, c, n ? lerp(p0, p1, double(k) / n) : p0, decay, res);
         return res;
     }
