@@ -9,9 +9,10 @@
 # BUILD_DIR/tests/fuzz/findings/<target>/, logs to BUILD_DIR/tests/fuzz/logs/<target>.log. Exit status 1
 # when any target found something, with the path of each finding on stderr.
 #
-# FUZZ_RUNS=K makes a run reproducible (what CI does): libFuzzer's random seed is fixed (-seed=1), each target
-# stops after K inputs (SECONDS stays as a cap) and its working corpus starts empty, so every machine explores
-# the same inputs (unless the cap stops it first).
+# FUZZ_RUNS=K is what CI does: libFuzzer's random seed is fixed (-seed=1), each target stops after K inputs
+# (SECONDS stays as a cap) and its working corpus starts empty. Runs are then bounded by work, not by machine
+# speed, and start alike; they are not bit-identical (libFuzzer also learns from compared pointer values,
+# which move with the address-space layout), so repeat a run on a fresh build folder before trusting "nothing".
 #
 # To keep a finding as a regression test: minimise it (BUILD_DIR/tests/fuzz/fuzz_<target> -minimize_crash=1
 # -runs=10000 FILE), fix the bug, and commit the input as tests/fuzz/regressions/<target>/<what-it-was>.
