@@ -18,9 +18,9 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <functional>
-#include <vector>
 
 namespace furrow::detail {
 namespace {
@@ -357,7 +357,8 @@ StampResult stamp_sweep(const StampTarget& T, const Collider& c, const LocalPose
     struct Slab {
         double nu, nv, cu, cv, half;
     };
-    std::vector<Slab> slabs{{1, 0, 0.5 * U, 0.5 * V, 0.5 * U + m}, {0, 1, 0.5 * U, 0.5 * V, 0.5 * V + m}};
+    std::array<Slab, 4> slabs{Slab{1, 0, 0.5 * U, 0.5 * V, 0.5 * U + m}, Slab{0, 1, 0.5 * U, 0.5 * V, 0.5 * V + m}};
+    size_t slab_count = 2;
     // An image brush that does not turn is a rectangle sliding along the path: it touches the grid only while
     // the grid's bounding circle overlaps the rectangle, which for a long thin brush is a much shorter part of
     // the path than the bounding circle of the brush gives (a 1e25 x 1e11 m brush slid 1e6 times across a 10 m
@@ -366,8 +367,8 @@ StampResult stamp_sweep(const StampTarget& T, const Collider& c, const LocalPose
     if (c.shape == ColliderShape::image && fixed_heading) {
         const Axes ax = axes(from.heading);
         const double grid_r = 0.5 * std::hypot(U, V) + t;
-        slabs.push_back({ax.ex_u, ax.ex_v, 0.5 * U, 0.5 * V, 0.5 * c.size[0] + grid_r});
-        slabs.push_back({ax.ez_u, ax.ez_v, 0.5 * U, 0.5 * V, 0.5 * c.size[1] + grid_r});
+        slabs[slab_count++] = {ax.ex_u, ax.ex_v, 0.5 * U, 0.5 * V, 0.5 * c.size[0] + grid_r};
+        slabs[slab_count++] = {ax.ez_u, ax.ez_v, 0.5 * U, 0.5 * V, 0.5 * c.size[1] + grid_r};
     }
     auto clip = [&](const LocalPose& a, const LocalPose& b, double& lo, double& hi) { // a + (b − a)·x, x in [lo, hi]
         lo = 0, hi = 1;
@@ -378,7 +379,8 @@ StampResult stamp_sweep(const StampTarget& T, const Collider& c, const LocalPose
             else hi = std::min(hi, r);
             return lo <= hi;
         };
-        for (const Slab& sl : slabs) {
+        for (size_t k = 0; k < slab_count; ++k) {
+            const Slab& sl = slabs[k];
             const double d = (b.u - a.u) * sl.nu + (b.v - a.v) * sl.nv, off = (a.u - sl.cu) * sl.nu + (a.v - sl.cv) * sl.nv;
             if (!side(d, sl.half - off) || !side(-d, sl.half + off)) return false;
         }

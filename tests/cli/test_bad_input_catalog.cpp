@@ -6,6 +6,7 @@
 //   - nothing left behind: the test folder lists the same files afterwards (no output, no temporary);
 //   - inputs untouched: every file in the folder has the same bytes afterwards.
 // Some rows repeat cases of the per-command tests on purpose: the catalog is complete on its own.
+#include "gltf_builder.h"
 #include "test_support.h"
 
 #include <furrow/shapes.h>
@@ -31,30 +32,6 @@ using test::run_furrow;
 // Input builders
 // ---------------------------------------------------------------------------------------------------------
 
-std::string base64(const std::vector<uint8_t>& in) {
-    static const char* t = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    std::string out;
-    size_t i = 0;
-    for (; i + 2 < in.size(); i += 3) {
-        uint32_t v = (uint32_t(in[i]) << 16) | (uint32_t(in[i + 1]) << 8) | in[i + 2];
-        out += t[v >> 18], out += t[(v >> 12) & 63], out += t[(v >> 6) & 63], out += t[v & 63];
-    }
-    if (i + 1 == in.size()) {
-        uint32_t v = uint32_t(in[i]) << 16;
-        out += t[v >> 18], out += t[(v >> 12) & 63], out += "==";
-    } else if (i + 2 == in.size()) {
-        uint32_t v = (uint32_t(in[i]) << 16) | (uint32_t(in[i + 1]) << 8);
-        out += t[v >> 18], out += t[(v >> 12) & 63], out += t[(v >> 6) & 63], out += '=';
-    }
-    return out;
-}
-
-template <class T> void append(std::vector<uint8_t>& bytes, const std::vector<T>& v) {
-    const size_t at = bytes.size();
-    bytes.resize(at + v.size() * sizeof(T));
-    std::memcpy(bytes.data() + at, v.data(), v.size() * sizeof(T));
-}
-
 // A valid one-quad glTF: accessor 0 = POSITION (4 × VEC3 float), 1 = NORMAL, 2 = indices (6 × uint16), one
 // buffer view each, the buffer as a data URI. Rows break exactly the member they are about.
 struct Quad {
@@ -64,9 +41,9 @@ struct Quad {
 
     std::vector<uint8_t> bin() const {
         std::vector<uint8_t> b;
-        append(b, positions);
-        append(b, normals);
-        append(b, indices);
+        test::append_bytes(b, positions);
+        test::append_bytes(b, normals);
+        test::append_bytes(b, indices);
         return b;
     }
     json doc(bool data_uri = true) const {
@@ -85,7 +62,7 @@ struct Quad {
                                                {{"buffer", 0}, {"byteOffset", 48}, {"byteLength", 48}},
                                                {{"buffer", 0}, {"byteOffset", 96}, {"byteLength", 12}}})},
                   {"buffers", json::array({{{"byteLength", b.size()}}})}};
-        if (data_uri) j["buffers"][0]["uri"] = "data:application/octet-stream;base64," + base64(b);
+        if (data_uri) j["buffers"][0]["uri"] = "data:application/octet-stream;base64," + test::base64(b);
         return j;
     }
 };
