@@ -2,7 +2,9 @@
 // two million triangles at 1920×1080, as a ratio to merely transforming the same vertices (measured in the
 // same run), per thread count; plus the determinism check (identical pixels for every thread count); and speed
 // against image error: supersampling 1..3 against a 4x4-supersampled reference of the same frame (mean absolute
-// difference of the 8-bit sRGB channels, in 1/255 steps).
+// difference of the 8-bit sRGB channels, in 1/255 steps); and fur in real viewers: the demo's fur asset at the
+// demo's view, half and twice its distance, with the coverage furrow render predicts for a mip-mapping viewer
+// and, where three.js is installed (bash .ci/install-deps --tests), what three.js draws of the same view.
 #include "bench_common.h"
 
 #include <furrow/render.h>
@@ -11,7 +13,9 @@
 #include <tbb/global_control.h>
 
 #include <cmath>
+#include <fstream>
 #include <thread>
+#include <unistd.h>
 
 namespace furrow::cli {
 namespace fs = std::filesystem;
@@ -23,8 +27,119 @@ struct RenderBenchArgs {
     int layers = 128;    // shells grown on the input (0 = render the input as it is)
     int width = 1920, height = 1080;
     int repeat = 3;
-    bool quick = false; // the SSAA sweep at a quarter of the pixels
+    bool quick = false; // the SSAA sweep and the fur views at a quarter of the pixels
+    std::string three;  // the repository (tests/viewer/render_three.mjs, .cache/viewer); default: the current folder
 };
+
+// One render at 8 bits per channel, as a PNG or a viewer's canvas holds it.
+ImageF render8(const Scene& scene, const RenderOptions& o, const std::string& input, double* seconds = nullptr,
+               int repeat = 1) {
+    RenderResult r;
+    const double s = median_seconds(repeat, [&] { require_ok(render_scene(r, scene, o), input); });
+    if (seconds) *seconds = s;
+    ImageF im{r.color.width, r.color.height, 4, std::vector<float>(r.rgba8.size())};
+    for (size_t i = 0; i < r.rgba8.size(); ++i) im.pixels[i] = float(r.rgba8[i]) / 255.0f;
+    return im;
+}
+
+// The fur views: the demo's creature with its fur (models/scene.json's camera), at 0.5, 1 and 2 times the
+// distance. Coverage = cutoff_coverage (render.h) against a 2×-supersampled render without mipmaps.
+nlohmann::json fur_distance_rows(const RenderBenchArgs& a, const GlobalFlags& g, bool tables) {
+    const fs::path models(FURROW_MODELS_DIR);
+    const std::string input = (models / "creature.glb").string();
+    Scene scene = load_or_throw(input);
+    FurOptions fo;
+    fo.shells.layers = 32;
+    fo.shells.length = 0.04;
+    require_ok(load_png(fo.mask, (models / "creature_fur_mask.png").string()), "creature_fur_mask.png");
+    require_ok(add_fur_shells(scene, fo), input);
+    const std::array<double, 3> eye{1.6, 1.1, 2.2}, target{0, 0.45, 0};
+    const double factors[3] = {0.5, 1.0, 2.0};
+    auto view = [&](double f, int scale, RenderMode mode, bool mipmaps) {
+        RenderOptions o;
+        o.width = (a.quick ? 480 : 960) * scale;
+        o.height = (a.quick ? 360 : 720) * scale;
+        o.camera.eye = std::array<double, 3>{target[0] + f * (eye[0] - target[0]), target[1] + f * (eye[1] - target[1]),
+                                             target[2] + f * (eye[2] - target[2])};
+        o.camera.target = target;
+        o.camera.fov_degrees = 40;
+        o.camera.near_plane = 0.05 * std::min(1.0, f);
+        o.mode = mode;
+        o.ambient = 1; // unlit: the material colour, comparable with three.js's MeshBasicMaterial
+        o.mipmaps = mipmaps;
+        o.subpixel_bits = 4; // as SwiftShader, which three.js runs on here
+        return o;
+    };
+
+    // three.js in headless Chromium, when the repository's viewer harness and its npm packages are there.
+    const fs::path root = a.three.empty() ? fs::current_path() : fs::path(a.three);
+    const fs::path script = root / "tests/viewer/render_three.mjs", modules = root / ".cache/viewer";
+    std::string three_status = "not installed (run from the repository after bash .ci/install-deps --tests, or --three DIR)";
+    std::vector<ImageF> three; // per distance: material, coverage, reference
+    if (fs::exists(script) && fs::exists(modules / "node_modules/three/package.json")) {
+        const fs::path tmp = fs::temp_directory_path() / ("furrow-bench-render-" + std::to_string(getpid()));
+        fs::create_directories(tmp);
+        require_ok(save_scene(scene, (tmp / "fur.glb").string()), (tmp / "fur.glb").string());
+        nlohmann::json jobs = nlohmann::json::array();
+        for (int k = 0; k < 3; ++k)
+            for (int j = 0; j < 3; ++j) {
+                const RenderOptions o = view(factors[k], j == 2 ? 2 : 1, RenderMode::shaded, true);
+                jobs.push_back({{"model", (tmp / "fur.glb").string()}, {"out", (tmp / (std::to_string(3 * k + j) + ".png")).string()},
+                                {"width", o.width}, {"height", o.height}, {"eye", *o.camera.eye}, {"target", target},
+                                {"fov", 40}, {"near", o.camera.near_plane}, {"far", 1000},
+                                {"mode", j == 0 ? "material" : "coverage"}, {"mipmaps", j == 2 ? "off" : "sampler"}});
+            }
+        std::ofstream(tmp / "jobs.json") << jobs.dump();
+        const int code = run_peer({"node", script.string(), "--modules", modules.string(), (tmp / "jobs.json").string()});
+        if (code == 0) {
+            three_status = "three.js r170 in headless Chromium (SwiftShader)";
+            for (int i = 0; i < 9; ++i) {
+                ImageF im;
+                require_ok(load_png(im, (tmp / (std::to_string(i) + ".png")).string()), "three.js render");
+                three.push_back(std::move(im));
+            }
+        } else {
+            three_status = "failed (render_three.mjs exit " + std::to_string(code) + ")";
+        }
+        std::error_code ec;
+        fs::remove_all(tmp, ec);
+    }
+
+    Table t({"distance", "pixels", "frame ms", "coverage", "height cov", "three.js cov", "three.js height",
+             "IoU vs three.js", "colour |d| (1/255)"});
+    nlohmann::json rows = nlohmann::json::array();
+    for (int k = 0; k < 3; ++k) {
+        double seconds = 0;
+        const RenderOptions o = view(factors[k], 1, RenderMode::shaded, true);
+        const ImageF shaded = render8(scene, o, input, &seconds, a.repeat);
+        const CutoffCoverage ours = cutoff_coverage(render8(scene, view(factors[k], 1, RenderMode::cutoff, true), input));
+        const CutoffCoverage ref = cutoff_coverage(render8(scene, view(factors[k], 2, RenderMode::cutoff, false), input));
+        nlohmann::json row{{"distance", factors[k]}, {"frame_s", seconds}, {"coverage", ours.covered / ref.covered},
+                           {"height_coverage", ours.height / ref.height}};
+        std::vector<std::string> cells{"x" + fmt(factors[k], 1), std::to_string(o.width) + "x" + std::to_string(o.height),
+                                       fmt(seconds * 1e3, 1), fmt(ours.covered / ref.covered, 3), fmt(ours.height / ref.height, 3)};
+        if (three.empty()) {
+            cells.insert(cells.end(), {"-", "-", "-", "-"});
+        } else {
+            const ImageF& mat = three[size_t(3 * k)];
+            const CutoffCoverage tc = cutoff_coverage(three[size_t(3 * k + 1)]), tr = cutoff_coverage(three[size_t(3 * k + 2)]);
+            const double iou = mask_iou(silhouette_mask(mat), silhouette_mask(shaded));
+            const double colour = 255 * mean_covered_difference(mat, shaded);
+            cells.insert(cells.end(), {fmt(tc.covered / tr.covered, 3), fmt(tc.height / tr.height, 3), fmt(iou, 4), fmt(colour, 2)});
+            row.update({{"three_coverage", tc.covered / tr.covered}, {"three_height_coverage", tc.height / tr.height},
+                        {"iou_three", iou}, {"colour_diff_255", colour}});
+        }
+        t.add(cells);
+        rows.push_back(row);
+    }
+    if (tables) {
+        std::printf("\nFur in real viewers: the demo's fur (32 shells) at the demo's view ×0.5, ×1, ×2; coverage = "
+                    "shell pixels (height cov: weighted by shell height) against a 2x-supersampled render without "
+                    "mipmaps; frame = furrow render, one sample per pixel; three.js: %s\n", three_status.c_str());
+        t.print();
+    }
+    return {{"three", three_status}, {"rows", rows}};
+}
 
 // The baseline: every vertex of every drawn primitive through a 4×4 matrix into clip space (float4), one
 // thread, the least any rasterizer must do.
@@ -135,8 +250,9 @@ nlohmann::json run(const RenderBenchArgs& a, const GlobalFlags& g, bool tables) 
                     "mean |difference| of the sRGB channels\n", t_ref * 1e3);
         ts.print();
     }
+    nlohmann::json fur = fur_distance_rows(a, g, tables);
     return {{"bench", "render"}, {"input", input}, {"layers", a.layers}, {"transform_s", t_transform}, {"rows", rows},
-            {"ssaa", ssaa_rows}, {"reference_s", t_ref}, {"plot", plot_json("mean |d| (1/255)", points)}};
+            {"ssaa", ssaa_rows}, {"reference_s", t_ref}, {"fur_views", fur}, {"plot", plot_json("mean |d| (1/255)", points)}};
 }
 
 } // namespace
@@ -158,6 +274,8 @@ void register_bench_render(CLI::App& bench, GlobalFlags& g) {
         ->check(CLI::Range(0, 256));
     c->add_option("--repeat", a->repeat, "Frames per measurement; the median is reported (default 3)")
         ->check(CLI::Range(1, 100));
+    c->add_option("--three", a->three, "The furrow repository, for the three.js comparison of the fur views "
+                                       "(tests/viewer, .cache/viewer; default: the current folder)");
     add_bench_output_flags(*c, *out);
     c->footer("Examples:\n  furrow bench render\n  furrow bench render scene.glb --layers 0");
     c->callback([a, out, &g] { finish_bench(run(*a, g, !out->json), *out, g); });

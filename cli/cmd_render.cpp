@@ -78,9 +78,9 @@ std::array<float, 3> parse_colour(const std::string& s) {
 void register_render(CLI::App& app, GlobalFlags& g) {
     struct Args {
         std::string in, out, mode, attribute, background, depth_out;
-        bool ortho = false, no_legend = false;
-        double ortho_height = 0;
-        int ssaa = 1;
+        bool ortho = false, no_legend = false, no_mipmaps = false;
+        double ortho_height = 0, ambient = 0.25, near_plane = 0;
+        int ssaa = 1, subpixel_bits = 8;
         CameraFlags camera;
     };
     auto args = std::make_shared<Args>();
@@ -89,8 +89,9 @@ void register_render(CLI::App& app, GlobalFlags& g) {
     cmd->add_option("-o,--output", args->out, "Output PNG (RGBA; transparent where nothing is drawn)")->required();
     cmd->add_option("--mode", args->mode,
                     "shaded (default), normals (world normal as 0.5+0.5n), uv, depth, wireframe (shaded + edges), "
-                    "attribute (heat map of --attribute)")
-        ->check(CLI::IsMember({"shaded", "normals", "uv", "depth", "wireframe", "attribute"}));
+                    "attribute (heat map of --attribute), cutoff (alphaCutoff of the front MASK layer as grey: "
+                    "which fur shell shows)")
+        ->check(CLI::IsMember({"shaded", "normals", "uv", "depth", "wireframe", "attribute", "cutoff"}));
     cmd->add_option("--attribute", args->attribute,
                     "Scalar vertex attribute for the heat map, e.g. _FUR_LENGTH (implies --mode attribute)");
     cmd->add_flag("--ortho", args->ortho, "Orthographic view (default view: top-down along the up axis)");
@@ -102,6 +103,18 @@ void register_render(CLI::App& app, GlobalFlags& g) {
     cmd->add_option("--depth-out", args->depth_out,
                     "Also write the depth (view-axis distance, +inf where empty) as a float PFM image");
     cmd->add_flag("--no-legend", args->no_legend, "Attribute mode: leave out the colour bar");
+    cmd->add_flag("--no-mipmaps", args->no_mipmaps,
+                  "Sample every texture from its base level (default: follow each sampler's minFilter, mip-mapping "
+                  "as real-time viewers do)");
+    cmd->add_option("--ambient", args->ambient,
+                    "Ambient share of the Lambert shading, 0..1 (default 0.25; 1 = unlit material colour)")
+        ->check(CLI::Range(0.0, 1.0));
+    cmd->add_option("--subpixel-bits", args->subpixel_bits,
+                    "Vertex snapping precision, 1/2^N of a pixel: 8 (default) as Direct3D and desktop GPUs, 4 as "
+                    "SwiftShader (Chromium's software GL)")
+        ->check(CLI::Range(1, 8));
+    cmd->add_option("--near", args->near_plane, "Near clipping plane distance (default: from the bounding box)")
+        ->check(CLI::PositiveNumber);
     add_camera_flags(*cmd, args->camera);
     cmd->footer("Examples:\n"
                 "  furrow render fox.glb -o fox.png\n"
@@ -121,9 +134,14 @@ void register_render(CLI::App& app, GlobalFlags& g) {
         o.camera.ortho_height = args->ortho_height;
         o.ssaa = args->ssaa;
         o.legend = !args->no_legend;
+        o.mipmaps = !args->no_mipmaps;
+        o.subpixel_bits = args->subpixel_bits;
+        o.ambient = float(args->ambient);
+        o.camera.near_plane = args->near_plane;
         static const std::pair<const char*, RenderMode> modes[] = {
             {"shaded", RenderMode::shaded}, {"normals", RenderMode::normals},     {"uv", RenderMode::uv},
-            {"depth", RenderMode::depth},   {"wireframe", RenderMode::wireframe}, {"attribute", RenderMode::attribute}};
+            {"depth", RenderMode::depth},   {"wireframe", RenderMode::wireframe}, {"attribute", RenderMode::attribute},
+            {"cutoff", RenderMode::cutoff}};
         std::string mode = args->mode.empty() ? (args->attribute.empty() ? "shaded" : "attribute") : args->mode;
         for (const auto& [name, m] : modes)
             if (mode == name) o.mode = m;

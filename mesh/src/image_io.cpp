@@ -2,7 +2,6 @@
 #include "atomic_file.h"
 
 #include <furrow/mesh.h>
-#include <furrow/render.h> // linear_to_srgb
 #include <stb_image.h>
 #include <stb_image_write.h>
 

@@ -15,7 +15,6 @@
 // so `--length 0.02` means 2 cm on the 0.01-scaled Duck as on the creature.
 #include "shells_internal.h"
 
-#include <furrow/render.h>
 #include <furrow/shells.h>
 
 #include <tbb/blocked_range.h>
@@ -112,8 +111,13 @@ int add_texture(Scene& scene, const std::string& name, const std::vector<uint8_t
     im.encoded = png;
     scene.images.push_back(std::move(im));
     Sampler s;
-    s.mag_filter = 9729;  // LINEAR
-    s.min_filter = 9987;  // LINEAR_MIPMAP_LINEAR
+    s.mag_filter = 9729; // LINEAR
+    // LINEAR, not a *_MIPMAP_* filter: a viewer told to mip-map builds the chain by box filtering, which
+    // averages each strand with the empty texels around it; the averaged alpha falls below the upper shells'
+    // cutoffs (they vanish) and above the lowest ones' (they turn solid), so distant fur reads as a smooth
+    // hull. Sampling the base level keeps every shell's coverage at any distance, at the cost of shimmer
+    // under motion (README, "Fur in real viewers").
+    s.min_filter = 9729;
     s.wrap_s = 10497;     // REPEAT: the textures tile
     s.wrap_t = wrap_t;
     scene.samplers.push_back(s);

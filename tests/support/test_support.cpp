@@ -75,6 +75,14 @@ static RunResult run_process(const std::vector<std::string>& argv) {
     return r;
 }
 
+RunResult run_program(const std::vector<std::string>& argv) { return run_process(argv); }
+
+RunResult run_node(const std::vector<std::string>& args) {
+    std::vector<std::string> argv{FURROW_NODE};
+    argv.insert(argv.end(), args.begin(), args.end());
+    return run_process(argv);
+}
+
 RunResult run_furrow(const std::vector<std::string>& args) {
     std::vector<std::string> argv{FURROW_CLI};
     argv.insert(argv.end(), args.begin(), args.end());

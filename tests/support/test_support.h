@@ -25,6 +25,10 @@ struct RunResult {
 };
 // Runs the built `furrow` executable with the given arguments (no shell involved).
 RunResult run_furrow(const std::vector<std::string>& args);
+// Runs a program (argv[0] a path) with the given arguments, no shell involved.
+RunResult run_program(const std::vector<std::string>& argv);
+// Runs Node.js (the one CMake found) with the given arguments.
+RunResult run_node(const std::vector<std::string>& args);
 
 // Runs the Khronos glTF-Validator on a written file. Returns "" when it reports 0 errors and 0 warnings,
 // otherwise the validator's report. Use: EXPECT_VALID_GLTF(path).

@@ -224,6 +224,10 @@ Status save_png(const std::string& path, const ImageF& image, bool srgb_encode =
 // Encodes 8-bit RGBA bytes (width*height*4) to PNG bytes, deterministic.
 std::vector<uint8_t> encode_png_rgba8(const uint8_t* rgba, int width, int height);
 
+// Linear <-> sRGB transfer functions (IEC 61966-2-1), for one channel in [0,1].
+float srgb_to_linear(float v);
+float linear_to_srgb(float v);
+
 // ---------------------------------------------------------------------------------------------------------
 // Topology helpers
 // ---------------------------------------------------------------------------------------------------------

@@ -123,6 +123,12 @@ enum class ShellLayout : int {
     engine = 1, // one primitive holding all shells with _FUR_LAYER (height fraction), _FUR_LENGTH (H, object
                 // units) and _FUR_DIRECTION (unit xyz) for an engine's own shader; one MASK material
 };
+// Both layouts give the strand and fin textures a non-mipmapped sampler (minFilter LINEAR): a box-filtered
+// mip chain averages each strand with the gaps around it, so at a distance the upper shells fail their alpha
+// test and vanish while the lowest turn solid. An engine that wants mipmaps for these textures must build
+// them itself so that alpha-tested coverage survives (I. Castaño, "Computing Alpha Mipmaps", 2010: rescale
+// each level's alpha until the fraction of texels above the cutoff matches the base level; with one cutoff
+// per shell, match the whole alpha distribution), or draw the shells with alpha to coverage.
 
 struct FurOptions {
     ShellOptions shells;        // length in world units (converted per mesh by its node's scale); gravity in

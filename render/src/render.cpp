@@ -390,7 +390,7 @@ Status make_view(View& v, const RenderCamera& cam, const Vec3& lo, const Vec3& h
 
 // Decodes the texture once per texture index; a missing or undecodable image gives a warning and nullptr.
 const DecodedTexture* get_texture(std::map<int, std::unique_ptr<DecodedTexture>>& cache, const Scene& scene, int index,
-                           std::set<int>& warned_images, std::vector<std::string>& warnings) {
+                                  bool mipmaps, std::set<int>& warned_images, std::vector<std::string>& warnings) {
     auto it = cache.find(index);
     if (it != cache.end()) return it->second.get();
     auto& slot = cache[index];
@@ -412,30 +412,21 @@ const DecodedTexture* get_texture(std::map<int, std::unique_ptr<DecodedTexture>>
         return nullptr;
     }
     auto tex = std::make_unique<DecodedTexture>();
-    tex->width = decoded.width;
-    tex->height = decoded.height;
-    tex->rgba.resize(size_t(decoded.width) * size_t(decoded.height) * 4);
+    MipLevel& l0 = tex->levels.emplace_back();
+    l0.width = decoded.width;
+    l0.height = decoded.height;
+    l0.rgba.resize(size_t(decoded.width) * size_t(decoded.height) * 4);
     int ch = decoded.channels;
     for (size_t i = 0; i < size_t(decoded.width) * size_t(decoded.height); ++i) {
         const float* s = &decoded.pixels[i * size_t(ch)];
-        float* d = &tex->rgba[4 * i];
+        float* d = &l0.rgba[4 * i];
         bool grey = ch < 3;
         for (int c = 0; c < 3; ++c) d[c] = srgb_to_linear(grey ? s[0] : s[c]);
         d[3] = ch == 2 ? s[1] : ch == 4 ? s[3] : 1.0f;
     }
-    if (t.sampler >= 0 && size_t(t.sampler) < scene.samplers.size()) {
-        const Sampler& sm = scene.samplers[size_t(t.sampler)];
-        tex->wrap_s = sm.wrap_s;
-        tex->wrap_t = sm.wrap_t;
-        tex->nearest = sm.mag_filter == 9728;
-    }
-    for (int wrap : {tex->wrap_s, tex->wrap_t})
-        if (wrap != 10497 && wrap != 33071 && wrap != 33648) {
-            warnings.push_back("texture " + std::to_string(index) + ": unknown wrap mode " + std::to_string(wrap) +
-                               "; using REPEAT");
-            tex->wrap_s = tex->wrap_t = 10497;
-            break;
-        }
+    Sampler sm;
+    if (t.sampler >= 0 && size_t(t.sampler) < scene.samplers.size()) sm = scene.samplers[size_t(t.sampler)];
+    set_sampler(*tex, sm.mag_filter, sm.min_filter, sm.wrap_s, sm.wrap_t, mipmaps, warnings, "texture " + std::to_string(index));
     slot = std::move(tex);
     return slot.get();
 }
@@ -460,6 +451,9 @@ Status render_scene(RenderResult& out, const Scene& scene, const RenderOptions& 
                                                                std::to_string(o.height) + " is outside 1..16384");
     if (o.ssaa < 1 || o.ssaa > 8)
         return Status::error(StatusCode::invalid_argument, "ssaa " + std::to_string(o.ssaa) + " is outside 1..8");
+    if (o.subpixel_bits < 1 || o.subpixel_bits > 8)
+        return Status::error(StatusCode::invalid_argument,
+                             "subpixel_bits " + std::to_string(o.subpixel_bits) + " is outside 1..8");
     const RenderCamera& cam = o.camera;
     if (!cam.orthographic && !(cam.fov_degrees > 0 && cam.fov_degrees < 180))
         return Status::error(StatusCode::invalid_argument, "field of view must be in (0, 180) degrees");
@@ -591,7 +585,7 @@ Status render_scene(RenderResult& out, const Scene& scene, const RenderOptions& 
                                      "material " + std::to_string(p.material) + ": texture out of range");
             uv = m.base_color_texture.texcoord == 0 ? &p.uv0 : m.base_color_texture.texcoord == 1 ? &p.uv1 : nullptr;
             if (uv && !uv->empty())
-                draw.texture = get_texture(textures, scene, m.base_color_texture.texture, warned_images, out.warnings);
+                draw.texture = get_texture(textures, scene, m.base_color_texture.texture, o.mipmaps, warned_images, out.warnings);
             else
                 out.warnings.push_back(where(inst.mesh, inst.prim_index) + ": the base colour texture's TEXCOORD_" +
                                        std::to_string(m.base_color_texture.texcoord) + " is missing; texture ignored");
@@ -655,6 +649,7 @@ Status render_scene(RenderResult& out, const Scene& scene, const RenderOptions& 
     frame.width = o.width;
     frame.height = o.height;
     frame.ssaa = o.ssaa;
+    frame.subpixel_bits = o.subpixel_bits;
     frame.mode = o.mode;
     frame.orthographic = cam.orthographic;
     frame.near_plane = view.near_plane;

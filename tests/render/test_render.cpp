@@ -638,6 +638,77 @@ TEST(render_scene, TextureFilteringAndWrapModes) {
     EXPECT_EQ(pattern(33071), "bwwwww");
 }
 
+// A 64×64-pixel square (pixel_view(64, 64)) showing an n×n texture through a sampler with this minFilter.
+Scene textured_square(int n, const std::vector<uint8_t>& rgba, int min_filter) {
+    Material m;
+    m.base_color_texture.texture = 0;
+    Scene s = scene_of({quad(0, 0, 64, 64, 0, 0)}, {m});
+    s.images.push_back(png_image(n, n, rgba));
+    s.samplers.push_back(Sampler{9729, min_filter, 10497, 10497});
+    s.textures.push_back(Texture{0, 0});
+    return s;
+}
+
+// Mipmaps as a GPU builds and selects them. A texture of n×n texels in alternating black and white columns
+// covers a 64×64-pixel square, so every pixel spans n/64 texels and λ = log2(n/64) exactly: at n = 64 the
+// base level shows the stripes; at n = 256 (λ = 2) level 2 is uniform grey (linear 0.5: each texel the box
+// mean of 4×4 base texels) and LINEAR_MIPMAP_LINEAR and *_MIPMAP_NEAREST both show it; a minFilter without
+// mipmaps (NEAREST) samples the base level at the pixel centre (texel 4x + 2, white) and shows no grey at
+// all; RenderOptions::mipmaps = false does the same for a mip-mapping sampler.
+TEST(render_scene, MipmapLevelFollowsTheTexelFootprint) {
+    auto render_stripes = [](int n, int min_filter, bool mipmaps) {
+        std::vector<uint8_t> rgba(size_t(n) * size_t(n) * 4, 255);
+        for (int y = 0; y < n; ++y)
+            for (int x = 1; x < n; x += 2)
+                for (int c = 0; c < 3; ++c) rgba[4 * (size_t(y) * size_t(n) + size_t(x)) + size_t(c)] = 0;
+        Scene s = textured_square(n, rgba, min_filter);
+        RenderOptions o = pixel_view(64, 64);
+        o.ambient = 1;
+        o.mipmaps = mipmaps;
+        RenderResult r;
+        EXPECT_TRUE(render_scene(r, s, o).ok());
+        float lo = 1, hi = 0;
+        for (int y = 0; y < 64; ++y)
+            for (int x = 0; x < 64; ++x) lo = std::min(lo, rgba_at(r, x, y)[0]), hi = std::max(hi, rgba_at(r, x, y)[0]);
+        return std::pair<float, float>{lo, hi};
+    };
+    const float grey = linear_to_srgb(0.5f);
+    auto [lo0, hi0] = render_stripes(64, 9987, true); // λ = 0: the base level, texel centres: pure stripes
+    EXPECT_EQ(lo0, 0.0f);
+    EXPECT_EQ(hi0, 1.0f);
+    for (int filter : {9987, 9985, 9984}) {
+        auto [lo, hi] = render_stripes(256, filter, true);
+        EXPECT_NEAR(lo, grey, 1.5f / 255) << filter;
+        EXPECT_NEAR(hi, grey, 1.5f / 255) << filter;
+    }
+    auto [lo_base, hi_base] = render_stripes(256, 9728, true);
+    EXPECT_EQ(lo_base, 1.0f);
+    EXPECT_EQ(hi_base, 1.0f);
+    auto [lo_off, hi_off] = render_stripes(256, 9986, false); // NEAREST_MIPMAP_LINEAR, mipmaps off: base, nearest
+    EXPECT_EQ(lo_off, 1.0f);
+    EXPECT_EQ(hi_off, 1.0f);
+}
+
+// The chain is glGenerateMipmap's: a 128² texture on 64 pixels (λ = 1) shows level 1, each texel the mean of
+// 2×2 base texels, averaged in linear light.
+TEST(render_scene, MipmapChainBoxFiltersInLinearSpace) {
+    std::vector<uint8_t> rgba(128 * 128 * 4, 255);
+    for (int y = 0; y < 128; ++y)
+        for (int x = 1; x < 128; x += 2) rgba[4 * (size_t(y) * 128 + size_t(x))] = 0; // red channel only
+    Scene s = textured_square(128, rgba, 9987);
+    RenderOptions o = pixel_view(64, 64);
+    o.ambient = 1;
+    RenderResult r;
+    ASSERT_TRUE(render_scene(r, s, o).ok());
+    // Red averages 1 and 0 in linear light: 0.5, stored sRGB-encoded in 8 bits like the GPU's level, so the
+    // output is within one 8-bit step of linear_to_srgb(0.5) (0.735), not 0.5 (averaging encoded values).
+    for (int y = 0; y < 64; y += 7)
+        for (int x = 0; x < 64; x += 5) {
+            EXPECT_NEAR(rgba_at(r, x, y)[0], linear_to_srgb(0.5f), 1.5f / 255) << x << "," << y;
+            EXPECT_EQ(rgba_at(r, x, y)[1], 1.0f);
+        }
+}
+
 TEST(render_scene, LambertWithDirectionalLightAndAmbient) {
     RenderOptions o = pixel_view(16, 16);
     o.light_direction = {0, 0, 1}; // from the viewer: n·l = 1
@@ -803,6 +874,11 @@ TEST(render_scene, RejectsSizesOutsideRange) {
     o.ssaa = 9;
     EXPECT_EQ(render_scene(r, s, o).code, StatusCode::invalid_argument);
     o.ssaa = 1;
+    for (int bits : {0, 9}) {
+        o.subpixel_bits = bits;
+        EXPECT_EQ(render_scene(r, s, o).code, StatusCode::invalid_argument) << bits;
+    }
+    o.subpixel_bits = 8;
     o.camera.fov_degrees = 180;
     EXPECT_EQ(render_scene(r, s, o).code, StatusCode::invalid_argument);
 }
@@ -886,6 +962,31 @@ TEST(render_scene, FlatShadesPrimitivesWithoutNormals) {
 // ---------------------------------------------------------------------------------------------------------
 // Metrics
 // ---------------------------------------------------------------------------------------------------------
+
+// Cutoff mode writes the front MASK layer's alphaCutoff as a raw grey, 0 on OPAQUE; cutoff_coverage counts
+// and weights those pixels.
+TEST(render_scene, CutoffModeAndCoverage) {
+    Material opaque, mask;
+    mask.alpha_mode = AlphaMode::mask;
+    mask.alpha_cutoff = 0.25f;
+    Scene s = scene_of({quad(0, 0, 8, 8, 0, 0), quad(0, 0, 4, 8, 1, 1)}, {opaque, mask});
+    RenderOptions o = pixel_view(16, 8);
+    o.mode = RenderMode::cutoff;
+    RenderResult r;
+    ASSERT_TRUE(render_scene(r, s, o).ok());
+    EXPECT_EQ(rgba_at(r, 1, 1)[0], 0.25f); // the MASK quad in front
+    EXPECT_EQ(rgba_at(r, 6, 1)[0], 0.0f);  // the opaque one
+    EXPECT_EQ(alpha_at(r, 12, 1), 0.0f);   // nothing
+    CutoffCoverage c = cutoff_coverage(r.color);
+    EXPECT_DOUBLE_EQ(c.covered, 32.0 / 128.0);
+    EXPECT_DOUBLE_EQ(c.height, 0.25 * 32.0 / 128.0);
+}
+
+TEST(mean_covered_difference, AveragesRgbWhereBothAreCovered) {
+    ImageF a{2, 1, 4, {1, 1, 1, 1, 0.5f, 0.5f, 0.5f, 1}}, b{2, 1, 4, {0.5f, 1, 1, 1, 0, 0, 0, 0}};
+    EXPECT_DOUBLE_EQ(mean_covered_difference(a, b), 0.5 / 3); // only pixel 0: |1 − 0.5| in one of 3 channels
+    EXPECT_TRUE(std::isnan(mean_covered_difference(a, ImageF{1, 1, 4, {0, 0, 0, 1}})));
+}
 
 TEST(mask_iou, CountsIntersectionOverUnion) {
     ImageF a{4, 1, 1, {1, 1, 0, 0}}, b{4, 1, 1, {0, 1, 1, 0}}, empty{4, 1, 1, {0, 0, 0, 0}};

@@ -7,19 +7,41 @@
 
 #include <array>
 #include <cstdint>
+#include <string>
 #include <vector>
 
 namespace furrow::render_detail {
 
 using Mat4 = std::array<double, 16>; // column-major, like glTF
 
-// A decoded base-colour texture: linear RGBA floats (sRGB decoded once, so bilinear filtering is linear).
-struct DecodedTexture {
+// A decoded base-colour texture with its sampler (render_texture.cpp): linear RGBA floats (sRGB decoded once,
+// so filtering is linear), and the mip chain when the sampler's minFilter asks for one.
+struct MipLevel {
     int width = 0, height = 0;
     std::vector<float> rgba;
-    int wrap_s = 10497, wrap_t = 10497; // glTF REPEAT / CLAMP_TO_EDGE (33071) / MIRRORED_REPEAT (33648)
-    bool nearest = false;               // sampler magFilter NEAREST (9728)
 };
+enum class MipMode : uint8_t { none, nearest, linear }; // minFilter NEAREST/LINEAR, *_MIPMAP_NEAREST, *_MIPMAP_LINEAR
+struct DecodedTexture {
+    std::vector<MipLevel> levels;       // [0] = the image; then glGenerateMipmap's chain down to 1×1
+    int wrap_s = 10497, wrap_t = 10497; // glTF REPEAT / CLAMP_TO_EDGE (33071) / MIRRORED_REPEAT (33648)
+    bool mag_nearest = false;           // magFilter NEAREST (9728)
+    bool min_nearest = false;           // minFilter NEAREST or NEAREST_MIPMAP_*: nearest texel within a level
+    MipMode mip = MipMode::linear;
+    float mag_threshold = 0;            // λ <= this magnifies (GL's c)
+    bool needs_lod() const { return mip != MipMode::none || mag_nearest != min_nearest; }
+};
+// Applies a glTF sampler (-1 = unset: three.js's defaults) and builds the mip chain when it mip-maps and
+// `mipmaps` is true; unknown values get a warning and the default.
+void set_sampler(DecodedTexture& t, int mag_filter, int min_filter, int wrap_s, int wrap_t, bool mipmaps,
+                 std::vector<std::string>& warnings, const std::string& name);
+// The filtered texel at (u, v) for level of detail lod = log2(texels per output pixel) at level 0; NaN = no
+// derivative known (magnification).
+std::array<float, 4> sample_texture(const DecodedTexture& t, float u, float v, float lod);
+
+inline int64_t fast_floor(double x) { // std::floor is a libm call on baseline x86-64; |x| is bounded by the callers
+    int64_t k = int64_t(x);
+    return k - (double(k) > x);
+}
 
 // One vertex after the vertex stage: clip-space position, then what the pixel stage interpolates.
 struct Vert {
@@ -47,6 +69,7 @@ struct Draw {
 struct Frame {
     int width = 0, height = 0; // output pixels
     int ssaa = 1;
+    int subpixel_bits = 8;
     RenderMode mode = RenderMode::shaded;
     bool orthographic = false;
     double near_plane = 1, far_plane = 0; // far only matters for orthographic depth

@@ -5,8 +5,11 @@
 // What it draws: every triangle primitive of the nodes reachable from Scene::roots (all parentless nodes if
 // roots is empty), morph targets at their default weights (node weights, else mesh weights), skins in bind
 // pose (joint world matrix × inverse bind matrix, linear blend). glTF material semantics: baseColorFactor ×
-// baseColorTexture (sRGB-decoded, bilinear — nearest if the sampler's magFilter is NEAREST — with the
-// sampler's wrap modes, no mipmaps) × COLOR_0; OPAQUE, MASK (alpha >= alphaCutoff is drawn opaque) and BLEND
+// baseColorTexture × COLOR_0, the texture sampled as a GPU samples it for a real-time viewer: sRGB-decoded,
+// the sampler's magFilter and minFilter (mipmaps built like glGenerateMipmap, trilinear or nearest-level,
+// level of detail from the screen-space UV derivatives per output pixel), wrap modes and texCoord set; an
+// unset filter is three.js's default (LINEAR, LINEAR_MIPMAP_LINEAR). KHR_texture_transform and anisotropic
+// filtering are not modelled; OPAQUE, MASK (alpha >= alphaCutoff is drawn opaque) and BLEND
 // (drawn after opaque geometry, primitives sorted back to front, no depth write); doubleSided disables
 // back-face culling and flips the normal of back faces; a node with a negative-determinant transform flips
 // the winding. Lambert with one directional light plus ambient, emissive added. Primitives without normals
@@ -35,6 +38,8 @@ enum class RenderMode : int {
     depth,      // grey = 1 at the nearest visible depth .. 0.1 at the farthest, raw; exact values in .depth
     wireframe,  // shaded with the triangle edges drawn over it (clipping does not add edges)
     attribute,  // heat map (viridis) of a scalar CustomAttribute (its first component), with a legend
+    cutoff,     // the front surface's alphaCutoff as a raw grey (MASK materials; 0 on OPAQUE and BLEND ones):
+                // which alpha-tested layer shows, e.g. which fur shell (see cutoff_coverage)
 };
 
 // A camera. Unset eye/target frame the scene's bounding box: perspective looks from the front-right-above
@@ -57,11 +62,18 @@ struct RenderOptions {
     RenderMode mode = RenderMode::shaded;
     std::string attribute;          // RenderMode::attribute: CustomAttribute name, e.g. "_FUR_LENGTH"
     int ssaa = 1;                   // supersampling: ssaa × ssaa samples per pixel, box filtered; 1..8
+    int subpixel_bits = 8;          // vertices snap to 1/2^bits of a sample before rasterizing: 8 as Direct3D
+                                    // 10+ requires and desktop GPUs do; 4 as Vulkan's minimum and SwiftShader
+                                    // (Chromium's software GL) do. Where alpha-tested fur is minified, it
+                                    // decides which texel a pixel centre samples; 1..8
     std::optional<std::array<float, 3>> background; // sRGB in [0,1]; unset = transparent background
     std::array<float, 3> light_direction{-0.35f, 0.55f, 0.75f}; // towards the light, in view space
                                                                 // (x right, y up, z towards the viewer)
     float ambient = 0.25f;          // Lambert: colour × (ambient + (1 − ambient)·max(0, n·l))
     bool legend = true;             // RenderMode::attribute: draw the colour bar with min/max values
+    bool mipmaps = true;            // follow each sampler's minFilter, mip-mapping where it asks, as real-time
+                                    // viewers do; false = sample the base level only (an offline renderer,
+                                    // and the mip-free reference of the fur coverage measure)
 };
 
 struct RenderTiming { // wall-clock milliseconds per stage
@@ -105,9 +117,18 @@ size_t mask_area(const ImageF& mask);
 double mask_iou(const ImageF& a, const ImageF& b);
 // Mean over all pixels and channels of |a − b|.
 double mean_absolute_difference(const ImageF& a, const ImageF& b);
+// Mean over the pixels where both images have alpha > 0.5 of |a − b| in the RGB channels (the colour
+// difference on covered pixels); 0 when no pixel is covered in both.
+double mean_covered_difference(const ImageF& a, const ImageF& b);
 
-// Linear <-> sRGB transfer functions (IEC 61966-2-1), for one channel in [0,1].
-float srgb_to_linear(float v);
-float linear_to_srgb(float v);
+// Fur coverage, measured on a RenderMode::cutoff image (or a viewer's render of the same): `covered` is the
+// fraction of the image's pixels where a MASK layer (a fur shell or fin) is in front, `height` the same
+// weighted by the layer's cutoff (its height fraction in the fur). The ratio of either to the value of a
+// supersampled render without mipmaps is the coverage a viewer keeps: a mip chain that thins the strands
+// lowers `height` (upper shells vanish) and may raise `covered` (lower shells turn solid).
+struct CutoffCoverage {
+    double covered = 0, height = 0;
+};
+CutoffCoverage cutoff_coverage(const ImageF& cutoff_image);
 
 } // namespace furrow

@@ -25,8 +25,6 @@
 namespace furrow::render_detail {
 namespace {
 
-constexpr int kSubBits = 8; // sub-sample precision: vertices snap to 1/256 of a sample
-constexpr int64_t kOne = int64_t(1) << kSubBits;
 constexpr int kBandRows = 16;     // output rows per band
 constexpr size_t kChunk = 8192;   // source triangles per set-up task
 constexpr double kGuard = 1 << 20; // clip to ±2^20 samples, so snapped coordinates fit int32 and edge
@@ -35,7 +33,7 @@ constexpr double kGuard = 1 << 20; // clip to ±2^20 samples, so snapped coordin
 // A triangle ready to rasterize, in snapped sample coordinates, with positive area.
 struct Tri {
     uint32_t v[3];       // into Draw::verts, or past its end into Chunk::extra
-    int32_t X[3], Y[3];  // fixed point, kSubBits fractional bits
+    int32_t X[3], Y[3];  // fixed point, Grid::bits fractional bits
     int32_t x0, y0, x1, y1; // the samples whose centres fall in the bounding box (inclusive)
     uint8_t flags;       // bit k: edge v[k] -> v[k+1] is an edge of the source triangle; bit 3: back face
 };
@@ -49,10 +47,13 @@ struct Chunk {
     size_t nan = 0, culled = 0;
 };
 
-// The sample grid and the guard band (in NDC units) that keeps snapped coordinates in range.
+// The sample grid, the guard band (in NDC units) that keeps snapped coordinates in range, and the sub-sample
+// precision: vertices snap to 1/2^bits of a sample (RenderOptions::subpixel_bits).
 struct Grid {
     int ws, hs;
     float gx, gy;
+    int bits;
+    int64_t one; // 2^bits
 };
 using Snapped = std::array<int32_t, 2>;
 
@@ -62,55 +63,6 @@ struct Setup {
     Chunk& chunk;
     Grid grid;
 };
-
-// ---- Texture sampling (glTF 2.0 §3.8: wrap modes, texel centres at +0.5) ----
-
-constexpr int kRepeat = 10497, kMirroredRepeat = 33648; // and CLAMP_TO_EDGE (33071)
-
-int64_t fast_floor(double x) { // std::floor is a libm call on baseline x86-64; |x| is bounded by the callers
-    int64_t k = int64_t(x);
-    return k - (double(k) > x);
-}
-
-// The two texels a coordinate falls between along one axis (the same one twice for nearest), and the weight
-// of the second, with the sampler's wrap mode applied.
-struct Axis {
-    int i0, i1;
-    float f;
-};
-Axis axis(float coord, int n, int mode, bool nearest) {
-    double c = coord;
-    // Reduce to one period first so the texel indices below stay within one period of the range.
-    if (mode == kRepeat) c -= std::abs(c) < 1e9 ? double(fast_floor(c)) : std::floor(c);
-    else if (mode == kMirroredRepeat) c -= 2 * (std::abs(c) < 1e9 ? double(fast_floor(c / 2)) : std::floor(c / 2));
-    else c = std::clamp(c, -1.0, 2.0); // kClampToEdge: anything beyond one period out reads the edge
-    double x = c * n - (nearest ? 0.0 : 0.5);
-    int64_t k = fast_floor(x);
-    auto fix = [&](int64_t i) {
-        if (mode == kRepeat) return int(i < 0 ? i + n : i >= n ? i - n : i);
-        if (mode == kMirroredRepeat) {
-            i = i < 0 ? -1 - i : i >= 2 * n ? i - 2 * n : i; // [-1, 2n] -> [0, 2n)
-            return int(i < n ? i : 2 * n - 1 - i);
-        }
-        return int(std::clamp<int64_t>(i, 0, n - 1));
-    };
-    if (nearest) return {fix(k), fix(k), 0.0f};
-    return {fix(k), fix(k + 1), float(x - double(k))};
-}
-
-// Texture lookup at (u, v), v = 0 at the top row (glTF): bilinear on linear values, or nearest.
-std::array<float, 4> sample(const DecodedTexture& t, float u, float v) {
-    if (!std::isfinite(u) || !std::isfinite(v)) u = v = 0;
-    Axis ax = axis(u, t.width, t.wrap_s, t.nearest), ay = axis(v, t.height, t.wrap_t, t.nearest);
-    auto texel = [&](int x, int y) { return &t.rgba[4 * (size_t(y) * size_t(t.width) + size_t(x))]; };
-    const float *a = texel(ax.i0, ay.i0), *b = texel(ax.i1, ay.i0), *c = texel(ax.i0, ay.i1), *d = texel(ax.i1, ay.i1);
-    std::array<float, 4> r;
-    for (size_t k = 0; k < 4; ++k) {
-        float top = a[k] + ax.f * (b[k] - a[k]), bottom = c[k] + ax.f * (d[k] - c[k]);
-        r[k] = top + ay.f * (bottom - top);
-    }
-    return r;
-}
 
 // Twice the signed area in snapped coordinates (y down), positive when the triangle is counter-clockwise on
 // screen. Equals the edge function of edge 0 at v[2].
@@ -156,7 +108,8 @@ bool outside(const Vert& v, const Grid& g) { // beyond the near plane or the gua
 Snapped snap(const Vert& v, const Grid& g) {
     double iw = 1.0 / v.w;
     const double x = std::clamp(v.x * iw, -double(g.gx), double(g.gx)), y = std::clamp(v.y * iw, -double(g.gy), double(g.gy));
-    return {int32_t(fast_floor((x * 0.5 + 0.5) * g.ws * kOne + 0.5)), int32_t(fast_floor((0.5 - y * 0.5) * g.hs * kOne + 0.5))};
+    return {int32_t(fast_floor((x * 0.5 + 0.5) * g.ws * double(g.one) + 0.5)),
+            int32_t(fast_floor((0.5 - y * 0.5) * g.hs * double(g.one) + 0.5))};
 }
 
 // Orients and culls one snapped triangle, and keeps it if any sample centre lies in its bounding box.
@@ -177,11 +130,13 @@ void emit(Setup& s, const Snapped p[3], const uint32_t idx[3], unsigned edges, b
     t.flags = uint8_t(edges | (back ? 8 : 0));
     int32_t minx = std::min({t.X[0], t.X[1], t.X[2]}), maxx = std::max({t.X[0], t.X[1], t.X[2]});
     int32_t miny = std::min({t.Y[0], t.Y[1], t.Y[2]}), maxy = std::max({t.Y[0], t.Y[1], t.Y[2]});
-    // Sample x's centre is x·kOne + kOne/2; the first centre >= min and the last <= max (floor shifts).
-    t.x0 = std::max(0, int32_t((int64_t(minx) - kOne / 2 + kOne - 1) >> kSubBits));
-    t.y0 = std::max(0, int32_t((int64_t(miny) - kOne / 2 + kOne - 1) >> kSubBits));
-    t.x1 = std::min(s.grid.ws - 1, int32_t((int64_t(maxx) - kOne / 2) >> kSubBits));
-    t.y1 = std::min(s.grid.hs - 1, int32_t((int64_t(maxy) - kOne / 2) >> kSubBits));
+    // Sample x's centre is x·one + one/2; the first centre >= min and the last <= max (floor shifts).
+    const int64_t one = s.grid.one;
+    const int bits = s.grid.bits;
+    t.x0 = std::max(0, int32_t((int64_t(minx) - one / 2 + one - 1) >> bits));
+    t.y0 = std::max(0, int32_t((int64_t(miny) - one / 2 + one - 1) >> bits));
+    t.x1 = std::min(s.grid.ws - 1, int32_t((int64_t(maxx) - one / 2) >> bits));
+    t.y1 = std::min(s.grid.hs - 1, int32_t((int64_t(maxy) - one / 2) >> bits));
     if (t.x0 > t.x1 || t.y0 > t.y1) return; // too small to reach a sample centre
     s.chunk.tris.push_back(t);
 }
@@ -298,25 +253,57 @@ struct Shader {
     const Frame& f;
     Band& band;
     const Vert* v[3];
+    const int64_t one; // fixed-point units per sample
     float inv_area, zn[3], iw[3], edge_scale[3];
-    bool back, grey;
+    // Texture level of detail: screen-space gradients (per output pixel, in texels of level 0) of Q = Σ b_k/w_k
+    // and of U = Σ b_k·uv_k/w_k, so that ∂uv/∂x = (∂U/∂x − uv·∂Q/∂x) / Q (the quotient rule on uv = U/Q).
+    float gq[2] = {0, 0}, gu[2][2] = {{0, 0}, {0, 0}};
+    bool lod = false, back, grey;
 
-    Shader(const Draw& d_, const Frame& f_, Band& b, const Tri& t, const Vert* const vs[3]) : d(d_), f(f_), band(b) {
+    Shader(const Draw& d_, const Frame& f_, Band& b, const Tri& t, const Vert* const vs[3], int64_t one_)
+        : d(d_), f(f_), band(b), one(one_) {
         int64_t area = twice_area(t);
         inv_area = float(1.0 / double(area));
         for (int k = 0; k < 3; ++k) {
             v[k] = vs[k];
             iw[k] = 1.0f / v[k]->w;
             zn[k] = v[k]->z * iw[k];
-            // 1 / (edge length in fixed units × kOne): edge function -> distance in samples; 0 = no line here.
+            // 1 / (edge length in fixed units × one): edge function -> distance in samples; 0 = no line here.
             edge_scale[k] = 0;
             if (f.mode == RenderMode::wireframe && ((t.flags >> k) & 1)) {
                 int j = (k + 1) % 3;
-                edge_scale[k] = float(1.0 / (std::hypot(double(t.X[j] - t.X[k]), double(t.Y[j] - t.Y[k])) * kOne));
+                edge_scale[k] = float(1.0 / (std::hypot(double(t.X[j] - t.X[k]), double(t.Y[j] - t.Y[k])) * double(one)));
             }
         }
         back = t.flags & 8;
         grey = v[0]->s < 0 || v[1]->s < 0 || v[2]->s < 0;
+        lod = d.texture && d.texture->needs_lod();
+        if (lod) set_up_lod(t, double(area));
+    }
+
+    // b_k = e_{k+1} / area, and e(x, y) = dy·(x − X) − dx·(y − Y) steps by `one` fixed units per sample.
+    void set_up_lod(const Tri& t, double area) {
+        const MipLevel& l0 = d.texture->levels[0];
+        const double per_pixel = double(one) * double(f.ssaa) / area, size[2] = {double(l0.width), double(l0.height)};
+        for (int k = 0; k < 3; ++k) {
+            const int e = (k + 1) % 3, j = (e + 1) % 3;
+            const double db[2] = {double(t.Y[j] - t.Y[e]) * per_pixel, -double(t.X[j] - t.X[e]) * per_pixel};
+            for (int a = 0; a < 2; ++a) {
+                gq[a] += float(iw[k] * db[a]);
+                for (int c = 0; c < 2; ++c) gu[a][c] += float(iw[k] * v[k]->uv[c] * size[c] * db[a]);
+            }
+        }
+    }
+    // log2 of the texel footprint of one output pixel (GL's λ); NaN when the gradients are not finite.
+    float level_of_detail(const float uv[2], float qs) const {
+        const MipLevel& l0 = d.texture->levels[0];
+        const float s[2] = {uv[0] * float(l0.width), uv[1] * float(l0.height)};
+        float rho2 = 0;
+        for (int a = 0; a < 2; ++a) {
+            const float du = (gu[a][0] - s[0] * gq[a]) * qs, dv = (gu[a][1] - s[1] * gq[a]) * qs;
+            rho2 = std::max(rho2, du * du + dv * dv);
+        }
+        return 0.5f * std::log2(rho2);
     }
 
     // e_k: edge function of edge v[k] -> v[k+1], so e_k / area is the barycentric weight of v[k+2].
@@ -336,7 +323,7 @@ struct Shader {
         float uv[2] = {at(&Vert::uv, 0), at(&Vert::uv, 1)};
         std::array<float, 4> base = d.base_color;
         if (d.texture) {
-            auto texel = sample(*d.texture, uv[0], uv[1]);
+            auto texel = sample_texture(*d.texture, uv[0], uv[1], lod ? level_of_detail(uv, qs) : 0.0f);
             for (int c = 0; c < 4; ++c) base[size_t(c)] *= texel[size_t(c)];
         }
         for (int c = 0; c < 4; ++c) base[size_t(c)] *= at(&Vert::c, c);
@@ -369,6 +356,7 @@ struct Shader {
             rgb[2] = 0;
             break;
         case RenderMode::depth: rgb[0] = rgb[1] = rgb[2] = 1; break; // coloured after the resolve
+        case RenderMode::cutoff: rgb[0] = rgb[1] = rgb[2] = d.alpha_mode == AlphaMode::mask ? d.alpha_cutoff : 0.0f; break;
         case RenderMode::attribute: {
             float t = v[0]->s + w1 * (v[1]->s - v[0]->s) + w2 * (v[2]->s - v[0]->s);
             auto heat = viridis(grey ? 0.0f : std::clamp(t, 0.0f, 1.0f));
@@ -406,22 +394,22 @@ struct Shader {
 // covered when every edge function is > 0, or == 0 on a top or left edge: subtracting 1 from the others turns
 // that into one sign test.
 template <class Shade>
-void scan(const Tri& t, int row0, int row1, const Shade& shade) {
+void scan(const Tri& t, int row0, int row1, int64_t one, const Shade& shade) {
     int64_t a[3], b[3], bias[3], row[3];
     for (int k = 0; k < 3; ++k) {
         int j = (k + 1) % 3;
         int64_t dx = t.X[j] - t.X[k], dy = t.Y[j] - t.Y[k];
         a[k] = dy, b[k] = -dx; // e(x, y) = a·(x − X_k) + b·(y − Y_k), > 0 inside
         bias[k] = (dy > 0 || (dy == 0 && dx < 0)) ? 0 : 1; // left or top edge (y down, counter-clockwise)
-        row[k] = a[k] * (int64_t(t.x0) * kOne + kOne / 2 - t.X[k]) + b[k] * (int64_t(row0) * kOne + kOne / 2 - t.Y[k]) - bias[k];
+        row[k] = a[k] * (int64_t(t.x0) * one + one / 2 - t.X[k]) + b[k] * (int64_t(row0) * one + one / 2 - t.Y[k]) - bias[k];
     }
     for (int y = row0; y <= row1; ++y) {
         int64_t e[3] = {row[0], row[1], row[2]};
         for (int x = t.x0; x <= t.x1; ++x) {
             if ((e[0] | e[1] | e[2]) >= 0) shade(x, y, e[0] + bias[0], e[1] + bias[1], e[2] + bias[2]);
-            for (int k = 0; k < 3; ++k) e[k] += a[k] * kOne;
+            for (int k = 0; k < 3; ++k) e[k] += a[k] * one;
         }
-        for (int k = 0; k < 3; ++k) row[k] += b[k] * kOne;
+        for (int k = 0; k < 3; ++k) row[k] += b[k] * one;
     }
 }
 
@@ -492,7 +480,7 @@ RasterStats rasterize(RenderResult& out, const std::vector<Draw>& draws, const F
             c.count = std::min(kChunk, draws[d].tris.size() / 3 - first);
             chunks.push_back(std::move(c));
         }
-    Grid grid{ws, hs, float(kGuard / ws), float(kGuard / hs)};
+    Grid grid{ws, hs, float(kGuard / ws), float(kGuard / hs), f.subpixel_bits, int64_t(1) << f.subpixel_bits};
     std::vector<std::vector<Snapped>> snapped(draws.size());
     for (size_t d = 0; d < draws.size(); ++d) {
         snapped[d].resize(draws[d].verts.size());
@@ -526,7 +514,7 @@ RasterStats rasterize(RenderResult& out, const std::vector<Draw>& draws, const F
                     const Vert* v[3];
                     for (int j = 0; j < 3; ++j)
                         v[j] = t.v[j] < d.verts.size() ? &d.verts[t.v[j]] : &c.extra[t.v[j] - d.verts.size()];
-                    scan(t, std::max(t.y0, band.y0), std::min(t.y1, band.y1 - 1), Shader(d, f, band, t, v));
+                    scan(t, std::max(t.y0, band.y0), std::min(t.y1, band.y1 - 1), grid.one, Shader(d, f, band, t, v, grid.one));
                 }
             }
             resolve(band, out, f);

@@ -1,8 +1,7 @@
-// Image-side helpers of the verification rasterizer: transfer functions, the heat-map colours and legend,
-// and the image metrics of render.h.
+// Image-side helpers of the verification rasterizer: the heat-map colours and legend, and the image metrics
+// of render.h.
 //
 // References:
-//   IEC 61966-2-1 (sRGB transfer function).
 //   Viridis: van der Walt & Smith, matplotlib (2015) — perceptually uniform and readable in greyscale.
 //   Legend text: stb_easy_font (S. Barrett, public domain), rasterized here as axis-aligned quads.
 #include "render_internal.h"
@@ -14,15 +13,6 @@
 #include <stb_easy_font.h>
 
 namespace furrow {
-
-float srgb_to_linear(float v) {
-    return v <= 0.04045f ? v / 12.92f : std::pow((v + 0.055f) / 1.055f, 2.4f);
-}
-float linear_to_srgb(float v) {
-    if (!(v < 1.0f)) return v >= 1.0f ? 1.0f : 0.0f; // exact white (the formula gives 1 ± 1 ulp); NaN -> 0
-    v = std::max(v, 0.0f);
-    return v <= 0.0031308f ? v * 12.92f : 1.055f * std::pow(v, 1.0f / 2.4f) - 0.055f;
-}
 
 ImageF silhouette_mask(const ImageF& image, float alpha_threshold) {
     ImageF m{image.width, image.height, 1, {}};
@@ -58,6 +48,35 @@ double mean_absolute_difference(const ImageF& a, const ImageF& b) {
     double sum = 0;
     for (size_t i = 0; i < a.pixels.size(); ++i) sum += std::abs(double(a.pixels[i]) - double(b.pixels[i]));
     return sum / double(a.pixels.size());
+}
+
+double mean_covered_difference(const ImageF& a, const ImageF& b) {
+    if (a.width != b.width || a.height != b.height || a.channels != 4 || b.channels != 4 ||
+        a.pixels.size() != b.pixels.size())
+        return std::nan("");
+    double sum = 0;
+    size_t n = 0;
+    for (size_t i = 0; i + 3 < a.pixels.size(); i += 4) {
+        if (!(a.pixels[i + 3] > 0.5f && b.pixels[i + 3] > 0.5f)) continue;
+        for (size_t c = 0; c < 3; ++c) sum += std::abs(double(a.pixels[i + c]) - double(b.pixels[i + c]));
+        ++n;
+    }
+    return n ? sum / double(3 * n) : 0.0;
+}
+
+CutoffCoverage cutoff_coverage(const ImageF& image) {
+    CutoffCoverage r;
+    const size_t n = size_t(image.width) * size_t(image.height);
+    if (image.channels != 4 || image.pixels.size() != 4 * n || n == 0) return {std::nan(""), std::nan("")};
+    for (size_t i = 0; i < n; ++i) {
+        const float* p = &image.pixels[4 * i];
+        if (!(p[3] > 0.5f) || !(p[0] > 0.5f / 255.0f)) continue;
+        r.covered += 1;
+        r.height += p[0];
+    }
+    r.covered /= double(n);
+    r.height /= double(n);
+    return r;
 }
 
 namespace render_detail {
