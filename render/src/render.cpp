@@ -134,17 +134,12 @@ Status triangle_list(std::vector<uint32_t>& tris, const Primitive& p, size_t mes
         tris = p.indices;
         return Status::success();
     }
-    size_t first = 0;
-    for (uint32_t size : p.face_sizes) {
-        if (first + size > p.indices.size())
-            return Status::error(StatusCode::invalid_input, where(mesh, prim) + ": face sizes exceed the indices");
-        for (uint32_t k = 1; k + 1 < size; ++k) {
-            tris.push_back(p.indices[first]);
-            tris.push_back(p.indices[first + k]);
-            tris.push_back(p.indices[first + k + 1]);
-        }
-        first += size;
-    }
+    size_t corners = 0;
+    for (uint32_t size : p.face_sizes) corners += size;
+    if (corners > p.indices.size())
+        return Status::error(StatusCode::invalid_input, where(mesh, prim) + ": face sizes exceed the indices");
+    triangulate_polygons(tris, p.indices.data(), p.indices.size(), p.face_sizes.data(), p.face_sizes.size(),
+                         p.positions.data(), n);
     return Status::success();
 }
 

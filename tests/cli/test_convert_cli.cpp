@@ -33,6 +33,23 @@ TEST(convert_cli, ConvertsObjToValidGlbAndGltf) {
     EXPECT_EQ(list_dir(dir), (std::vector<std::string>{"quad.bin", "quad.glb", "quad.gltf", "quad.obj"}));
 }
 
+// n-gon triangulation (beast.obj: quads, pentagons and hexagons, 0 non-manifold edges, came out with 2): a
+// closed, manifold tetrahedron made of one bent quad (1 2 3 4) and two triangles that share the edge 1–3.
+// The fan's diagonal 1–3 gave that edge four faces; the other diagonal keeps it manifold and closed.
+TEST(convert_cli, NgonTriangulationCreatesNoNonManifoldEdge) {
+    const auto dir = temp_dir();
+    write_text(dir / "ngons.obj", "v 0 0 0\nv 1 0 0.5\nv 1 1 0\nv 0 1 0.5\nf 1 2 3 4\nf 1 3 2\nf 1 4 3\n");
+    RunResult r = run_furrow({"convert", (dir / "ngons.obj").string(), "-o", (dir / "ngons.glb").string()});
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_VALID_GLTF(dir / "ngons.glb");
+    furrow::Scene s;
+    ASSERT_TRUE(furrow::load_scene(s, (dir / "ngons.glb").string()).ok());
+    furrow::CheckReport c = furrow::check_primitive(s.meshes[0].primitives[0]);
+    EXPECT_EQ(c.non_manifold_edges, 0u);
+    EXPECT_TRUE(c.closed);
+    EXPECT_EQ(c.triangles, 4u);
+}
+
 TEST(convert_cli, MissingFile) {
     const auto dir = temp_dir();
     const std::string in = (dir / "nope.glb").string();

@@ -69,7 +69,8 @@ struct Primitive {
     std::vector<CustomAttribute> custom;
     // Faces: corner indices concatenated. face_sizes[i] = corners of face i; empty face_sizes means every face
     // is a triangle. Quads and n-gons are kept from formats that have them (OBJ, PLY, OFF), so that
-    // Catmull-Clark sees them; glTF output triangulates them (fan, with the polygon's own corner order).
+    // Catmull-Clark sees them; glTF output, the rasterizer, shells and stamping triangulate them
+    // (triangulate_polygons).
     // For points/lines, indices are the point/segment indices and face_sizes is empty.
     std::vector<uint32_t> indices;
     std::vector<uint32_t> face_sizes;
@@ -77,11 +78,20 @@ struct Primitive {
 
     size_t vertex_count() const { return positions.size() / 3; }
     size_t face_count() const { return face_sizes.empty() ? indices.size() / 3 : face_sizes.size(); }
-    // Number of triangles after fan triangulation of the faces.
+    // Number of triangles after triangulation of the faces (s − 2 per face of s >= 3 corners).
     size_t triangle_count() const;
 };
 
-// Fan-triangulates the faces of a primitive (quads/n-gons) in place; face_sizes becomes empty.
+// Triangulates polygons given as concatenated corner indices and their sizes: ear clipping in each polygon's
+// best-fit plane (valid for non-convex and non-planar polygons, same winding), choosing diagonals that are
+// not already edges of the mesh (compared by welded position), so a manifold input stays manifold. A convex
+// polygon with no conflicting diagonal gets the fan from its first corner. Faces of fewer than 3 corners are
+// dropped; a face with an index out of range or no area, or of more than 1024 corners, is fanned. Writes
+// 3 indices per triangle into out and returns the triangle count.
+size_t triangulate_polygons(std::vector<uint32_t>& out, const uint32_t* indices, size_t index_count,
+                            const uint32_t* face_sizes, size_t face_count, const float* positions, size_t vertex_count);
+// Triangulates the faces of a primitive (quads/n-gons) in place with triangulate_polygons; face_sizes
+// becomes empty.
 void triangulate(Primitive& primitive);
 
 struct Mesh {

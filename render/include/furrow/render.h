@@ -92,7 +92,7 @@ struct RenderResult {
     ImageF depth;
     std::vector<uint8_t> rgba8; // color quantized, width × height × 4 (what encode_png_rgba8 takes)
     std::vector<std::string> warnings; // each distinct problem once (a missing texture, an unknown sampler, ...)
-    size_t triangles = 0;      // triangles submitted (after fan triangulation of the faces)
+    size_t triangles = 0;      // triangles submitted (after triangulation of the faces)
     size_t nan_triangles = 0;  // skipped because a vertex position was NaN or infinite (after transform)
     size_t culled = 0;         // back faces of single-sided materials
     float attribute_min = 0, attribute_max = 0; // RenderMode::attribute: the range the colours map
