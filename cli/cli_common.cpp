@@ -31,22 +31,8 @@ static std::array<double, 3> parse_vec3(const std::string& s, const char* flag) 
     return v;
 }
 
-void add_camera_flags(CLI::App& cmd, CameraFlags& f) {
-    cmd.add_option_function<std::string>("--camera", [&f](const std::string& s) { f.eye = parse_vec3(s, "--camera"); },
-                                         "Camera position x,y,z (default: frames the scene from a 3/4 view)");
-    cmd.add_option_function<std::string>("--target", [&f](const std::string& s) { f.target = parse_vec3(s, "--target"); },
-                                         "Point the camera looks at x,y,z (default: the scene's bounding-box centre)");
-    // A zero up vector is a bad option value (exit 2), not a problem of the input file (it was reported by the
-    // renderer as "Error: <input>: camera values must be finite, up non-zero", exit 1).
-    cmd.add_option_function<std::string>("--up",
-                                         [&f](const std::string& s) {
-                                             f.up = parse_vec3(s, "--up");
-                                             if (f.up[0] == 0 && f.up[1] == 0 && f.up[2] == 0)
-                                                 throw CLI::ValidationError("--up", "must not be the zero vector");
-                                         },
-                                         "Up direction x,y,z (default 0,1,0)");
-    cmd.add_option("--fov", f.fov_degrees, "Vertical field of view in degrees (default 45)")
-        ->check(CLI::Range(1.0, 179.0));
+// --size WxH, each 1..16384.
+static void add_size_flag(CLI::App& cmd, CameraFlags& f, const std::string& help) {
     cmd.add_option_function<std::string>(
         "--size",
         [&f](const std::string& s) {
@@ -60,7 +46,35 @@ void add_camera_flags(CLI::App& cmd, CameraFlags& f) {
             f.width = w;
             f.height = h;
         },
-        "Image size WxH in pixels, each 1..16384 (default 1024x768)");
+        help);
+}
+
+void add_camera_flags(CLI::App& cmd, CameraFlags& f, CameraUse use) {
+    cmd.add_option_function<std::string>("--camera", [&f](const std::string& s) { f.eye = parse_vec3(s, "--camera"); },
+                                         use == CameraUse::view
+                                             ? "Camera position x,y,z (default: frames the scene from a 3/4 view)"
+                                             : "Eye position x,y,z the output is refined for (distances are measured "
+                                               "from it; where it looks does not matter)");
+    if (use == CameraUse::eye) {
+        cmd.add_option("--fov", f.fov_degrees, "Vertical field of view of that eye in degrees (default 45)")
+            ->check(CLI::Range(1.0, 179.0));
+        add_size_flag(cmd, f, "Image size WxH the pixel criteria refer to (only the height matters; default 1024x768)");
+        return;
+    }
+    cmd.add_option_function<std::string>("--target", [&f](const std::string& s) { f.target = parse_vec3(s, "--target"); },
+                                         "Point the camera looks at x,y,z (default: the scene's bounding-box centre)");
+    // A zero up vector is a bad option value (exit 2), not a problem of the input file (it was reported by the
+    // renderer as "Error: <input>: camera values must be finite, up non-zero", exit 1).
+    cmd.add_option_function<std::string>("--up",
+                                         [&f](const std::string& s) {
+                                             f.up = parse_vec3(s, "--up");
+                                             if (f.up[0] == 0 && f.up[1] == 0 && f.up[2] == 0)
+                                                 throw CLI::ValidationError("--up", "must not be the zero vector");
+                                         },
+                                         "Up direction x,y,z (default 0,1,0)");
+    cmd.add_option("--fov", f.fov_degrees, "Vertical field of view in degrees (default 45)")
+        ->check(CLI::Range(1.0, 179.0));
+    add_size_flag(cmd, f, "Image size WxH in pixels, each 1..16384 (default 1024x768)");
 }
 
 Scene load_or_throw(const std::string& path, const LoadOptions& options) {

@@ -42,7 +42,11 @@ struct CameraFlags {
     double fov_degrees = 45.0;                   // --fov (vertical)
     int width = 1024, height = 768;              // --size WxH
 };
-void add_camera_flags(CLI::App& cmd, CameraFlags& flags);
+// view: a camera that renders (render): --camera (default: a 3/4 view framing the scene), --target, --up,
+// --fov, --size. eye: the eye an output is refined for (stamp, tessellate), where only the position, the
+// field of view and the image height matter: --camera, --fov, --size; --target and --up are not accepted.
+enum class CameraUse { view, eye };
+void add_camera_flags(CLI::App& cmd, CameraFlags& flags, CameraUse use = CameraUse::view);
 
 // Loads a scene or throws InputError naming the file.
 Scene load_or_throw(const std::string& path, const LoadOptions& options = {});

@@ -76,7 +76,7 @@ void register_stamp(CLI::App& app, GlobalFlags& g) {
         ->check(CLI::PositiveNumber);
     cmd->add_option("--heightmap-out", a->heightmap_out, "Write the heightmap: .pfm (float32) or .png (16-bit, scale recorded)");
     cmd->add_option("--heightmap-in", a->heightmap_in, "Start from a heightmap written by --heightmap-out (new stamps are min-composited)");
-    add_camera_flags(*cmd, a->camera);
+    add_camera_flags(*cmd, a->camera, CameraUse::eye);
     cmd->footer("Examples:\n"
                 "  furrow stamp models/ground.glb -o snow.glb --colliders models/colliders.json\n"
                 "  furrow stamp models/ground.glb -o snow.glb --colliders models/colliders.json --texel 0.01 --rim 0.08 --conserve-volume\n"

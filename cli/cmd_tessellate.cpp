@@ -52,10 +52,10 @@ void register_tessellate(CLI::App& app, GlobalFlags& g) {
                                            "(keeps the shape: terrain)")
         ->check(CLI::IsMember({"catmark", "loop", "bilinear"}));
     cmd->add_option("--uniform", a->uniform, "Criterion: this many segments on every edge")->check(CLI::Range(1, 32767));
-    add_camera_flags(*cmd, a->camera);
+    add_camera_flags(*cmd, a->camera, CameraUse::eye);
     cmd->add_option("--near", a->near, "Criterion (with --far and --camera): Unity's distance-based factor, full rate "
-                                       "up to this distance from the camera ...");
-    cmd->add_option("--far", a->far, "... falling to 1% of --max-rate at this distance");
+                                       "up to this distance from the camera (>= 0) ...");
+    cmd->add_option("--far", a->far, "... falling to 1% of --max-rate at this distance (> --near)");
     cmd->add_option("--pixel-error", a->pixel_error,
                     "Criterion (with --camera): projected segments of at most this many pixels (Cycles' dicing rate)")
         ->check(CLI::PositiveNumber);

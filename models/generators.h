@@ -333,7 +333,7 @@ inline ImageF footprint_brush() {
 }
 
 // ---------------------------------------------------------------------------------------------------------
-// Colliders (schema of issue 6): a walking trail of footprints, a rolling ball, a dropped crate and a
+// Colliders (schema in deform/README.md): a walking trail of footprints, a rolling ball, a dropped crate and a
 // dragged log, all placed on the ground mesh (ground_surface_height).
 // ---------------------------------------------------------------------------------------------------------
 inline std::string fmt(double v) {

@@ -450,8 +450,12 @@ std::vector<Case> catalog() {
     c.push_back({"CameraNaN", nothing(), {"render", "@/good.glb", "-o", "@/out.png", "--camera", "nan,0,0"}, 2, "", "--camera"});
     c.push_back({"CameraOnTarget", nothing(), {"render", "@/good.glb", "-o", "@/out.png", "--camera", "1,1,1", "--target", "1,1,1"}, 2, "",
                  "coincide"});
-    c.push_back({"UpZero", nothing(), {"tessellate", "@/good.glb", "-o", "@/out.glb", "--camera", "0,0,3", "--pixel-error", "2", "--up", "0,0,0"}, 2,
+    c.push_back({"UpZero", nothing(), {"render", "@/good.glb", "-o", "@/out.png", "--camera", "0,0,3", "--up", "0,0,0"}, 2, "", "--up"});
+    // stamp and tessellate refine for an eye position; a --target or --up they would ignore is refused.
+    c.push_back({"UpIgnoredByTessellate", nothing(), {"tessellate", "@/good.glb", "-o", "@/out.glb", "--camera", "0,0,3", "--pixel-error", "2", "--up", "0,0,1"}, 2,
                  "", "--up"});
+    c.push_back({"TargetIgnoredByStamp", nothing(), cat({"stamp", "@/ground.glb", "-o", "@/out.glb", "--camera", "0,0,3", "--target", "0,0,0"}, kStamp), 2,
+                 "", "--target"});
     c.push_back({"FovOutOfRange", nothing(), {"render", "@/good.glb", "-o", "@/out.png", "--fov", "180"}, 2, "", "--fov"});
     // NaN passed CLI11's range checks and came back from the library as an input error naming the mesh.
     c.push_back({"SliverAngleNaN", nothing(), {"check", "@/good.glb", "--sliver-angle", "nan"}, 2, "", "--sliver-angle"});
