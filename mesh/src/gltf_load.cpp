@@ -483,6 +483,37 @@ Status check_node_graph(const tinygltf::Model& m) {
     return Status::success();
 }
 
+// The default scene's root nodes, repaired: glTF 2.0 §3.5.2 says a scene lists root nodes only, and exporters
+// (UniGLTF, in Kenney's kits) list children too (the validator's SCENE_NON_ROOT_NODE), which a writer that
+// copies the list passes on. A listed child is replaced by its root ancestor: dropped when that root is
+// listed anyway (the usual case: the child was drawn through it), added otherwise (its siblings come along).
+// Duplicates are dropped. Each repair is one warning. The node graph is a forest here (check_node_graph).
+std::vector<int> scene_roots(const tinygltf::Model& model, int scene_index, std::vector<std::string>& warnings) {
+    std::vector<int> parent(model.nodes.size(), -1);
+    for (size_t i = 0; i < model.nodes.size(); ++i)
+        for (int c : model.nodes[i].children) parent[size_t(c)] = int(i);
+    std::vector<int> roots;
+    std::vector<char> entry(model.nodes.size(), 0), root_added(model.nodes.size(), 0);
+    std::string children, duplicates;
+    for (int r : model.scenes[size_t(scene_index)].nodes) {
+        if (entry[size_t(r)]) duplicates += (duplicates.empty() ? "" : ", ") + std::to_string(r);
+        entry[size_t(r)] = 1;
+        int root = r;
+        while (parent[size_t(root)] >= 0) root = parent[size_t(root)];
+        if (root != r) children += (children.empty() ? "" : ", ") + std::to_string(r);
+        if (!root_added[size_t(root)]) roots.push_back(root);
+        root_added[size_t(root)] = 1;
+    }
+    // A root listed after one of its children keeps the place the child gave it; the order of roots does not
+    // change what is drawn.
+    const std::string scene = "scene " + std::to_string(scene_index);
+    if (!children.empty())
+        warnings.push_back(scene + " lists node " + children + ", a child of another node (glTF requires root "
+                           "nodes); listing its root node instead");
+    if (!duplicates.empty()) warnings.push_back(scene + " lists node " + duplicates + " twice; listed once");
+    return roots;
+}
+
 Status convert_model(Scene& out, tinygltf::Model&& model, const LoadOptions& options) {
     for (const auto& e : model.extensionsRequired) {
         if (!required_extension_supported(e))
@@ -528,11 +559,10 @@ Status convert_model(Scene& out, tinygltf::Model&& model, const LoadOptions& opt
     }
     if (!model.scenes.empty()) {
         int si = model.defaultScene >= 0 && size_t(model.defaultScene) < model.scenes.size() ? model.defaultScene : 0;
-        for (int r : model.scenes[size_t(si)].nodes) {
+        for (int r : model.scenes[size_t(si)].nodes)
             if (r < 0 || size_t(r) >= model.nodes.size())
                 return Status::error(StatusCode::invalid_input, "scene " + std::to_string(si) + ": node " + std::to_string(r) + " does not exist");
-            scene.roots.push_back(r);
-        }
+        scene.roots = scene_roots(model, si, scene.warnings);
     } else {
         // No scene: every parentless node is a root, so that nothing is lost.
         std::vector<char> child(model.nodes.size(), 0);

@@ -626,6 +626,73 @@ TEST(BadInputCatalogCoverage, EveryCommandAndEnoughKinds) {
     for (const auto& c : cases) EXPECT_TRUE(names.insert(c.name).second) << "duplicate row " << c.name;
 }
 
+// Repairable spec violations of the input: the command succeeds, says what it repaired in one warning, and
+// its output passes the validator with 0 errors and 0 warnings (it used to inherit the violation).
+struct RepairRow {
+    std::string name;
+    std::function<void(json&)> edit;  // of Quad{}.doc(), written as @/in.gltf
+    std::vector<std::string> command; // "@/" = the row's folder; writes @/out.glb
+    std::string warning;              // a fragment of the warning
+};
+
+std::vector<RepairRow> repairs() {
+    // Node 1 is node 0's child and is listed by the scene too (SCENE_NON_ROOT_NODE, as UniGLTF's Kenney kits).
+    auto child_listed = [](json& j) {
+        j["nodes"].push_back({{"mesh", 0}, {"translation", {0, 0, 1}}});
+        j["nodes"][0]["children"] = {1};
+        j["scenes"][0]["nodes"] = {0, 1};
+    };
+    // Node 1 is node 0's child, listed instead of its parent: its root is listed in its place.
+    auto only_child_listed = [](json& j) {
+        j["nodes"].push_back({{"mesh", 0}, {"translation", {0, 0, 1}}});
+        j["nodes"][0]["children"] = {1};
+        j["scenes"][0]["nodes"] = {1};
+    };
+    auto twice = [](json& j) { j["scenes"][0]["nodes"] = {0, 0}; };
+    auto ground_child_listed = [child_listed](json& j) { // the quad laid flat (y up), for stamp
+        child_listed(j);
+        j["nodes"][0]["rotation"] = {-0.70710678, 0, 0, 0.70710678};
+    };
+    const std::vector<std::string> out{"-o", "@/out.glb"};
+    auto cmd = [&](std::vector<std::string> c) {
+        c.insert(c.begin() + 2, out.begin(), out.end());
+        return c;
+    };
+    return {
+        {"ConvertSceneListsChildNode", child_listed, cmd({"convert", "@/in.gltf"}), "a child of another node"},
+        {"ConvertSceneListsOnlyAChild", only_child_listed, cmd({"convert", "@/in.gltf"}), "a child of another node"},
+        {"ConvertSceneListsNodeTwice", twice, cmd({"convert", "@/in.gltf"}), "twice"},
+        {"TessellateSceneListsChildNode", child_listed, cmd({"tessellate", "@/in.gltf", "--uniform", "2"}), "a child of another node"},
+        {"StampSceneListsChildNode", ground_child_listed, cat(cmd({"stamp", "@/in.gltf"}), kStamp), "a child of another node"},
+        {"ShellsSceneListsChildNode", child_listed, cat(cmd({"shells", "@/in.gltf"}), kShells), "a child of another node"},
+    };
+}
+
+class RepairCatalog : public ::testing::TestWithParam<RepairRow> {};
+
+TEST_P(RepairCatalog, RepairedWithOneWarning) {
+    const RepairRow& c = GetParam();
+    const fs::path dir = test::temp_dir();
+    write_common(dir);
+    json j = Quad{}.doc();
+    c.edit(j);
+    test::write_text(dir / "in.gltf", j.dump());
+    std::vector<std::string> args;
+    for (const std::string& a : c.command) args.push_back(a.rfind("@/", 0) == 0 ? (dir / a.substr(2)).string() : a);
+    const auto r = run_furrow(args);
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_TRUE(error_lines(r.err).empty()) << r.err;
+    EXPECT_NE(r.err.find("Warning: " + (dir / "in.gltf").string() + ": "), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find(c.warning), std::string::npos) << r.err;
+    EXPECT_VALID_GLTF(dir / "out.glb");
+    Scene s;
+    ASSERT_TRUE(load_scene(s, (dir / "out.glb").string()).ok());
+    EXPECT_TRUE(s.warnings.empty()) << s.warnings.front(); // nothing left to repair
+}
+
+INSTANTIATE_TEST_SUITE_P(Catalog, RepairCatalog, ::testing::ValuesIn(repairs()),
+                         [](const ::testing::TestParamInfo<RepairRow>& i) { return i.param.name; });
+
 // Not an error, documented: a glTF whose texture image file is missing loads with one warning naming the
 // image and renders with the material's factor (exit 0).
 TEST(BadInputCatalogCoverage, MissingTextureImageIsOneWarning) {
