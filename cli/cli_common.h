@@ -48,6 +48,10 @@ struct CameraFlags {
 enum class CameraUse { view, eye };
 void add_camera_flags(CLI::App& cmd, CameraFlags& flags, CameraUse use = CameraUse::view);
 
+// The output size commands refuse above unless --max-triangles says otherwise: 20 M triangles is a GLB of
+// about 0.6 GB with normals and UVs, well inside the format's 4 GiB and a machine's memory.
+constexpr size_t kDefaultTriangleBudget = 20'000'000;
+
 // Loads a scene or throws InputError naming the file.
 Scene load_or_throw(const std::string& path, const LoadOptions& options = {});
 // Saves or throws InputError naming the output; refuses output == input.

@@ -52,6 +52,7 @@ void register_shells(CLI::App& app, GlobalFlags& g) {
     };
     auto a = std::make_shared<Args>();
     a->fur.shells.length = NAN; // required
+    a->fur.max_triangles = kDefaultTriangleBudget;
     CLI::App* cmd = app.add_subcommand("shells", "Grow fur shells (and fins, LOD levels) on a mesh; writes glTF any viewer shows");
     cmd->add_option("input", a->in, "Input file (.gltf .glb .obj .ply .off .stl)")->required();
     cmd->add_option("-o,--output", a->out, "Output .glb or .gltf")->required();
@@ -99,6 +100,10 @@ void register_shells(CLI::App& app, GlobalFlags& g) {
     cmd->add_option("--seed", a->fur.strands.seed, "Seed of the strand textures (default 1)");
     cmd->add_option("--root-shade", a->fur.root_shade, "Brightness at the roots relative to the tips, 0..1 (default 0.45)")
         ->check(CLI::Range(0.0, 1.0));
+    cmd->add_option("--max-triangles", a->fur.max_triangles,
+                    "Refuse, before growing anything, when the shells could add more triangles than this "
+                    "(default 20000000)")
+        ->check(CLI::PositiveNumber);
     cmd->footer("Examples:\n"
                 "  furrow shells models/creature.glb -o furry.glb --layers 32 --length 0.04 --mask models/creature_fur_mask.png\n"
                 "  furrow shells Fox.glb -o fox_fur.glb --layers 16 --length 3 --fins --lod 3\n"

@@ -72,7 +72,9 @@ void register_tessellate(CLI::App& app, GlobalFlags& g) {
     cmd->add_option("--max-rate", a->max_rate, "Most segments per edge (default 64, or the --uniform rate if larger)")
         ->check(CLI::Range(1, 32767));
     cmd->add_option("--max-triangles", a->max_triangles,
-                    "Scale every rate down until the whole scene has at most this many triangles");
+                    "Scale every rate down until the whole scene has at most this many triangles (default: refuse, "
+                    "before evaluating anything, an output the rates would make over 20000000 triangles)")
+        ->check(CLI::PositiveNumber);
     cmd->add_option("--crease-angle", a->crease_angle,
                     "Edges where faces meet at more than this angle (degrees) become sharp creases (default: none)")
         ->check(CLI::Range(0.0, 180.0));
@@ -100,6 +102,7 @@ void register_tessellate(CLI::App& app, GlobalFlags& g) {
                 "  furrow tessellate fox.glb -o fox.glb --camera 0,50,300 --screen-error 0.5 --focus 0,40,60,20");
     cmd->callback([a, &g] {
         TessellateOptions o;
+        o.triangle_budget = kDefaultTriangleBudget;
         o.surface.scheme = a->scheme == "loop"       ? SubdivisionScheme::loop
                            : a->scheme == "bilinear" ? SubdivisionScheme::bilinear
                                                      : SubdivisionScheme::catmark;

@@ -520,7 +520,14 @@ Status save_scene(const Scene& scene, const std::string& path, const SaveOptions
         std::string text = j.dump();
         while (text.size() % 4) text.push_back(' ');
         while (bin.size() % 4) bin.push_back(0);
-        const uint32_t total = uint32_t(12 + 8 + text.size() + (bin.empty() ? 0 : 8 + bin.size()));
+        // The GLB header stores the file's length in 32 bits: a larger file cannot be written as GLB at all
+        // (it used to be truncated silently into a corrupt file).
+        const uint64_t size = 12 + 8 + uint64_t(text.size()) + (bin.empty() ? 0 : 8 + uint64_t(bin.size()));
+        if (size > UINT32_MAX)
+            return Status::error(StatusCode::invalid_argument,
+                                 "the GLB would be " + std::to_string(size) + " bytes, over the format's limit of " +
+                                     std::to_string(UINT32_MAX) + " (4 GiB); write .gltf with a .bin, or less geometry");
+        const uint32_t total = uint32_t(size);
         std::vector<uint8_t> glb;
         glb.reserve(total);
         auto u32 = [&glb](uint32_t v) {

@@ -335,10 +335,19 @@ Status tessellate_scene(Scene& scene, const TessellateOptions& options, SceneTes
             job->rates = options.rates;
             job->rates.instances = mesh_instances(scene, mi, world);
             job->rates.max_triangles = 0;
-            if (options.rates.max_triangles > 0)
+            if (options.rates.max_triangles > 0 || options.triangle_budget > 0)
                 if (Status s = job->tess.count_triangles(job->count, job->rates); !s.ok())
                     return Status::error(s.code, where + ": " + s.message);
             jobs.push_back(std::move(job));
+        }
+        if (options.rates.max_triangles == 0 && options.triangle_budget > 0) {
+            size_t total = 0;
+            for (const auto& j : jobs) total += j->count;
+            if (total > options.triangle_budget)
+                return Status::error(StatusCode::invalid_argument,
+                                     "the rates would make about " + std::to_string(total) + " triangles, over the budget of " +
+                                         std::to_string(options.triangle_budget) +
+                                         " (--max-triangles N scales the rates down to fit N)");
         }
         if (options.rates.max_triangles > 0) {
             size_t total = 0;

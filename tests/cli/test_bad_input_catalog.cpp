@@ -451,6 +451,12 @@ std::vector<Case> catalog() {
     c.push_back({"CameraOnTarget", nothing(), {"render", "@/good.glb", "-o", "@/out.png", "--camera", "1,1,1", "--target", "1,1,1"}, 2, "",
                  "coincide"});
     c.push_back({"UpZero", nothing(), {"render", "@/good.glb", "-o", "@/out.png", "--camera", "0,0,3", "--up", "0,0,0"}, 2, "", "--up"});
+    // Output-size guards: refused from the estimate, before anything is evaluated (a 4 km terrain at
+    // --max-error 0.01 ran 125 s and wrote 2.2 GB).
+    c.push_back({"TessellateOverTheTriangleBudget", nothing(), {"tessellate", "@/good.glb", "-o", "@/out.glb", "--uniform", "2000"}, 1,
+                 "@/good.glb", "--max-triangles"});
+    c.push_back({"ShellsOverTheTriangleLimit", nothing(), cat({"shells", "@/good.glb", "-o", "@/out.glb", "--max-triangles", "100"}, kShells), 1,
+                 "@/good.glb", "--max-triangles"});
     // stamp and tessellate refine for an eye position; a --target or --up they would ignore is refused.
     c.push_back({"UpIgnoredByTessellate", nothing(), {"tessellate", "@/good.glb", "-o", "@/out.glb", "--camera", "0,0,3", "--pixel-error", "2", "--up", "0,0,1"}, 2,
                  "", "--up"});

@@ -143,6 +143,10 @@ struct FurOptions {
     double tile_size = 0;       // world size of one strand-texture tile; 0 = 4 × length
     double root_shade = 0.45;   // COLOR_0 = albedo × (root_shade + (1 − root_shade) × height fraction)
     bool keep_frames = false;   // return each primitive's ShellFrame in FurReport::frames (for measurements)
+    size_t max_triangles = 0;   // > 0: refuse (invalid_argument), before anything is grown, when the shells,
+                                // fins and LOD levels could add more triangles than this (base triangles ×
+                                // shells of every level, + 6 per triangle and level with fins); `furrow shells`
+                                // sets 20,000,000
 };
 
 struct FurFrame {

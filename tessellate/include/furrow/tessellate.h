@@ -97,6 +97,10 @@ struct RateOptions {
 struct TessellateOptions {
     SurfaceOptions surface;
     RateOptions rates;
+    // Scene level: > 0 (and rates.max_triangles == 0): when the rates would make more triangles than this,
+    // tessellate_scene refuses (invalid_argument, naming the estimate) before evaluating any surface, so a
+    // too-fine criterion fails in seconds instead of writing gigabytes. `furrow tessellate` sets 20,000,000.
+    size_t triangle_budget = 0;
     bool keep_parameters = false; // fill TessellateOutput::triangle_patches/_coords (for Tessellator::measure)
 };
 
