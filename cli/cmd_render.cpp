@@ -73,17 +73,103 @@ std::array<float, 3> parse_colour(const std::string& s) {
     return c;
 }
 
+struct RenderArgs {
+    std::string in, out, mode, attribute, background, depth_out;
+    bool ortho = false, no_legend = false, no_mipmaps = false;
+    double ortho_height = 0, ambient = 0.25, near_plane = 0;
+    int ssaa = 1, subpixel_bits = 8;
+    CameraFlags camera;
+};
+
+// Validates the arguments, renders, and writes the PNG (and the depth) atomically.
+void run_render(const RenderArgs& a, const GlobalFlags& g) {
+    RenderOptions o;
+    o.width = a.camera.width;
+    o.height = a.camera.height;
+    o.camera.eye = a.camera.eye;
+    o.camera.target = a.camera.target;
+    o.camera.up = a.camera.up;
+    o.camera.fov_degrees = a.camera.fov_degrees;
+    o.camera.orthographic = a.ortho;
+    o.camera.ortho_height = a.ortho_height;
+    o.ssaa = a.ssaa;
+    o.legend = !a.no_legend;
+    o.mipmaps = !a.no_mipmaps;
+    o.subpixel_bits = a.subpixel_bits;
+    o.ambient = float(a.ambient);
+    o.camera.near_plane = a.near_plane;
+    static const std::pair<const char*, RenderMode> modes[] = {
+        {"shaded", RenderMode::shaded}, {"normals", RenderMode::normals},     {"uv", RenderMode::uv},
+        {"depth", RenderMode::depth},   {"wireframe", RenderMode::wireframe}, {"attribute", RenderMode::attribute},
+        {"cutoff", RenderMode::cutoff}};
+    std::string mode = a.mode.empty() ? (a.attribute.empty() ? "shaded" : "attribute") : a.mode;
+    for (const auto& [name, m] : modes)
+        if (mode == name) o.mode = m;
+    if (o.mode == RenderMode::attribute && a.attribute.empty())
+        throw CLI::ValidationError("--mode", "attribute mode needs --attribute NAME");
+    if (o.mode != RenderMode::attribute && !a.attribute.empty())
+        throw CLI::ValidationError("--attribute", "only used with --mode attribute");
+    o.attribute = a.attribute;
+    if (a.ortho_height > 0 && !a.ortho) throw CLI::ValidationError("--ortho-height", "needs --ortho");
+    // Both given and equal is a bad command line (exit 2); it was an input error naming the mesh (exit 1).
+    if (a.camera.eye && a.camera.target && *a.camera.eye == *a.camera.target)
+        throw CLI::ValidationError("--camera", "the camera position and --target coincide");
+    if (!a.background.empty()) o.background = parse_colour(a.background);
+    if (lower_extension(a.out) != ".png") throw CLI::ValidationError("--output", "must end in .png");
+    if (!a.depth_out.empty() && lower_extension(a.depth_out) != ".pfm")
+        throw CLI::ValidationError("--depth-out", "must end in .pfm");
+    for (const std::string* out : {&a.out, &a.depth_out})
+        if (!out->empty() && same_file(*out, a.in))
+            throw InputError(*out, "output path is the input file; refusing to overwrite the input");
+
+    Progress progress(g, "furrow render");
+    progress.stage("loading " + a.in);
+    Scene scene = load_or_throw(a.in);
+    for (const auto& w : scene.warnings) info(g, "Warning: " + a.in + ": " + w);
+    RenderResult r;
+    progress.stage("rendering");
+    require_ok(render_scene(r, scene, o), a.in);
+    for (const auto& w : r.warnings) info(g, "Warning: " + a.in + ": " + w);
+    // Both outputs or neither: the PNG used to be renamed into place before the depth file was even
+    // opened, so an unwritable --depth-out left the PNG behind. Stage both, then rename both.
+    const std::string png_temp = stage_file(a.out, encode_png_rgba8(r.rgba8.data(), r.color.width, r.color.height));
+    std::string depth_temp;
+    if (!a.depth_out.empty()) {
+        try {
+            depth_temp = stage_file(a.depth_out, encode_pfm(r.depth));
+        } catch (...) {
+            std::error_code ec;
+            std::filesystem::remove(png_temp, ec);
+            throw;
+        }
+    }
+    const bool had_png = std::filesystem::exists(a.out);
+    try {
+        commit_file(png_temp, a.out);
+    } catch (...) {
+        std::error_code ec;
+        if (!depth_temp.empty()) std::filesystem::remove(depth_temp, ec);
+        throw;
+    }
+    if (!depth_temp.empty()) {
+        try {
+            commit_file(depth_temp, a.depth_out);
+        } catch (...) {
+            std::error_code ec;
+            if (!had_png) std::filesystem::remove(a.out, ec);
+            throw;
+        }
+    }
+    char timing[64];
+    std::snprintf(timing, sizeof timing, "%.1f ms", r.timing.total);
+    info(g, "Wrote " + a.out + " (" + std::to_string(o.width) + "x" + std::to_string(o.height) + ", " + mode +
+                ", " + std::to_string(r.triangles) + " triangles, " + timing + ")");
+}
+
 } // namespace
 
 void register_render(CLI::App& app, GlobalFlags& g) {
-    struct Args {
-        std::string in, out, mode, attribute, background, depth_out;
-        bool ortho = false, no_legend = false, no_mipmaps = false;
-        double ortho_height = 0, ambient = 0.25, near_plane = 0;
-        int ssaa = 1, subpixel_bits = 8;
-        CameraFlags camera;
-    };
-    auto args = std::make_shared<Args>();
+    auto args = std::make_shared<RenderArgs>();
     CLI::App* cmd = app.add_subcommand("render", "Render a scene to a PNG with the verification rasterizer");
     cmd->add_option("input", args->in, "Input file (.gltf .glb .obj .ply .off .stl)")->required();
     cmd->add_option("-o,--output", args->out, "Output PNG (RGBA; transparent where nothing is drawn)")->required();
@@ -122,89 +208,7 @@ void register_render(CLI::App& app, GlobalFlags& g) {
                 "  furrow render terrain.glb -o top.png --ortho --mode depth --depth-out top.pfm\n"
                 "  furrow render shells.glb -o length.png --attribute _FUR_LENGTH\n"
                 "  furrow render bunny.obj -o wire.png --mode wireframe --camera 0.3,0.2,0.4 --target 0,0.1,0 --fov 30");
-    cmd->callback([args, &g] {
-        RenderOptions o;
-        o.width = args->camera.width;
-        o.height = args->camera.height;
-        o.camera.eye = args->camera.eye;
-        o.camera.target = args->camera.target;
-        o.camera.up = args->camera.up;
-        o.camera.fov_degrees = args->camera.fov_degrees;
-        o.camera.orthographic = args->ortho;
-        o.camera.ortho_height = args->ortho_height;
-        o.ssaa = args->ssaa;
-        o.legend = !args->no_legend;
-        o.mipmaps = !args->no_mipmaps;
-        o.subpixel_bits = args->subpixel_bits;
-        o.ambient = float(args->ambient);
-        o.camera.near_plane = args->near_plane;
-        static const std::pair<const char*, RenderMode> modes[] = {
-            {"shaded", RenderMode::shaded}, {"normals", RenderMode::normals},     {"uv", RenderMode::uv},
-            {"depth", RenderMode::depth},   {"wireframe", RenderMode::wireframe}, {"attribute", RenderMode::attribute},
-            {"cutoff", RenderMode::cutoff}};
-        std::string mode = args->mode.empty() ? (args->attribute.empty() ? "shaded" : "attribute") : args->mode;
-        for (const auto& [name, m] : modes)
-            if (mode == name) o.mode = m;
-        if (o.mode == RenderMode::attribute && args->attribute.empty())
-            throw CLI::ValidationError("--mode", "attribute mode needs --attribute NAME");
-        if (o.mode != RenderMode::attribute && !args->attribute.empty())
-            throw CLI::ValidationError("--attribute", "only used with --mode attribute");
-        o.attribute = args->attribute;
-        if (args->ortho_height > 0 && !args->ortho) throw CLI::ValidationError("--ortho-height", "needs --ortho");
-        // Both given and equal is a bad command line (exit 2); it was an input error naming the mesh (exit 1).
-        if (args->camera.eye && args->camera.target && *args->camera.eye == *args->camera.target)
-            throw CLI::ValidationError("--camera", "the camera position and --target coincide");
-        if (!args->background.empty()) o.background = parse_colour(args->background);
-        if (lower_extension(args->out) != ".png") throw CLI::ValidationError("--output", "must end in .png");
-        if (!args->depth_out.empty() && lower_extension(args->depth_out) != ".pfm")
-            throw CLI::ValidationError("--depth-out", "must end in .pfm");
-        for (const std::string* out : {&args->out, &args->depth_out})
-            if (!out->empty() && same_file(*out, args->in))
-                throw InputError(*out, "output path is the input file; refusing to overwrite the input");
-
-        Progress progress(g, "furrow render");
-        progress.stage("loading " + args->in);
-        Scene scene = load_or_throw(args->in);
-        for (const auto& w : scene.warnings) info(g, "Warning: " + args->in + ": " + w);
-        RenderResult r;
-        progress.stage("rendering");
-        require_ok(render_scene(r, scene, o), args->in);
-        for (const auto& w : r.warnings) info(g, "Warning: " + args->in + ": " + w);
-        // Both outputs or neither: the PNG used to be renamed into place before the depth file was even
-        // opened, so an unwritable --depth-out left the PNG behind. Stage both, then rename both.
-        const std::string png_temp = stage_file(args->out, encode_png_rgba8(r.rgba8.data(), r.color.width, r.color.height));
-        std::string depth_temp;
-        if (!args->depth_out.empty()) {
-            try {
-                depth_temp = stage_file(args->depth_out, encode_pfm(r.depth));
-            } catch (...) {
-                std::error_code ec;
-                std::filesystem::remove(png_temp, ec);
-                throw;
-            }
-        }
-        const bool had_png = std::filesystem::exists(args->out);
-        try {
-            commit_file(png_temp, args->out);
-        } catch (...) {
-            std::error_code ec;
-            if (!depth_temp.empty()) std::filesystem::remove(depth_temp, ec);
-            throw;
-        }
-        if (!depth_temp.empty()) {
-            try {
-                commit_file(depth_temp, args->depth_out);
-            } catch (...) {
-                std::error_code ec;
-                if (!had_png) std::filesystem::remove(args->out, ec);
-                throw;
-            }
-        }
-        char timing[64];
-        std::snprintf(timing, sizeof timing, "%.1f ms", r.timing.total);
-        info(g, "Wrote " + args->out + " (" + std::to_string(o.width) + "x" + std::to_string(o.height) + ", " + mode +
-                    ", " + std::to_string(r.triangles) + " triangles, " + timing + ")");
-    });
+    cmd->callback([args, &g] { run_render(*args, g); });
 }
 
 } // namespace furrow::cli

@@ -326,6 +326,21 @@ void copy_attributes(Primitive& out, const Primitive& base, const std::vector<ui
     }
 }
 
+// FurOptions::max_triangles against an upper bound of what would be added: every base triangle on every shell
+// of every level, and two fin triangles per edge (3 edges per triangle at most) on every level.
+Status check_triangle_limit(const Scene& scene, const std::vector<std::pair<size_t, size_t>>& work, const FurOptions& opt) {
+    if (opt.max_triangles == 0) return Status::success();
+    size_t base = 0, shells = 0;
+    for (const auto& [mi, pi] : work) base += scene.meshes[mi].primitives[pi].triangle_count();
+    for (int k = 0; k < opt.shells.lod_levels; ++k) shells += size_t(std::max(1, opt.shells.layers >> k)) + (opt.fins ? 6 : 0);
+    const double estimate = double(base) * double(shells);
+    if (estimate <= double(opt.max_triangles)) return Status::success();
+    return Status::error(StatusCode::invalid_argument,
+                         "the shells would add up to " + std::to_string(size_t(estimate)) + " triangles (" +
+                             std::to_string(base) + " base triangles × " + std::to_string(shells) + "), over the limit of " +
+                             std::to_string(opt.max_triangles) + " (raise it with --max-triangles)");
+}
+
 } // namespace
 
 Status add_fur_shells(Scene& scene, const FurOptions& opt, FurReport* report) {
@@ -398,18 +413,7 @@ Status add_fur_shells(Scene& scene, const FurOptions& opt, FurReport* report) {
         }
     }
     if (work.empty()) return Status::error(StatusCode::invalid_input, "no triangles to grow fur on");
-    if (opt.max_triangles > 0) {
-        // Upper bound of what is added: every base triangle on every shell of every level, and two fin
-        // triangles per edge (3 per triangle at most) on every level.
-        size_t base = 0, shells = 0;
-        for (const auto& [mi, pi] : work) base += scene.meshes[mi].primitives[pi].triangle_count();
-        for (int k = 0; k < opt.shells.lod_levels; ++k) shells += size_t(std::max(1, opt.shells.layers >> k)) + (opt.fins ? 6 : 0);
-        const double estimate = double(base) * double(shells);
-        if (estimate > double(opt.max_triangles))
-            return bad("the shells would add up to " + std::to_string(size_t(estimate)) + " triangles (" +
-                       std::to_string(base) + " base triangles × " + std::to_string(shells) +
-                       "), over the limit of " + std::to_string(opt.max_triangles) + " (raise it with --max-triangles)");
-    }
+    if (Status st = check_triangle_limit(scene, work, opt); !st.ok()) return st;
 
     // The strand textures depend on the options alone: drawn and encoded (or found in the cache) on another
     // core while the frames are computed, as are the base-colour textures (below). Waited for on every way
