@@ -89,13 +89,19 @@ double bbox_diagonal(const Scene& s) {
     return std::sqrt(d);
 }
 
-// Distance of sampled shell vertices to the base surface vs the requested offset s·L·mask, over vertices that
-// no clamp touched (a clamped vertex is short on purpose).
+// Distance of sampled shell faces (their centroids) to the base surface vs the requested offset s·L·mask,
+// over triangles no clamp touched (a clamped vertex is short on purpose). Faces, not vertices: the offset is
+// even in the face planes' sense, so a convex corner's vertex stands farther out (√3·L on a cube) while
+// every face around it is at L.
 void measure(Row& row, const Scene& scene, const FurReport& rep, int layers, size_t max_samples) {
+    auto usable = [](const ShellFrame& fr, const uint32_t* t) {
+        for (int c = 0; c < 3; ++c)
+            if (fr.flags[t[c]] != 0 || !(fr.requested[t[c]] > 0)) return false;
+        return true;
+    };
     size_t candidates = 0;
     for (const auto& f : rep.frames)
-        for (size_t v = 0; v < f.frame.length.size(); ++v)
-            if (f.frame.flags[v] == 0 && f.frame.requested[v] > 0) ++candidates;
+        for (size_t t = 0; t + 2 < f.triangles.size(); t += 3) candidates += usable(f.frame, &f.triangles[t]);
     const size_t total = candidates * size_t(layers);
     const size_t stride = std::max<size_t>(1, (total + max_samples - 1) / std::max<size_t>(max_samples, 1));
     double sum = 0, worst = 0;
@@ -106,12 +112,19 @@ void measure(Row& row, const Scene& scene, const FurReport& rep, int layers, siz
         std::vector<double> want;
         for (int i = 1; i <= layers; ++i) {
             const double s = shell_height_fraction(i, layers, 1.0);
-            for (size_t v = 0; v < f.frame.length.size(); ++v) {
-                if (f.frame.flags[v] != 0 || !(f.frame.requested[v] > 0)) continue;
-                if (k++ % stride) continue;
-                for (int c = 0; c < 3; ++c)
-                    pts.push_back(float(double(p.positions[3 * v + c]) + f.frame.length[v] * s * double(f.frame.direction[3 * v + c])));
-                want.push_back(s * f.frame.requested[v]);
+            for (size_t t = 0; t + 2 < f.triangles.size(); t += 3) {
+                const uint32_t* tri = &f.triangles[t];
+                if (!usable(f.frame, tri) || k++ % stride) continue;
+                double centroid[3] = {0, 0, 0}, requested = 0;
+                for (int c = 0; c < 3; ++c) {
+                    const size_t v = tri[c];
+                    for (int a = 0; a < 3; ++a)
+                        centroid[a] += (double(p.positions[3 * v + size_t(a)]) +
+                                        f.frame.length[v] * s * double(f.frame.direction[3 * v + size_t(a)])) / 3;
+                    requested += f.frame.requested[v] / 3;
+                }
+                for (double x : centroid) pts.push_back(float(x));
+                want.push_back(s * requested);
             }
         }
         std::vector<double> d(want.size());
@@ -254,7 +267,7 @@ nlohmann::json run_bench_shells(const ShellsArgs& a, const GlobalFlags& g, bool 
                     "albedo) + emit (the N shells: compare this one with memcpy); fresh = the same memcpy into memory just "
                     "allocated (first-touch page faults, as any new output pays); 1st call = the warm-up run, which also "
                     "draws and encodes the strand textures (cached for later calls with the same options); error = | "
-                    "distance of a shell vertex to the base surface (CGAL) - requested offset | / requested, over unclamped "
+                    "distance of a shell face's centroid to the base surface (CGAL) - requested offset | / requested, over unclamped "
                     "vertices\n",
                     a.base.repeat, int(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism)), a.relative_length);
         t.print();

@@ -20,6 +20,32 @@ Scene load(const fs::path& file) {
 
 double diagonal(const Primitive& p) { return check_primitive(p).diagonal; }
 
+// Convex hard edges (BoxTextured: a unit cube, split faces): every vertex of shell i, its corners included,
+// lies on the cube grown by that shell's height, so every shell face is parallel to its base face at its
+// height (±5 %). Before, the corners moved by L along the diagonal and the top shell's faces sat 0.58 L out.
+TEST(add_fur_shells_corpus, CubeShellsAreAtTheirHeightOverHardEdges) {
+    Scene s = load(test::corpus("box_textured/BoxTextured.gltf"));
+    ASSERT_EQ(s.meshes.size(), 1u);
+    FurOptions o;
+    o.shells.layers = 8;
+    o.shells.length = 0.05;
+    FurReport rep;
+    o.keep_frames = true;
+    ASSERT_TRUE(add_fur_shells(s, o, &rep).ok());
+    const double L = rep.frames[0].length; // object units
+    const auto& prims = s.meshes[0].primitives;
+    ASSERT_EQ(prims.size(), 1u + 8u);
+    for (int i = 1; i <= 8; ++i) {
+        const double want = L * shell_height_fraction(i, 8, 1.0);
+        const Primitive& shell = prims[size_t(i)];
+        for (size_t v = 0; v < shell.vertex_count(); ++v) {
+            const float* p = &shell.positions[3 * v];
+            const double out = std::max({std::abs(p[0]), std::abs(p[1]), std::abs(p[2])}) - 0.5;
+            ASSERT_NEAR(out, want, 0.05 * want) << "shell " << i << " vertex " << v;
+        }
+    }
+}
+
 TEST(add_fur_shells_corpus, NoCracksAtSeamsAndHardEdges) {
     for (const char* file : {"box_textured/BoxTextured.gltf", "duck/Duck.glb", "spot/spot_triangulated.obj", "fox/Fox.glb"}) {
         Scene s = load(test::corpus(file));

@@ -63,14 +63,22 @@ TEST(compute_shell_frame, MaskSeamsTakeTheMaximum) {
 }
 
 TEST(compute_shell_frame, EvenThicknessPutsShellsAtTheRequestedDistance) {
-    // Convex corner (a welded cube): the nearest surface point of the offset corner is the corner itself,
-    // so it moves by exactly L along (1,1,1)/√3.
+    // Convex corners (a welded cube): each corner moves by √3·L along (1,1,1)/√3, so every shell face is
+    // parallel to its base face at exactly L (the mitered offset), at every layer.
     Primitive cube = shapes::box(1, 1, 1, false);
     ShellOptions o;
     o.length = 0.1;
     ShellFrame f = frame_of(cube, o);
-    for (size_t v = 0; v < cube.vertex_count(); ++v) EXPECT_NEAR(f.length[v], 0.1f, 1e-6) << v;
+    for (size_t v = 0; v < cube.vertex_count(); ++v) EXPECT_NEAR(f.length[v], 0.1 * std::sqrt(3.0), 1e-6) << v;
     EXPECT_EQ(f.clamped_vertices, 0u);
+    for (int layer : {1, o.layers / 2, o.layers}) {
+        std::vector<float> shell(cube.positions.size());
+        shell_positions(shell.data(), f, cube.positions.data(), cube.vertex_count(), layer, o.layers, 1.0);
+        const double want = 0.1 * shell_height_fraction(layer, o.layers, 1.0);
+        for (size_t v = 0; v < cube.vertex_count(); ++v)
+            for (int axis = 0; axis < 3; ++axis) // the cube spans [-0.5, 0.5]: each face plane moved by L
+                EXPECT_NEAR(std::abs(shell[3 * v + size_t(axis)]) - 0.5, want, 1e-6) << v << " axis " << axis;
+    }
     // Concave crease (the inner edge of an L): 1/cos(45°), so each wall's shell is L away from that wall.
     Primitive l = test::voxel_surface(8, 8, 3, 0.1f, [](int x, int y, int) { return x < 2 || y < 2; });
     o.length = 0.01; // well below the edge length: no clamp involved
