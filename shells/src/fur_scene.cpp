@@ -586,14 +586,15 @@ Status add_fur_shells(Scene& scene, const FurOptions& opt, FurReport* report) {
             }
         });
         auto make_shell = [&](int layer, int layers, float* positions, float* colors) {
-            const double t = double(layer) / layers, s = std::pow(t, so.spacing_power), t3 = t * t * t;
+            const double s = shell_height_fraction(layer, layers, so.spacing_power);
             const float shade = float(opt.root_shade + (1.0 - opt.root_shade) * s);
             for (size_t i = 0; i < m; ++i) {
                 const double h = len[i];
+                // Same expression as shell_positions: copies of a position land on the same float.
+                const auto o = detail::strand_offset(&dir[3 * i], &lean[3 * i], &sag[3 * i], s);
                 for (size_t k = 0; k < 3; ++k) {
                     const size_t j = 3 * i + k;
-                    // Same expression as shell_positions: copies of a position land on the same float.
-                    positions[j] = float(double(root[j]) + h * (s * double(dir[j]) + s * double(lean[j]) + t3 * double(sag[j])));
+                    positions[j] = float(double(root[j]) + h * o[k]);
                     colors[4 * i + k] = albedo[j] * shade;
                 }
                 colors[4 * i + 3] = 1.0f;
@@ -738,10 +739,10 @@ Status add_fur_shells(Scene& scene, const FurOptions& opt, FurReport* report) {
                 for (size_t i = 0; i < fm; ++i) {
                     const uint32_t v = src[i];
                     const double h = is_tip[i] ? g.frame.length[v] : 0.0;
+                    const auto tip = detail::strand_offset(&g.frame.direction[3 * v], &g.frame.lean[3 * v], &g.frame.sag[3 * v], 1.0);
                     for (int k = 0; k < 3; ++k) {
                         const size_t j = 3 * size_t(v) + size_t(k);
-                        fins.positions[3 * i + k] =
-                            float(double(base.positions[j]) + h * (double(g.frame.direction[j]) + double(g.frame.lean[j]) + double(g.frame.sag[j])));
+                        fins.positions[3 * i + k] = float(double(base.positions[j]) + h * tip[size_t(k)]);
                         fins.colors[4 * i + k] = g.albedo[3 * v + k] * float(is_tip[i] ? 1.0 : opt.root_shade);
                     }
                     fins.colors[4 * i + 3] = 1.0f;

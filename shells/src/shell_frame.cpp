@@ -30,7 +30,10 @@
 //     droop makes the path curved) limits its corners. Vertices take the minimum over their triangles;
 //     this is repeated until nothing folds (a vertex's reduction changes its neighbours' triangles).
 //   - Droop and comb only move the shells along the surface (their normal component is removed): the
-//     classic P += g·t³ pushes the tips into the skin wherever gravity points into it.
+//     classic P += g·t³ pushes the tips into the skin wherever gravity points into it. Droop bends the
+//     strand instead of shifting its tip (detail::bend_integrals): its length is kept, so the fold clamp
+//     has nothing to undo where the surface is smooth (the shifted tips stretched strands up to 4×, and
+//     the clamp cut 6861 of the creature's 8066 vertices to a quarter of their length at droop 2).
 //
 // Determinism: every parallel loop writes only its own entries, every sum runs in a fixed order, the
 // iterations are Jacobi-style (a pass reads the previous pass's lengths only).
@@ -272,8 +275,17 @@ Status compute_shell_frame(ShellFrame& out, const float* positions, size_t verte
             return v;
         };
         if (comb) lean[w] = o.comb_strength * along_surface(combw[w]);
-        if (o.droop > 0) sag[w] = o.droop * along_surface(g);
+        // Droop: the tip's bend angle θ_tip = droop·π/4 × (how much gravity lies along the surface), toward
+        // gravity's surface direction (detail::bend_integrals): droop 2 lays a wall's tips level, 4 hangs them.
+        if (o.droop > 0) sag[w] = (o.droop * M_PI / 4) * along_surface(g);
     });
+
+    // Where a strand of unit length reaches at height fraction s (comb lean and droop bend included).
+    auto chord = [&](size_t w, double s) {
+        const double d[3] = {D[w].x, D[w].y, D[w].z}, l[3] = {lean[w].x, lean[w].y, lean[w].z}, g3[3] = {sag[w].x, sag[w].y, sag[w].z};
+        const auto c = detail::strand_offset(d, l, g3, s);
+        return V3{c[0], c[1], c[2]};
+    };
 
     // One hierarchy over the welded triangles, built once, serves every clamp query and the final
     // intersection test: building one per query kind cost as much as the queries on small meshes.
@@ -292,7 +304,7 @@ Status compute_shell_frame(ShellFrame& out, const float* positions, size_t verte
             qv.push_back(uint32_t(w));
             qd.insert(qd.end(), {D[w].x, D[w].y, D[w].z});
             qneed.push_back(1.0);
-            V3 tip = D[w] + lean[w] + sag[w];
+            V3 tip = chord(w, 1.0);
             if (norm(lean[w]) + norm(sag[w]) > 1e-9) {
                 double tl = norm(tip);
                 qv.push_back(uint32_t(w));
@@ -335,15 +347,16 @@ Status compute_shell_frame(ShellFrame& out, const float* positions, size_t verte
             }
         }
         // A sideways bend (comb, droop) must not carry a tip toward another part of the surface (a wall's
-        // drooping fur into the floor's, a plate's rim into the next plate's): a bend may never bring a tip
-        // nearer to the mesh than the straight tip was (sliding along a flat or convex surface keeps or
-        // gains clearance); where it would, the bend (not the length) is scaled down.
+        // drooping fur into the floor's, a plate's rim into the next plate's): a bent tip may never be nearer
+        // to the mesh than a straight strand's point at the same height (its part along D) would be; over a
+        // flat or convex surface it keeps or gains clearance. Where it would, the bend (not the length) is
+        // scaled down.
         qv.clear();
         std::vector<double> straight, bent;
         for (size_t w = 0; w < W; ++w) {
             if (!(H[w] > 0) || norm(lean[w]) + norm(sag[w]) <= 1e-9) continue;
             qv.push_back(uint32_t(w));
-            V3 a = H[w] * D[w], b = H[w] * (D[w] + lean[w] + sag[w]);
+            const V3 b = H[w] * chord(w, 1.0), a = dot(b, D[w]) * D[w];
             straight.insert(straight.end(), {a.x, a.y, a.z});
             bent.insert(bent.end(), {b.x, b.y, b.z});
         }
@@ -376,13 +389,16 @@ Status compute_shell_frame(ShellFrame& out, const float* positions, size_t verte
             ts.push_back(1.0); // straight paths: scaling the tip offset by k sweeps every layer
         }
         auto path = [&](size_t w, double t) {
-            double s = o.spacing_power == 1.0 ? t : std::pow(t, o.spacing_power);
-            return H[w] * ((s * D[w] + s * lean[w]) + (t * t * t) * sag[w]);
+            return H[w] * chord(w, o.spacing_power == 1.0 ? t : std::pow(t, o.spacing_power));
         };
-        // Direction in which the layer at t moves as t grows (d path / dt): the sweep from shell to shell.
+        // Direction in which the layer at t moves as t grows (d path / dt): the sweep from shell to shell,
+        // along the strand's tangent (D turned toward ĝ by θ_tip·s²) plus the lean.
         auto velocity = [&](size_t w, double t) {
-            double ds = o.spacing_power == 1.0 ? 1.0 : o.spacing_power * std::pow(t, o.spacing_power - 1);
-            return H[w] * ((ds * D[w] + ds * lean[w]) + (3 * t * t) * sag[w]);
+            const double s = o.spacing_power == 1.0 ? t : std::pow(t, o.spacing_power);
+            const double ds = o.spacing_power == 1.0 ? 1.0 : o.spacing_power * std::pow(t, o.spacing_power - 1);
+            const double theta = norm(sag[w]), th = theta * s * s;
+            const V3 tangent = theta > 0 ? std::cos(th) * D[w] + (std::sin(th) / theta) * sag[w] : D[w];
+            return (H[w] * ds) * (tangent + lean[w]);
         };
         std::vector<double> limit(T, 1.0);
         std::vector<uint8_t> listed(T, 0); // fold_pass's scratch: all 0 between passes
@@ -516,17 +532,12 @@ Status compute_shell_frame(ShellFrame& out, const float* positions, size_t verte
 
 void shell_positions(float* out, const ShellFrame& frame, const float* positions, size_t vertex_count, int layer,
                      int layers, double spacing_power) {
-    const double t = layers > 0 ? double(layer) / double(layers) : 0.0;
     const double s = shell_height_fraction(layer, layers, spacing_power);
-    const double t3 = t * t * t;
     parallel(vertex_count, 4096, [&](size_t v) {
         const double h = frame.length[v];
-        for (int k = 0; k < 3; ++k) {
-            const size_t i = 3 * v + size_t(k);
-            // In double, from per-copy inputs that are bit-identical: every copy lands on the same float.
-            out[i] = float(double(positions[i]) +
-                           h * (s * double(frame.direction[i]) + s * double(frame.lean[i]) + t3 * double(frame.sag[i])));
-        }
+        // In double, from per-copy inputs that are bit-identical: every copy lands on the same float.
+        const auto o = detail::strand_offset(&frame.direction[3 * v], &frame.lean[3 * v], &frame.sag[3 * v], s);
+        for (size_t k = 0; k < 3; ++k) out[3 * v + k] = float(double(positions[3 * v + k]) + h * o[k]);
     });
 }
 

@@ -138,13 +138,46 @@ TEST(compute_shell_frame, CombAndDroopNeverPushIntoTheSkin) {
         EXPECT_LT(dl, 0.2);
         EXPECT_LT(ds, 0.2);
     }
-    // The equator's sag points down (gravity along the surface), the poles' vanishes.
+    // The equator's bend points down (gravity along the surface) by droop·45°, the poles' vanishes.
     size_t equator = 0;
     for (size_t v = 0; v < p.vertex_count(); ++v)
         if (std::abs(p.positions[3 * v + 1]) < 1e-3) {
-            EXPECT_LT(f.sag[3 * v + 1], -0.9f);
+            EXPECT_NEAR(f.sag[3 * v + 1], -M_PI / 4, 0.02);
             ++equator;
         }
+    EXPECT_GT(equator, 0u);
+}
+
+// Droop bends strands and keeps their length (it used to shift tips sideways by up to 4 L, and the fold clamp
+// then cut the creature's fur to a quarter of its length at droop 2). On a sphere at droop 2, every strand's
+// polyline through its 16 shells is within 5 % of its length, unclamped, and the equator's tips hang level:
+// lowered by at least a third of the length against a straight strand.
+TEST(compute_shell_frame, DroopBendsStrandsAndKeepsTheirLength) {
+    Primitive p = shapes::uv_sphere(1.0f, 48, 24);
+    ShellOptions o;
+    o.length = 0.1;
+    o.layers = 16;
+    o.droop = 2.0;
+    ShellFrame f = frame_of(p, o);
+    EXPECT_LT(f.clamped_vertices, f.welded_vertices / 20);
+    std::vector<std::vector<float>> shells(size_t(o.layers) + 1, p.positions);
+    for (int i = 1; i <= o.layers; ++i)
+        shell_positions(shells[size_t(i)].data(), f, p.positions.data(), p.vertex_count(), i, o.layers, 1.0);
+    size_t kept = 0, equator = 0;
+    for (size_t v = 0; v < p.vertex_count(); ++v) {
+        double arc = 0;
+        for (int i = 1; i <= o.layers; ++i) {
+            double d2 = 0;
+            for (int k = 0; k < 3; ++k) d2 += std::pow(double(shells[size_t(i)][3 * v + k]) - shells[size_t(i - 1)][3 * v + k], 2);
+            arc += std::sqrt(d2);
+        }
+        kept += std::abs(arc - f.length[v]) <= 0.05 * f.length[v] && f.length[v] >= 0.95 * o.length;
+        if (std::abs(p.positions[3 * v + 1]) < 1e-3) {
+            ++equator;
+            EXPECT_LT(shells.back()[3 * v + 1] - p.positions[3 * v + 1], -o.length / 3) << v;
+        }
+    }
+    EXPECT_GE(double(kept), 0.95 * double(p.vertex_count()));
     EXPECT_GT(equator, 0u);
 }
 

@@ -36,9 +36,10 @@ struct ShellOptions {
     int layers = 16;              // N shells, 1..256; shell i = 1..N sits at height fraction s(i/N)
     double length = 0.05;         // L: full fur length (object units here; world units in FurOptions)
     double spacing_power = 1.0;   // s(t) = t^p; 1 = evenly spaced, > 1 packs shells near the skin; 0.1..10
-    double droop = 0.0;           // gravity droop at the tip as a fraction of the strand length, growing like
-                                  // t^3 (t = i/N); only its part along the surface is used, so shells slide
-                                  // downhill instead of sinking into the skin; 0..4
+    double droop = 0.0;           // gravity bends the strands, keeping their length: the tip turns toward
+                                  // gravity's direction along the surface by droop·45° (× the share of gravity
+                                  // along the surface), the bend growing toward the tip; 2 lays a vertical
+                                  // wall's tips level, 4 hangs them down; 0..4
     std::array<double, 3> gravity{0, -1, 0}; // droop direction (object space here; world space in FurOptions)
     double comb_strength = 1.0;   // lean of the tip per unit comb vector, as a fraction of the strand length
     int lod_levels = 1;           // LOD levels the layer heights must be safe for (N, N/2, N/4, ...); 1..8
@@ -58,7 +59,8 @@ struct ShellFrame {
     std::vector<float> length;    // H: fur length after mask and clamps (0 = bald)
     std::vector<float> requested; // L·mask: the offset distance asked for (H differs by even thickness/clamps)
     std::vector<float> lean;      // xyz, tip displacement along the surface from the comb, per unit H
-    std::vector<float> sag;       // xyz, tip displacement along the surface from droop, per unit H
+    std::vector<float> sag;       // xyz, droop: the tip's bend angle (radians) × the unit direction of gravity
+                                  // along the surface; the strand bends along a curve of its own length
     std::vector<uint8_t> flags;   // ShellClamp bits
     size_t welded_vertices = 0;   // unique positions
     size_t clamped_vertices = 0;  // unique positions whose length was reduced by any clamp below
@@ -85,7 +87,9 @@ Status compute_shell_frame(ShellFrame& out, const float* positions, size_t verte
 // Height fraction s(i/N) of shell `layer` (1..layers).
 double shell_height_fraction(int layer, int layers, double spacing_power);
 
-// Positions of shell `layer` of `layers`: p + H·(s·direction + s·lean + t³·sag), t = layer/layers.
+// Positions of shell `layer` of `layers`: p + H·(A(s)·direction + B(s)·ĝ + s·lean), s its height fraction:
+// the point at arc length H·s of the strand that starts along `direction` and bends toward ĝ = sag/|sag| by
+// the angle |sag|·u² at arc fraction u (A, B: the integrals of its cosine and sine).
 void shell_positions(float* out, const ShellFrame& frame, const float* positions, size_t vertex_count, int layer,
                      int layers, double spacing_power);
 
