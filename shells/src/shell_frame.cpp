@@ -53,6 +53,10 @@
 namespace furrow {
 namespace {
 
+// The sweep of one triangle's shells (layer to layer) stays one-to-one while the Jacobian keeps this fraction
+// of its value along the undeformed triangle: positive is what matters, the margin absorbs rounding.
+constexpr double kSweepRatio = 0.05;
+
 struct V3 {
     double x = 0, y = 0, z = 0;
 };
@@ -442,7 +446,7 @@ Status compute_shell_frame(ShellFrame& out, const float* positions, size_t verte
                         for (uint32_t j : t) {
                             const V3 v = velocity(j, tt);
                             const double a0 = dot(cross(e1, e2), v);
-                            if (a0 > 0) k = std::min(k, first_root_in_unit(a0 - r * a0, dot(nb, v), dot(nc, v)));
+                            if (a0 > 0) k = std::min(k, first_root_in_unit(a0 - kSweepRatio * a0, dot(nb, v), dot(nc, v)));
                         }
                         // A factor just under 1 is rounding: accept it rather than iterate forever.
                         if (k < 1.0 - 1e-9) limit[f] = std::min(limit[f], k * 0.999);
