@@ -29,7 +29,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     RenderOptions o;
     o.width = 1 + r.u8() % 32;
     o.height = 1 + r.u8() % 32;
-    o.mode = RenderMode(r.u8() % 6);
+    o.mode = RenderMode(r.u8() % 7);
     o.ssaa = 1 + r.u8() % 2;
     RenderCamera& c = o.camera;
     c.orthographic = flags & 0x10;
@@ -44,6 +44,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     o.light_direction = {float(r.range(-1, 1)), float(r.range(-1, 1)), float(r.range(-1, 1))};
     o.ambient = float(r.range(0, 1));
     o.legend = r.flag();
+    o.mipmaps = !r.flag();                 // the sampler's mip chain (trilinear, level of detail), or the base level
+    o.subpixel_bits = 1 + r.u8() % 8;
     const bool far_out = flags & 0x80;
     if (far_out) {
         switch (r.u8() % 4) {
