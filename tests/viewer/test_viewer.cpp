@@ -50,15 +50,18 @@ TEST(viewer, DemoOpaqueOutputsMatch) {
         {"ground.glb", {{0, 9, 14}, {0, 0, 0}, 45, 0.1, 960, 720}},
     };
     const fs::path dir = temp_dir(), demo = run_demo(dir);
+    const double factors[3] = {1.0, 0.5, 2.0}; // each output's own view, half and twice its distance
     std::vector<ThreeJob> jobs;
-    for (const Case& c : cases) jobs.push_back({demo / c.file, dir / (std::string(c.file) + ".png"), c.view});
+    for (const Case& c : cases)
+        for (double f : factors)
+            jobs.push_back({demo / c.file, dir / (std::string(c.file) + std::to_string(int(f * 10)) + ".png"), c.view.at_distance(f)});
     ASSERT_EQ(render_three(jobs, dir), "");
     for (size_t i = 0; i < jobs.size(); ++i) {
-        SCOPED_TRACE(cases[i].file);
-        Compared c = compare_material(jobs[i].out, load_or_fail(jobs[i].model), cases[i].view);
+        SCOPED_TRACE(jobs[i].out.filename().string());
+        Compared c = compare_material(jobs[i].out, load_or_fail(jobs[i].model), jobs[i].view);
         EXPECT_GE(c.iou, kMinIoU);
         EXPECT_LE(c.colour, kColourBound);
-        std::printf("%s: IoU %.4f, colour %.2f/255\n", cases[i].file, c.iou, 255 * c.colour);
+        std::printf("%s x%.1f: IoU %.4f, colour %.2f/255\n", cases[i / 3].file, factors[i % 3], c.iou, 255 * c.colour);
     }
 }
 
@@ -98,8 +101,13 @@ TEST(viewer, RasterizerPredictsMipmappedFur) {
     for (Sampler& sm : s.samplers) sm.min_filter = 9987;
     ASSERT_TRUE(save_scene(s, file.string()).ok());
     std::vector<ThreeJob> jobs{{file, dir / "coverage.png", kCreatureView, "coverage", true},
-                               {file, dir / "reference.png", kCreatureView.scaled(2), "coverage", false}};
+                               {file, dir / "reference.png", kCreatureView.scaled(2), "coverage", false},
+                               {file, dir / "material.png", kCreatureView, "material", true}};
     ASSERT_EQ(render_three(jobs, dir), "");
+    // Its colours too: each pixel is a trilinear fetch from the mip chain, in three.js and in furrow render.
+    Compared c = compare_material(jobs[2].out, s, kCreatureView);
+    EXPECT_GE(c.iou, kMinIoU);
+    EXPECT_LE(c.colour, kColourBound);
     const CutoffCoverage three = cutoff_coverage(load_image(jobs[0].out)), ref = cutoff_coverage(load_image(jobs[1].out));
     const CutoffCoverage ours = cutoff_coverage(render_furrow(s, kCreatureView, RenderMode::cutoff));
     const CutoffCoverage base_level = cutoff_coverage(render_furrow(s, kCreatureView, RenderMode::cutoff, false));
@@ -107,6 +115,7 @@ TEST(viewer, RasterizerPredictsMipmappedFur) {
     EXPECT_NEAR(ours.height / ref.height, three.height / ref.height, 0.03);
     EXPECT_NEAR(ours.covered / ref.covered, three.covered / ref.covered, 0.03);
     EXPECT_GT(base_level.height / ref.height, 0.95); // and sampling the base level would not have shown it
-    std::printf("mip-mapped strands: three.js height coverage %.3f, furrow render %.3f (base level only: %.3f)\n",
-                three.height / ref.height, ours.height / ref.height, base_level.height / ref.height);
+    std::printf("mip-mapped strands: three.js height coverage %.3f, furrow render %.3f (base level only: %.3f); "
+                "IoU %.4f, colour %.2f/255\n",
+                three.height / ref.height, ours.height / ref.height, base_level.height / ref.height, c.iou, 255 * c.colour);
 }
