@@ -11,6 +11,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 #include <random>
 
 namespace furrow::cli {
@@ -96,7 +97,7 @@ OracleRow run_oracle(const std::string& shape, double texel, double max_error, b
     });
     const Primitive& m = out.meshes[0].primitives[0];
     row.triangles = m.triangle_count();
-    const double hr = heading * 3.14159265358979323846 / 180;
+    const double hr = heading * std::numbers::pi / 180;
     if (shape == "sphere") {
         std::tie(row.worst, row.mean) = deviation(
             m, [&](double x, double z) { return sphere_surface(r, p, std::hypot(x - cx, z - cz)); },

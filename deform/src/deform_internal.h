@@ -5,6 +5,7 @@
 
 #include <array>
 #include <cmath>
+#include <numbers>
 #include <cstddef>
 #include <cstdint>
 #include <limits>
@@ -33,7 +34,7 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 // range is undefined behaviour, and collider sizes and positions may be anything up to 1e308: texel ranges
 // and step counts derived from them go through here (found by fuzz_colliders).
 inline int clamped_int(double x, int lo, int hi) { return x >= double(lo) ? (x <= double(hi) ? int(x) : hi) : lo; }
-constexpr double kPi = 3.14159265358979323846;
+constexpr double kPi = std::numbers::pi;
 
 // The in-plane axes for an up vector: +x/+z for +y up, a stable choice otherwise (axis_v = axis_u × up).
 void frame_axes(const std::array<double, 3>& up, std::array<double, 3>& axis_u, std::array<double, 3>& axis_v,

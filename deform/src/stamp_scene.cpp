@@ -53,11 +53,6 @@ bool invert_affine(const Mat& m, Mat& out) {
     return true;
 }
 
-bool is_identity(const Mat& m) {
-    static const Mat id{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
-    return m == id;
-}
-
 std::vector<uint32_t> triangle_indices(const Primitive& p) {
     if (p.face_sizes.empty()) return p.indices;
     Primitive q;
@@ -69,26 +64,6 @@ std::vector<uint32_t> triangle_indices(const Primitive& p) {
 }
 
 bool is_ground_primitive(const Primitive& p) { return p.mode == PrimitiveMode::triangles && p.positions.size() >= 9 && !p.indices.empty(); }
-
-// Nodes drawn by the default scene (all nodes when the scene lists no roots), each once.
-std::vector<int> drawn_nodes(const Scene& s) {
-    std::vector<int> out;
-    std::vector<uint8_t> seen(s.nodes.size(), 0);
-    std::vector<int> stack;
-    if (s.roots.empty())
-        for (size_t n = 0; n < s.nodes.size(); ++n) stack.push_back(int(n));
-    else
-        stack.assign(s.roots.rbegin(), s.roots.rend());
-    while (!stack.empty()) {
-        int n = stack.back();
-        stack.pop_back();
-        if (n < 0 || size_t(n) >= s.nodes.size() || seen[size_t(n)]) continue;
-        seen[size_t(n)] = 1;
-        out.push_back(n);
-        for (auto it = s.nodes[size_t(n)].children.rbegin(); it != s.nodes[size_t(n)].children.rend(); ++it) stack.push_back(*it);
-    }
-    return out;
-}
 
 // ---- the mesh being deformed, in world space, all its triangle primitives concatenated ------------------
 struct WorkMesh {
@@ -183,19 +158,22 @@ Status tessellate_pass(WorkMesh& m, const std::vector<int>& face_rate, const Sta
 
 } // namespace
 
-void scene_triangles(std::vector<float>& positions, std::vector<uint32_t>& indices, const Scene& scene) {
+void scene_triangles(std::vector<float>& positions, std::vector<uint32_t>& indices, const Scene& scene,
+                     const std::array<double, 3>& origin) {
     positions.clear();
     indices.clear();
     const auto world = scene.world_matrices();
-    for (int n : drawn_nodes(scene)) {
+    const D3 O = d3(origin);
+    for (int n : scene.drawn_nodes()) {
         const Node& node = scene.nodes[size_t(n)];
         if (node.mesh < 0 || size_t(node.mesh) >= scene.meshes.size()) continue;
-        const Mat& M = world[size_t(n)];
+        const Mat M = scene.mesh_placement(n, world);
         for (const Primitive& p : scene.meshes[size_t(node.mesh)].primitives) {
             if (!is_ground_primitive(p)) continue;
             const uint32_t base = uint32_t(positions.size() / 3);
             for (size_t v = 0; v < p.vertex_count(); ++v) {
-                const D3 q = xform_point(M, D3{p.positions[3 * v], p.positions[3 * v + 1], p.positions[3 * v + 2]});
+                // World position in double, made relative to `origin` before it is rounded to float.
+                const D3 q = xform_point(M, D3{p.positions[3 * v], p.positions[3 * v + 1], p.positions[3 * v + 2]}) - O;
                 positions.insert(positions.end(), {float(q.x), float(q.y), float(q.z)});
             }
             for (uint32_t i : triangle_indices(p))
@@ -203,6 +181,42 @@ void scene_triangles(std::vector<float>& positions, std::vector<uint32_t>& indic
                 else indices.push_back(base); // out of range: a degenerate corner, never a crash
         }
     }
+}
+
+namespace {
+
+// The colliders moved by −O: their paths are world positions.
+ColliderSet shifted(const ColliderSet& set, const D3& O) {
+    ColliderSet out = set;
+    for (Collider& c : out.colliders)
+        for (auto& p : c.path) p = arr(d3(p) - O);
+    return out;
+}
+
+} // namespace
+
+std::array<double, 3> ground_origin(const Scene& scene) {
+    const auto world = scene.world_matrices();
+    double lo[3] = {kInf, kInf, kInf}, hi[3] = {-kInf, -kInf, -kInf};
+    for (int n : scene.drawn_nodes()) {
+        const Node& node = scene.nodes[size_t(n)];
+        if (node.mesh < 0 || size_t(node.mesh) >= scene.meshes.size()) continue;
+        const Mat M = scene.mesh_placement(n, world);
+        for (const Primitive& p : scene.meshes[size_t(node.mesh)].primitives) {
+            if (!is_ground_primitive(p)) continue;
+            for (size_t v = 0; v < p.vertex_count(); ++v) {
+                const D3 q = xform_point(M, D3{p.positions[3 * v], p.positions[3 * v + 1], p.positions[3 * v + 2]});
+                const double c[3] = {q.x, q.y, q.z};
+                for (int k = 0; k < 3; ++k) lo[k] = std::min(lo[k], c[k]), hi[k] = std::max(hi[k], c[k]);
+            }
+        }
+    }
+    if (!(lo[0] <= hi[0]) || !std::isfinite(lo[0] + lo[1] + lo[2] + hi[0] + hi[1] + hi[2])) return {0, 0, 0};
+    const std::array<double, 3> c{0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1]), 0.5 * (lo[2] + hi[2])};
+    const double diagonal = std::hypot(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]);
+    // A ground around the origin keeps its frame (and its bits); one further away than its own size is
+    // worked on relative to its centre.
+    return norm(d3(c)) > diagonal ? c : std::array<double, 3>{0, 0, 0};
 }
 
 namespace {
@@ -246,151 +260,177 @@ Status tessellate_ground(WorkMesh& w, const Heightmap& hm, const StampOptions& o
     return tessellate_pass(w, rates, o, rep);
 }
 
-// Deforms one mesh drawn with world matrix M.
-Status deform_mesh(Scene& scene, int mesh_index, const Mat& M, bool skinned, const SnowField& field, const StampOptions& o,
-                   StampReport& rep) {
-    Mesh& mesh = scene.meshes[size_t(mesh_index)];
-    Mat inv;
-    if (!invert_affine(M, inv)) {
-        rep.warnings.push_back("mesh '" + mesh.name + "' has a singular transform; not deformed");
-        return Status::success();
-    }
-    std::vector<size_t> slots;
+// ---- deform_mesh, in stages -------------------------------------------------------------------------------
+// What the ground primitives of one mesh share, and how they are gathered.
+struct Gathered {
+    std::vector<size_t> slots;     // primitive indices deformed
+    std::vector<uint32_t> vbase;   // first work-mesh vertex of each slot
+    bool tess = false;             // tessellated (else displaced in place)
+    bool all_uv = true, all_uv1 = true, all_col = true, all_nrm = true;
+    std::vector<std::pair<std::string, int>> customs; // custom attributes present with one width everywhere
+    std::vector<float> object;     // object-space position per input vertex (work-mesh order, before tessellation)
+    std::vector<float> world;      // its world position relative to O, as gathered
+};
+
+// Which primitives are ground, which attributes every one of them has; whether the mesh is tessellated.
+Gathered survey_mesh(const Mesh& mesh, bool skinned, const StampOptions& o, StampReport& rep) {
+    Gathered g;
     for (size_t k = 0; k < mesh.primitives.size(); ++k)
-        if (is_ground_primitive(mesh.primitives[k])) slots.push_back(k);
-    if (slots.empty()) return Status::success();
+        if (is_ground_primitive(mesh.primitives[k])) g.slots.push_back(k);
+    if (g.slots.empty()) return g;
     bool morphed = false;
-    for (size_t k : slots) morphed = morphed || !mesh.primitives[k].targets.empty();
-    const bool tess = o.tessellate && !skinned && !morphed;
-    if (o.tessellate && !tess)
+    for (size_t k : g.slots) {
+        const Primitive& p = mesh.primitives[k];
+        morphed = morphed || !p.targets.empty();
+        g.all_uv = g.all_uv && !p.uv0.empty();
+        g.all_uv1 = g.all_uv1 && !p.uv1.empty();
+        g.all_col = g.all_col && !p.colors.empty();
+        g.all_nrm = g.all_nrm && p.normals.size() == p.positions.size();
+    }
+    g.tess = o.tessellate && !skinned && !morphed;
+    if (o.tessellate && !g.tess)
         rep.warnings.push_back("mesh '" + mesh.name + "' is " + (skinned ? "skinned" : "morphed") +
                                ": displaced without tessellation (its vertex layout is kept)");
-
-    // Gather in world space.
-    WorkMesh w;
-    std::vector<uint32_t> vbase;
-    bool all_uv = true, all_uv1 = true, all_col = true;
-    for (size_t k : slots) {
-        const Primitive& p = mesh.primitives[k];
-        all_uv = all_uv && !p.uv0.empty();
-        all_uv1 = all_uv1 && !p.uv1.empty();
-        all_col = all_col && !p.colors.empty();
-    }
-    // Custom attributes present with the same width in every primitive.
-    std::vector<std::pair<std::string, int>> customs;
-    for (const auto& c : mesh.primitives[slots[0]].custom) {
+    for (const auto& c : mesh.primitives[g.slots[0]].custom) {
         bool everywhere = true;
-        for (size_t k : slots) {
+        for (size_t k : g.slots) {
             bool found = false;
             for (const auto& d : mesh.primitives[k].custom) found = found || (d.name == c.name && d.components == c.components);
             everywhere = everywhere && found;
         }
-        if (everywhere) customs.push_back({c.name, c.components});
+        if (everywhere) g.customs.push_back({c.name, c.components});
     }
-    if (tess) {
-        if (all_uv1) w.channels.push_back({"uv1", 2, {}});
-        if (all_col) w.channels.push_back({"color", 4, {}});
-        for (const auto& c : customs) w.channels.push_back({c.first, c.second, {}});
+    return g;
+}
+
+const std::vector<float>* channel_source(const Primitive& p, const WorkMesh::Channel& ch) {
+    if (ch.name == "uv1") return &p.uv1;
+    if (ch.name == "color") return &p.colors;
+    if (ch.name == "normal") return &p.normals;
+    for (const auto& d : p.custom)
+        if (d.name == ch.name && d.components == ch.components) return &d.values;
+    return nullptr;
+}
+
+// All ground primitives of the mesh concatenated, positions in world space relative to O (formed in double,
+// rounded to float after the origin is taken off). Normals ride along as a channel (object space) so that
+// tessellation interpolates them where the surface does not move.
+WorkMesh gather_world(const Mesh& mesh, Gathered& g, const Mat& M, const D3& O) {
+    WorkMesh w;
+    if (g.tess) {
+        if (g.all_uv1) w.channels.push_back({"uv1", 2, {}});
+        if (g.all_col) w.channels.push_back({"color", 4, {}});
+        for (const auto& c : g.customs) w.channels.push_back({c.first, c.second, {}});
     }
-    for (size_t s = 0; s < slots.size(); ++s) {
-        const Primitive& p = mesh.primitives[slots[s]];
+    if (g.all_nrm) w.channels.push_back({"normal", 3, {}});
+    for (size_t s = 0; s < g.slots.size(); ++s) {
+        const Primitive& p = mesh.primitives[g.slots[s]];
         const uint32_t base = uint32_t(w.positions.size() / 3);
-        vbase.push_back(base);
+        g.vbase.push_back(base);
         const size_t nv = p.vertex_count();
         for (size_t v = 0; v < nv; ++v) {
-            const D3 q = xform_point(M, D3{p.positions[3 * v], p.positions[3 * v + 1], p.positions[3 * v + 2]});
+            const D3 q = xform_point(M, D3{p.positions[3 * v], p.positions[3 * v + 1], p.positions[3 * v + 2]}) - O;
             w.positions.insert(w.positions.end(), {float(q.x), float(q.y), float(q.z)});
         }
-        if (tess && all_uv) w.uvs.insert(w.uvs.end(), p.uv0.begin(), p.uv0.begin() + long(2 * nv));
+        g.object.insert(g.object.end(), p.positions.begin(), p.positions.begin() + long(3 * nv));
+        if (g.tess && g.all_uv) w.uvs.insert(w.uvs.end(), p.uv0.begin(), p.uv0.begin() + long(2 * nv));
         for (auto& ch : w.channels) {
-            const std::vector<float>* src = nullptr;
-            if (ch.name == "uv1") src = &p.uv1;
-            else if (ch.name == "color") src = &p.colors;
-            else
-                for (const auto& d : p.custom)
-                    if (d.name == ch.name && d.components == ch.components) src = &d.values;
+            const std::vector<float>* src = channel_source(p, ch);
             ch.values.insert(ch.values.end(), src->begin(), src->begin() + long(size_t(ch.components) * nv));
         }
         for (uint32_t i : triangle_indices(p)) w.indices.push_back(base + std::min<uint32_t>(i, uint32_t(nv - 1)));
         w.groups.insert(w.groups.end(), (w.indices.size() / 3) - w.groups.size(), uint32_t(s));
     }
-    rep.triangles_in += w.indices.size() / 3;
+    g.world = w.positions;
+    return w;
+}
 
-    const Heightmap& hm = field.heightmap();
-    if (tess) {
-        const auto t0 = Clock::now();
-        Status s = tessellate_ground(w, hm, o, rep);
-        if (!s.ok()) return Status::error(s.code, "tessellation of mesh '" + mesh.name + "' failed: " + s.message);
-        rep.tessellate_seconds += seconds_since(t0);
-    }
-
-    // Displace in world space, welded.
-    const auto t1 = Clock::now();
-    DisplacedGround dg;
-    DisplaceOptions dopt;
-    dopt.along_up = o.along_up;
-    dopt.top_only = field.overhang_triangles() > 0;
-    Status s = dg.prepare(w.positions.data(), w.positions.size() / 3, w.indices.data(), w.indices.size(), hm.frame, dopt, &field.ground());
-    if (!s.ok()) return s;
-    std::vector<float> P(w.positions.size()), N(w.positions.size());
-    dg.displace_all(hm, P.data(), N.data());
-    rep.welded_points += dg.welded_count();
-    {
-        // Points that actually moved (for the report).
-        std::vector<uint32_t> remap(w.positions.size() / 3);
-        size_t moved = 0;
-        weld_positions(remap.data(), w.positions.data(), remap.size());
-        for (size_t v = 0; v < remap.size(); ++v)
-            if (remap[v] == v && (P[3 * v] != w.positions[3 * v] || P[3 * v + 1] != w.positions[3 * v + 1] || P[3 * v + 2] != w.positions[3 * v + 2]))
-                ++moved;
-        rep.displaced_points += moved;
-    }
-    rep.displace_seconds += seconds_since(t1);
-
-    // Back to object space, into the primitive slots.
-    const bool identity = is_identity(M);
+// The displaced work mesh in object space. A point the heightmap did not move gets its input position back
+// bit for bit (looked up by its world position: tessellation renumbers the vertices), so untouched snow is
+// unchanged in world space whatever the offset. A point whose surrounding surface did not move (no moved
+// point on any triangle around it, across welds) keeps the input's normal, so authored hard normals survive;
+// elsewhere the welded normal of the displaced surface is used.
+void to_object_space(std::vector<float>& P, std::vector<float>& N, const WorkMesh& w, const Gathered& g, const Mat& M,
+                     const Mat& inv, const D3& O) {
     const size_t V = P.size() / 3;
+    std::vector<uint8_t> moved(V, 0);
+    for (size_t v = 0; v < V; ++v)
+        moved[v] = P[3 * v] != w.positions[3 * v] || P[3 * v + 1] != w.positions[3 * v + 1] || P[3 * v + 2] != w.positions[3 * v + 2];
+    std::vector<uint32_t> weld(V);
+    weld_positions(weld.data(), w.positions.data(), V);
+    std::vector<uint8_t> surface_moved(V, 0);
+    for (size_t t = 0; t + 2 < w.indices.size(); t += 3) {
+        const uint32_t* c = &w.indices[t];
+        if (moved[c[0]] || moved[c[1]] || moved[c[2]])
+            for (int k = 0; k < 3; ++k) surface_moved[weld[c[k]]] = 1;
+    }
+    std::unordered_map<EdgeRates::Key, uint32_t, EdgeRates::Hash> input_at; // world position -> input vertex
+    input_at.reserve(g.object.size() / 3);
+    if (g.tess) // else the vertices are the input's own: index v is input vertex v
+        for (size_t v = 0; v < g.object.size() / 3; ++v) input_at.emplace(EdgeRates::key(&g.world[3 * v], &g.world[3 * v]), uint32_t(v));
+    const WorkMesh::Channel* normal = nullptr;
+    for (const auto& ch : w.channels)
+        if (ch.name == "normal") normal = &ch;
     for (size_t v = 0; v < V; ++v) {
-        if (!identity) {
-            const D3 q = xform_point(inv, D3{P[3 * v], P[3 * v + 1], P[3 * v + 2]});
-            P[3 * v] = float(q.x), P[3 * v + 1] = float(q.y), P[3 * v + 2] = float(q.z);
-            // Normals transform by the inverse transpose: object normal = Mᵀ · world normal.
-            const D3 n{N[3 * v], N[3 * v + 1], N[3 * v + 2]};
-            D3 m{M[0] * n.x + M[1] * n.y + M[2] * n.z, M[4] * n.x + M[5] * n.y + M[6] * n.z, M[8] * n.x + M[9] * n.y + M[10] * n.z};
-            const double l = norm(m);
-            m = l > 0 ? m * (1.0 / l) : D3{0, 1, 0};
-            N[3 * v] = float(m.x), N[3 * v + 1] = float(m.y), N[3 * v + 2] = float(m.z);
-        }
-    }
-    if (!tess) {
-        // Same vertices: positions and normals replaced in place.
-        for (size_t s2 = 0; s2 < slots.size(); ++s2) {
-            Primitive& p = mesh.primitives[slots[s2]];
-            const size_t nv = p.vertex_count();
-            std::copy(P.begin() + long(3 * vbase[s2]), P.begin() + long(3 * (vbase[s2] + nv)), p.positions.begin());
-            p.normals.assign(N.begin() + long(3 * vbase[s2]), N.begin() + long(3 * (vbase[s2] + nv)));
-            if (!p.tangents.empty()) {
-                p.tangents.clear();
-                rep.warnings.push_back("mesh '" + mesh.name + "': tangents dropped (they no longer match the displaced normals)");
+        if (!moved[v]) {
+            long src = g.tess ? -1 : long(v);
+            if (g.tess) {
+                auto it = input_at.find(EdgeRates::key(&w.positions[3 * v], &w.positions[3 * v]));
+                if (it != input_at.end()) src = long(it->second);
             }
-            rep.triangles_out += p.triangle_count();
+            if (src >= 0) std::copy_n(&g.object[3 * size_t(src)], 3, &P[3 * v]);
+            else {
+                const D3 q = xform_point(inv, D3{P[3 * v], P[3 * v + 1], P[3 * v + 2]} + O);
+                P[3 * v] = float(q.x), P[3 * v + 1] = float(q.y), P[3 * v + 2] = float(q.z);
+            }
+        } else {
+            const D3 q = xform_point(inv, D3{P[3 * v], P[3 * v + 1], P[3 * v + 2]} + O);
+            P[3 * v] = float(q.x), P[3 * v + 1] = float(q.y), P[3 * v + 2] = float(q.z);
         }
-        rep.meshes += 1;
-        rep.primitives += slots.size();
-        return Status::success();
+        D3 n{N[3 * v], N[3 * v + 1], N[3 * v + 2]};
+        if (normal && !surface_moved[weld[v]]) {
+            n = D3{normal->values[3 * v], normal->values[3 * v + 1], normal->values[3 * v + 2]};
+        } else {
+            // Normals transform by the inverse transpose: object normal = Mᵀ · world normal.
+            n = D3{M[0] * n.x + M[1] * n.y + M[2] * n.z, M[4] * n.x + M[5] * n.y + M[6] * n.z, M[8] * n.x + M[9] * n.y + M[10] * n.z};
+        }
+        const double l = norm(n);
+        n = l > 0 && std::isfinite(l) ? n * (1.0 / l) : D3{0, 1, 0};
+        N[3 * v] = float(n.x), N[3 * v + 1] = float(n.y), N[3 * v + 2] = float(n.z);
     }
+}
+
+// Same vertices: positions and normals replaced in place.
+void write_in_place(Mesh& mesh, const Gathered& g, const std::vector<float>& P, const std::vector<float>& N, StampReport& rep) {
+    for (size_t s = 0; s < g.slots.size(); ++s) {
+        Primitive& p = mesh.primitives[g.slots[s]];
+        const size_t nv = p.vertex_count();
+        std::copy(P.begin() + long(3 * g.vbase[s]), P.begin() + long(3 * (g.vbase[s] + nv)), p.positions.begin());
+        p.normals.assign(N.begin() + long(3 * g.vbase[s]), N.begin() + long(3 * (g.vbase[s] + nv)));
+        if (!p.tangents.empty()) {
+            p.tangents.clear();
+            rep.warnings.push_back("mesh '" + mesh.name + "': tangents dropped (they no longer match the displaced normals)");
+        }
+        rep.triangles_out += p.triangle_count();
+    }
+}
+
+// Tessellated: each primitive slot rebuilt from the work-mesh triangles of its group, with its material.
+void rebuild_primitives(Mesh& mesh, const Gathered& g, const WorkMesh& w, const std::vector<float>& P, const std::vector<float>& N,
+                        StampReport& rep) {
+    const size_t V = P.size() / 3;
     bool dropped_tangents = false, dropped_attr = false;
-    for (size_t s2 = 0; s2 < slots.size(); ++s2) {
-        Primitive& p = mesh.primitives[slots[s2]];
+    for (size_t s = 0; s < g.slots.size(); ++s) {
+        Primitive& p = mesh.primitives[g.slots[s]];
         Primitive q;
         q.mode = PrimitiveMode::triangles;
         q.material = p.material;
         dropped_tangents = dropped_tangents || !p.tangents.empty();
-        dropped_attr = dropped_attr || (!all_uv && !p.uv0.empty()) || (!all_uv1 && !p.uv1.empty()) || (!all_col && !p.colors.empty()) ||
-                       p.custom.size() > customs.size() || !p.joints.empty();
+        dropped_attr = dropped_attr || (!g.all_uv && !p.uv0.empty()) || (!g.all_uv1 && !p.uv1.empty()) || (!g.all_col && !p.colors.empty()) ||
+                       p.custom.size() > g.customs.size() || !p.joints.empty();
         std::vector<uint32_t> local(V, UINT32_MAX);
         for (size_t t = 0; t < w.groups.size(); ++t) {
-            if (w.groups[t] != s2) continue;
+            if (w.groups[t] != s) continue;
             for (int c = 0; c < 3; ++c) {
                 const uint32_t v = w.indices[3 * t + size_t(c)];
                 if (local[v] == UINT32_MAX) {
@@ -399,10 +439,9 @@ Status deform_mesh(Scene& scene, int mesh_index, const Mat& M, bool skinned, con
                     q.normals.insert(q.normals.end(), {N[3 * size_t(v)], N[3 * size_t(v) + 1], N[3 * size_t(v) + 2]});
                     if (!w.uvs.empty()) q.uv0.insert(q.uv0.end(), {w.uvs[2 * size_t(v)], w.uvs[2 * size_t(v) + 1]});
                     for (const auto& ch : w.channels) {
-                        std::vector<float>* dst = nullptr;
-                        if (ch.name == "uv1") dst = &q.uv1;
-                        else if (ch.name == "color") dst = &q.colors;
-                        else {
+                        if (ch.name == "normal") continue; // written above
+                        std::vector<float>* dst = ch.name == "uv1" ? &q.uv1 : ch.name == "color" ? &q.colors : nullptr;
+                        if (!dst) {
                             CustomAttribute* a = nullptr;
                             for (auto& d : q.custom)
                                 if (d.name == ch.name) a = &d;
@@ -425,8 +464,55 @@ Status deform_mesh(Scene& scene, int mesh_index, const Mat& M, bool skinned, con
     if (dropped_tangents) rep.warnings.push_back("mesh '" + mesh.name + "': tangents dropped (they no longer match the displaced normals)");
     if (dropped_attr)
         rep.warnings.push_back("mesh '" + mesh.name + "': attributes not present on every primitive (or skin data) were dropped");
+}
+
+// Deforms one mesh drawn with world matrix M; the field works relative to the world point O.
+Status deform_mesh(Scene& scene, int mesh_index, const Mat& M, const D3& O, bool skinned, const SnowField& field,
+                   const StampOptions& o, StampReport& rep) {
+    Mesh& mesh = scene.meshes[size_t(mesh_index)];
+    Mat inv;
+    if (!invert_affine(M, inv)) {
+        rep.warnings.push_back("mesh '" + mesh.name + "' has a singular transform; not deformed");
+        return Status::success();
+    }
+    Gathered g = survey_mesh(mesh, skinned, o, rep);
+    if (g.slots.empty()) return Status::success();
+    WorkMesh w = gather_world(mesh, g, M, O);
+    rep.triangles_in += w.indices.size() / 3;
+
+    const Heightmap& hm = field.heightmap();
+    if (g.tess) {
+        const auto t0 = Clock::now();
+        Status s = tessellate_ground(w, hm, o, rep);
+        if (!s.ok()) return Status::error(s.code, "tessellation of mesh '" + mesh.name + "' failed: " + s.message);
+        rep.tessellate_seconds += seconds_since(t0);
+    }
+
+    // Displace in the field's frame, welded.
+    const auto t1 = Clock::now();
+    DisplacedGround dg;
+    DisplaceOptions dopt;
+    dopt.along_up = o.along_up;
+    dopt.top_only = field.overhang_triangles() > 0;
+    Status s = dg.prepare(w.positions.data(), w.positions.size() / 3, w.indices.data(), w.indices.size(), hm.frame, dopt, &field.ground());
+    if (!s.ok()) return s;
+    std::vector<float> P(w.positions.size()), N(w.positions.size());
+    dg.displace_all(hm, P.data(), N.data());
+    rep.welded_points += dg.welded_count();
+    {
+        std::vector<uint32_t> remap(w.positions.size() / 3); // points that actually moved, for the report
+        weld_positions(remap.data(), w.positions.data(), remap.size());
+        for (size_t v = 0; v < remap.size(); ++v)
+            if (remap[v] == v && (P[3 * v] != w.positions[3 * v] || P[3 * v + 1] != w.positions[3 * v + 1] || P[3 * v + 2] != w.positions[3 * v + 2]))
+                ++rep.displaced_points;
+    }
+    rep.displace_seconds += seconds_since(t1);
+
+    to_object_space(P, N, w, g, M, inv, O);
+    if (g.tess) rebuild_primitives(mesh, g, w, P, N, rep);
+    else write_in_place(mesh, g, P, N, rep);
     rep.meshes += 1;
-    rep.primitives += slots.size();
+    rep.primitives += g.slots.size();
     return Status::success();
 }
 
@@ -446,7 +532,7 @@ Status stamp_scene(Scene& scene, const ColliderSet& colliders, const StampOption
     // scene_triangles reads an index out of range as a degenerate corner, which is right for a heightmap of the
     // ground, but the meshes are then written back with their own indices: such a ground came out of an ok
     // stamp still naming vertices that do not exist (found by fuzz_stamp). Refused, as render_scene does.
-    for (int n : drawn_nodes(scene)) {
+    for (int n : scene.drawn_nodes()) {
         const int m = scene.nodes[size_t(n)].mesh;
         if (m < 0 || size_t(m) >= scene.meshes.size()) continue;
         for (size_t k = 0; k < scene.meshes[size_t(m)].primitives.size(); ++k) {
@@ -467,21 +553,35 @@ Status stamp_scene(Scene& scene, const ColliderSet& colliders, const StampOption
     const auto t0 = Clock::now();
     std::vector<float> gp;
     std::vector<uint32_t> gi;
-    scene_triangles(gp, gi, scene);
+    // Everything below works relative to the ground's origin O (ground_origin): float32 positions keep
+    // their precision at 1e5..1e7 m, and the world-space inputs (colliders, camera, base map) move with it.
+    const std::array<double, 3> origin = ground_origin(scene);
+    const D3 O = d3(origin);
+    scene_triangles(gp, gi, scene, origin);
     if (gi.empty()) return Status::error(StatusCode::invalid_input, "the ground has no triangles");
+    const ColliderSet local = shifted(colliders, O);
+    StampOptions lo = o;
+    if (lo.camera) lo.camera->eye = arr(d3(lo.camera->eye) - O);
+    Heightmap base;
+    if (o.base) {
+        base = *o.base;
+        base.frame.origin = arr(d3(base.frame.origin) - O);
+        lo.base = &base;
+    }
     SnowOptions so = o.snow;
     so.up = colliders.up;
     SnowField field;
     Status s = field.create(gp.data(), gp.size() / 3, gi.data(), gi.size(), so);
     if (!s.ok()) return s;
     rep.frame = field.frame();
+    rep.frame.origin = arr(d3(rep.frame.origin) + O);
     rep.overhang_triangles = field.overhang_triangles();
     if (rep.overhang_triangles)
         rep.warnings.push_back(std::to_string(rep.overhang_triangles) +
                                " ground triangles face away from up (overhangs or undersides): the snow follows the top surface "
                                "only, and points below it are not displaced");
-    if (o.base) {
-        s = field.set_base(*o.base);
+    if (lo.base) {
+        s = field.set_base(*lo.base);
         if (!s.ok()) return s;
     }
     double T = 0;
@@ -489,7 +589,7 @@ Status stamp_scene(Scene& scene, const ColliderSet& colliders, const StampOption
         for (double t : c.time) T = std::max(T, t);
     if (o.time) T = *o.time;
     field.set_time(T);
-    s = field.add_colliders(colliders, &rep.stats);
+    s = field.add_colliders(local, &rep.stats);
     if (!s.ok()) return s;
     field.update();
     rep.removed_volume = field.removed_volume();
@@ -504,7 +604,10 @@ Status stamp_scene(Scene& scene, const ColliderSet& colliders, const StampOption
     if (rep.stats.missed_rays)
         rep.warnings.push_back(std::to_string(rep.stats.missed_rays) + " contact rays found no ground below their collider");
     rep.stamp_seconds = seconds_since(t0);
-    if (heightmap_out) *heightmap_out = hm;
+    if (heightmap_out) {
+        *heightmap_out = hm;
+        heightmap_out->frame.origin = arr(d3(hm.frame.origin) + O);
+    }
     rep.changed = changed;
     if (changed) {
         const auto world = scene.world_matrices();
@@ -512,7 +615,7 @@ Status stamp_scene(Scene& scene, const ColliderSet& colliders, const StampOption
         std::vector<int> mesh_user(scene.meshes.size(), -1);
         std::vector<std::pair<int, int>> work; // node, mesh
         const size_t originals = scene.meshes.size();
-        for (int n : drawn_nodes(scene)) {
+        for (int n : scene.drawn_nodes()) {
             Node& node = scene.nodes[size_t(n)];
             if (node.mesh < 0 || size_t(node.mesh) >= originals) continue;
             int m = node.mesh;
@@ -528,7 +631,7 @@ Status stamp_scene(Scene& scene, const ColliderSet& colliders, const StampOption
             work.push_back({n, m});
         }
         for (const auto& [n, m] : work) {
-            s = deform_mesh(scene, m, world[size_t(n)], scene.nodes[size_t(n)].skin >= 0, field, o, rep);
+            s = deform_mesh(scene, m, scene.mesh_placement(n, world), O, scene.nodes[size_t(n)].skin >= 0, field, lo, rep);
             if (!s.ok()) return s;
         }
     }

@@ -16,6 +16,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 #include <limits>
 #include <numeric>
 #include <vector>
@@ -23,7 +24,7 @@
 namespace furrow {
 namespace {
 
-constexpr double pi = 3.14159265358979323846;
+constexpr double pi = std::numbers::pi;
 
 struct DisjointSets {
     std::vector<uint32_t> parent;

@@ -1,23 +1,13 @@
 #include <furrow/mesh.h>
+#include <furrow_kernel/affine.h>
 
 #include <cmath>
+#include <cstdint>
 
 namespace furrow {
 
-namespace {
-using Mat4 = std::array<double, 16>; // column-major
-
-Mat4 multiply(const Mat4& a, const Mat4& b) {
-    Mat4 r{};
-    for (int c = 0; c < 4; ++c)
-        for (int rI = 0; rI < 4; ++rI) {
-            double s = 0;
-            for (int k = 0; k < 4; ++k) s += a[k * 4 + rI] * b[c * 4 + k];
-            r[c * 4 + rI] = s;
-        }
-    return r;
-}
-} // namespace
+using kernel::Mat4;
+using kernel::multiply;
 
 std::array<double, 16> Node::local_matrix() const {
     if (has_matrix) return matrix;
@@ -43,25 +33,75 @@ std::array<double, 16> Node::local_matrix() const {
     return m;
 }
 
+std::vector<int> Scene::drawn_nodes() const {
+    std::vector<int> start = roots;
+    if (start.empty()) {
+        std::vector<uint8_t> has_parent(nodes.size(), 0);
+        for (const Node& n : nodes)
+            for (int c : n.children)
+                if (c >= 0 && size_t(c) < nodes.size()) has_parent[size_t(c)] = 1;
+        for (size_t i = 0; i < nodes.size(); ++i)
+            if (!has_parent[i]) start.push_back(int(i));
+    }
+    // Iterative DFS: a malformed cycle or a node reachable twice is visited once (the loader rejects cycles;
+    // this guard keeps hand-built scenes safe too).
+    std::vector<int> order;
+    std::vector<uint8_t> seen(nodes.size(), 0);
+    std::vector<int> stack(start.rbegin(), start.rend());
+    while (!stack.empty()) {
+        const int n = stack.back();
+        stack.pop_back();
+        if (n < 0 || size_t(n) >= nodes.size() || seen[size_t(n)]) continue;
+        seen[size_t(n)] = 1;
+        order.push_back(n);
+        const auto& ch = nodes[size_t(n)].children;
+        stack.insert(stack.end(), ch.rbegin(), ch.rend());
+    }
+    return order;
+}
+
 std::vector<std::array<double, 16>> Scene::world_matrices() const {
     const Mat4 identity{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
     std::vector<Mat4> world(nodes.size(), identity);
-    std::vector<char> seen(nodes.size(), 0);
-    // Iterative DFS: a malformed cycle or a node reachable twice is visited once (the loader rejects
-    // cycles; this guard keeps hand-built scenes safe too).
-    std::vector<std::pair<int, Mat4>> stack;
-    for (int r : roots)
-        if (r >= 0 && size_t(r) < nodes.size()) stack.push_back({r, identity});
-    while (!stack.empty()) {
-        auto [n, parent] = stack.back();
-        stack.pop_back();
-        if (seen[size_t(n)]) continue;
-        seen[size_t(n)] = 1;
-        world[size_t(n)] = multiply(parent, nodes[size_t(n)].local_matrix());
+    std::vector<int> parent(nodes.size(), -1);
+    const std::vector<int> order = drawn_nodes();
+    // In DFS order a node's parent (the node it was first reached from) comes before it.
+    for (int n : order)
         for (int c : nodes[size_t(n)].children)
-            if (c >= 0 && size_t(c) < nodes.size()) stack.push_back({c, world[size_t(n)]});
+            if (c >= 0 && size_t(c) < nodes.size() && parent[size_t(c)] < 0 && c != n) parent[size_t(c)] = n;
+    std::vector<uint8_t> done(nodes.size(), 0);
+    for (int n : order) {
+        const int p = parent[size_t(n)];
+        world[size_t(n)] = p >= 0 && done[size_t(p)] ? multiply(world[size_t(p)], nodes[size_t(n)].local_matrix()) : nodes[size_t(n)].local_matrix();
+        done[size_t(n)] = 1;
     }
     return world;
+}
+
+std::array<double, 16> Scene::mesh_placement(int n, const std::vector<std::array<double, 16>>& world) const {
+    const Mat4 identity{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+    if (n < 0 || size_t(n) >= nodes.size()) return identity;
+    const Mat4 own = size_t(n) < world.size() ? world[size_t(n)] : identity;
+    const Node& node = nodes[size_t(n)];
+    if (node.skin < 0 || size_t(node.skin) >= skins.size() || node.mesh < 0 || size_t(node.mesh) >= meshes.size()) return own;
+    const Skin& skin = skins[size_t(node.skin)];
+    // Total weight per joint over the mesh's vertices.
+    std::vector<double> weight(skin.joints.size(), 0.0);
+    for (const Primitive& p : meshes[size_t(node.mesh)].primitives) {
+        const size_t V = std::min(p.joints.size(), p.weights.size()) / 4;
+        for (size_t k = 0; k < 4 * V; ++k)
+            if (p.joints[k] < weight.size() && std::isfinite(p.weights[k])) weight[p.joints[k]] += double(p.weights[k]);
+    }
+    size_t best = SIZE_MAX;
+    for (size_t j = 0; j < weight.size(); ++j)
+        if (weight[j] > 0 && (best == SIZE_MAX || weight[j] > weight[best])) best = j;
+    if (best == SIZE_MAX) return own;
+    const int joint = skin.joints[best];
+    if (joint < 0 || size_t(joint) >= world.size()) return own;
+    Mat4 ibm = identity;
+    if (skin.inverse_bind_matrices.size() >= 16 * (best + 1))
+        for (size_t k = 0; k < 16; ++k) ibm[k] = double(skin.inverse_bind_matrices[16 * best + k]);
+    return multiply(world[size_t(joint)], ibm);
 }
 
 Scene make_scene(Primitive primitive, const std::string& name) {

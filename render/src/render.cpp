@@ -9,9 +9,12 @@
 //     depth then keeps its precision over the whole range, so no far plane has to be guessed.
 #include "render_internal.h"
 
+#include <furrow_kernel/affine.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <numbers>
 #include <cstdio>
 #include <limits>
 #include <map>
@@ -42,24 +45,11 @@ Vec3 normalize(const Vec3& a) {
 }
 bool finite3(const Vec3& a) { return std::isfinite(a[0]) && std::isfinite(a[1]) && std::isfinite(a[2]); }
 
-Mat4 mul(const Mat4& a, const Mat4& b) {
-    Mat4 r{};
-    for (int c = 0; c < 4; ++c)
-        for (int row = 0; row < 4; ++row) {
-            double s = 0;
-            for (int k = 0; k < 4; ++k) s += a[k * 4 + row] * b[c * 4 + k];
-            r[c * 4 + row] = s;
-        }
-    return r;
-}
 Vec3 transform_point(const Mat4& m, double x, double y, double z) {
     return {m[0] * x + m[4] * y + m[8] * z + m[12], m[1] * x + m[5] * y + m[9] * z + m[13],
             m[2] * x + m[6] * y + m[10] * z + m[14]};
 }
-double det3(const Mat4& m) {
-    return m[0] * (m[5] * m[10] - m[9] * m[6]) - m[4] * (m[1] * m[10] - m[9] * m[2]) +
-           m[8] * (m[1] * m[6] - m[5] * m[2]);
-}
+using kernel::det3;
 // Inverse transpose of the upper 3×3 up to a positive factor (the cofactor matrix, sign-corrected), so that
 // normals survive non-uniform and mirroring scales; row-major 3×3. Normals are renormalized per pixel.
 std::array<double, 9> normal_matrix(const Mat4& m) {
@@ -192,14 +182,16 @@ Status world_vertices(Instance& inst, const Scene& scene, const std::vector<Mat4
             Mat4 ibm{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
             if (!skin.inverse_bind_matrices.empty())
                 for (int e = 0; e < 16; ++e) ibm[size_t(e)] = skin.inverse_bind_matrices[16 * k + size_t(e)];
-            joint_matrices.push_back(mul(world[size_t(j)], ibm));
+            joint_matrices.push_back(kernel::multiply(world[size_t(j)], ibm));
         }
         for (size_t i = 0; i < p.joints.size(); ++i)
             if (p.weights[i] != 0 && p.joints[i] >= joint_matrices.size())
                 return Status::error(StatusCode::invalid_input,
                                      where(inst.mesh, inst.prim_index) + ": JOINTS_0 refers to a missing joint");
     }
-    inst.flip = !skinned && det3(node_world) < 0;
+    // A mirroring placement turns the winding around; a skinned mesh's is its bind placement (its node's
+    // transform is ignored), so a mirrored bind pose culls the same faces as its unskinned twin.
+    inst.flip = det3(skinned ? scene.mesh_placement(node_index, world) : node_world) < 0;
     const auto node_normals = normal_matrix(node_world);
 
     std::vector<double> wpos(3 * n);
@@ -290,7 +282,7 @@ Status make_view(View& v, const RenderCamera& cam, const Vec3& lo, const Vec3& h
     if (cam.eye) reserve_right = 0; // a camera the user placed is not moved
     reserve_right = std::min(reserve_right, width / 3);
     double fit_aspect = double(width - reserve_right) / height, shift = -double(reserve_right) / width; // NDC
-    double half_fov = cam.fov_degrees * M_PI / 360;
+    double half_fov = cam.fov_degrees * std::numbers::pi / 360;
     Vec3 up = normalize(cam.up);
     // The default views are built on a frame of the up axis: front = +Z (or −Y when up is Z).
     Vec3 front = std::abs(up[2]) < 0.9 ? Vec3{0, 0, 1} : Vec3{0, -1, 0};
@@ -376,7 +368,7 @@ Status make_view(View& v, const RenderCamera& cam, const Vec3& lo, const Vec3& h
     }
     Mat4 view{r[0], u[0], -f[0], 0, r[1], u[1], -f[1], 0, r[2], u[2], -f[2], 0,
               -dot(r, eye), -dot(u, eye), dot(f, eye), 1};
-    v.view_proj = mul(proj, view);
+    v.view_proj = kernel::multiply(proj, view);
     v.view_rotation = {r[0], r[1], r[2], u[0], u[1], u[2], -f[0], -f[1], -f[2]};
     v.eye = eye;
     v.forward = f;
@@ -462,27 +454,7 @@ Status render_scene(RenderResult& out, const Scene& scene, const RenderOptions& 
         return Status::error(StatusCode::invalid_argument, "attribute mode needs an attribute name");
 
     // Reachable nodes, depth first from the roots (parentless nodes when the scene lists no roots).
-    std::vector<int> roots = scene.roots;
-    if (roots.empty()) {
-        std::vector<bool> has_parent(scene.nodes.size());
-        for (const Node& n : scene.nodes)
-            for (int c : n.children)
-                if (c >= 0 && size_t(c) < scene.nodes.size()) has_parent[size_t(c)] = true;
-        for (size_t i = 0; i < scene.nodes.size(); ++i)
-            if (!has_parent[i]) roots.push_back(int(i));
-    }
-    std::vector<int> order;
-    std::vector<bool> seen(scene.nodes.size());
-    std::vector<int> stack(roots.rbegin(), roots.rend());
-    while (!stack.empty()) {
-        int n = stack.back();
-        stack.pop_back();
-        if (n < 0 || size_t(n) >= scene.nodes.size() || seen[size_t(n)]) continue;
-        seen[size_t(n)] = true;
-        order.push_back(n);
-        const auto& ch = scene.nodes[size_t(n)].children;
-        stack.insert(stack.end(), ch.rbegin(), ch.rend());
-    }
+    const std::vector<int> order = scene.drawn_nodes();
     std::vector<Mat4> world = scene.world_matrices();
     if (world.size() != scene.nodes.size())
         return Status::error(StatusCode::invalid_input, "world matrices do not match the node count");

@@ -16,6 +16,7 @@
 #include "shells_internal.h"
 
 #include <furrow/shells.h>
+#include <furrow_kernel/affine.h>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -32,20 +33,7 @@ namespace {
 
 using Mat4 = std::array<double, 16>; // column-major
 
-Mat4 mul(const Mat4& a, const Mat4& b) {
-    Mat4 r{};
-    for (int c = 0; c < 4; ++c)
-        for (int rr = 0; rr < 4; ++rr) {
-            double s = 0;
-            for (int k = 0; k < 4; ++k) s += a[size_t(k * 4 + rr)] * b[size_t(c * 4 + k)];
-            r[size_t(c * 4 + rr)] = s;
-        }
-    return r;
-}
-
-double det3(const Mat4& m) {
-    return m[0] * (m[5] * m[10] - m[9] * m[6]) - m[4] * (m[1] * m[10] - m[9] * m[2]) + m[8] * (m[1] * m[6] - m[5] * m[2]);
-}
+using kernel::det3;
 
 // Solves M·x = b for the linear part of M (Cramer); returns b if M is singular.
 std::array<double, 3> solve3(const Mat4& m, const std::array<double, 3>& b) {
@@ -75,27 +63,7 @@ struct Placement {
 Placement placement_of(const Scene& scene, const std::vector<Mat4>& world, int node_index, const std::array<double, 3>& g) {
     Placement pl;
     pl.node = node_index;
-    const Node& node = scene.nodes[size_t(node_index)];
-    Mat4 m = world[size_t(node_index)];
-    // A skinned mesh is placed by its joints: in bind pose, a vertex goes through world(joint) × inverse bind
-    // matrix of its joints. The first weighted joint of the first skinned vertex stands for the whole mesh.
-    if (node.skin >= 0 && node.skin < int(scene.skins.size()) && node.mesh >= 0) {
-        const Skin& skin = scene.skins[size_t(node.skin)];
-        for (const Primitive& p : scene.meshes[size_t(node.mesh)].primitives) {
-            if (p.joints.size() < 4 || p.weights.size() < 4) continue;
-            int best = 0;
-            for (int k = 1; k < 4; ++k)
-                if (p.weights[size_t(k)] > p.weights[size_t(best)]) best = k;
-            size_t j = p.joints[size_t(best)];
-            if (j < skin.joints.size() && skin.joints[j] >= 0 && skin.joints[j] < int(world.size())) {
-                Mat4 ibm{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
-                if (skin.inverse_bind_matrices.size() >= 16 * (j + 1))
-                    for (size_t k = 0; k < 16; ++k) ibm[k] = skin.inverse_bind_matrices[16 * j + k];
-                m = mul(world[size_t(skin.joints[j])], ibm);
-            }
-            break;
-        }
-    }
+    const Mat4 m = scene.mesh_placement(node_index, world); // the bind pose for a skinned mesh
     double d = det3(m);
     pl.scale = std::isfinite(d) && std::abs(d) > 1e-300 ? std::cbrt(std::abs(d)) : 1.0;
     std::array<double, 3> go = solve3(m, g);
@@ -371,30 +339,12 @@ Status add_fur_shells(Scene& scene, const FurOptions& opt, FurReport* report) {
     if (has_comb && (opt.comb.channels < 2 || opt.comb.pixels.size() != size_t(opt.comb.width) * size_t(opt.comb.height) * size_t(opt.comb.channels)))
         return bad("the comb map needs at least 2 channels (r = along u, g = up the image)");
 
-    // --- which meshes: those of nodes reachable from the scene roots, each placed by its first such node
-    std::vector<int> roots = scene.roots;
-    if (roots.empty()) {
-        std::vector<uint8_t> is_child(scene.nodes.size(), 0);
-        for (const Node& nd : scene.nodes)
-            for (int c : nd.children)
-                if (c >= 0 && c < int(scene.nodes.size())) is_child[size_t(c)] = 1;
-        for (size_t i = 0; i < scene.nodes.size(); ++i)
-            if (!is_child[i]) roots.push_back(int(i));
-    }
-    std::vector<uint8_t> reached(scene.nodes.size(), 0);
-    std::vector<int> stack = roots;
-    while (!stack.empty()) {
-        int i = stack.back();
-        stack.pop_back();
-        if (i < 0 || i >= int(scene.nodes.size()) || reached[size_t(i)]) continue;
-        reached[size_t(i)] = 1;
-        for (int c : scene.nodes[size_t(i)].children) stack.push_back(c);
-    }
+    // --- which meshes: those of the nodes the scene draws, each placed by its first such node
     const std::vector<Mat4> world = scene.world_matrices();
     std::vector<int> mesh_node(scene.meshes.size(), -1);
-    for (size_t i = 0; i < scene.nodes.size(); ++i) {
-        int m = scene.nodes[i].mesh;
-        if (reached[i] && m >= 0 && m < int(scene.meshes.size()) && mesh_node[size_t(m)] < 0) mesh_node[size_t(m)] = int(i);
+    for (int i : scene.drawn_nodes()) {
+        const int m = scene.nodes[size_t(i)].mesh;
+        if (m >= 0 && m < int(scene.meshes.size()) && mesh_node[size_t(m)] < 0) mesh_node[size_t(m)] = i;
     }
 
     // --- work list and input checks (before anything is added to the scene)

@@ -46,6 +46,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 #include <memory>
 #include <numeric>
 #include <set>
@@ -281,7 +282,7 @@ Status compute_shell_frame(ShellFrame& out, const float* positions, size_t verte
         if (comb) lean[w] = o.comb_strength * along_surface(combw[w]);
         // Droop: the tip's bend angle θ_tip = droop·π/4 × (how much gravity lies along the surface), toward
         // gravity's surface direction (detail::bend_integrals): droop 2 lays a wall's tips level, 4 hangs them.
-        if (o.droop > 0) sag[w] = (o.droop * M_PI / 4) * along_surface(g);
+        if (o.droop > 0) sag[w] = (o.droop * std::numbers::pi / 4) * along_surface(g);
     });
 
     // Where a strand of unit length reaches at height fraction s (comb lean and droop bend included).

@@ -25,12 +25,13 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <numbers>
 #include <string>
 
 namespace furrow::tess {
 namespace {
 
-constexpr double pi = 3.14159265358979323846;
+constexpr double pi = std::numbers::pi;
 
 bool finite3(const std::array<double, 3>& v) {
     return std::isfinite(v[0]) && std::isfinite(v[1]) && std::isfinite(v[2]);

@@ -12,6 +12,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <numbers>
 
 namespace furrow::tess {
 namespace {
@@ -44,7 +45,7 @@ Status measure_tessellation(ErrorReport& out, const PreparedMesh& m, const Tesse
     }
     const bool camera = view.camera.has_value();
     const double focal = camera ? 0.5 * view.camera->viewport_height /
-                                      std::tan(0.5 * view.camera->fov_degrees * 3.14159265358979323846 / 180.0)
+                                      std::tan(0.5 * view.camera->fov_degrees * std::numbers::pi / 180.0)
                                 : 0.0;
     const double min_distance = std::max(1e-4 * out.diagonal, 1e-12);
 

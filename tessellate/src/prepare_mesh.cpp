@@ -19,6 +19,7 @@
 #include "tessellate_internal.h"
 
 #include <algorithm>
+#include <numbers>
 #include <cstring>
 #include <numeric>
 #include <string>
@@ -574,7 +575,7 @@ Status prepare_mesh(PreparedMesh& m, const TessellateInput& in, const SurfaceOpt
         face_normal[f] = newell_normal(pts.data(), pts.size());
     }
     const bool creases = o.crease_angle_degrees < 180.0;
-    const double cos_crease = std::cos(o.crease_angle_degrees * 3.14159265358979323846 / 180.0);
+    const double cos_crease = std::cos(o.crease_angle_degrees * std::numbers::pi / 180.0);
     m.edge_split.assign(E, 0);
     m.edge_crease.assign(E, 0);
     for (size_t e = 0; e < E; ++e) {

@@ -6,9 +6,8 @@
 // along their shared borders. Attribute values are never shared across primitives, so each output vertex
 // belongs to exactly one primitive.
 //
-// View criteria are in world space, so each mesh gets the world matrices of the nodes that draw it. glTF
-// ignores the node transform of a skinned mesh (glTF 2.0, "Skins"): its bind-pose placement is taken from
-// the first joint (world matrix x inverse bind matrix), exact for a skin in its bind pose.
+// View criteria are in world space, so each mesh gets the placements of the nodes that draw it
+// (Scene::mesh_placement: glTF ignores the node transform of a skinned mesh and places it by its joints).
 #include "tessellate_internal.h"
 
 #include <algorithm>
@@ -21,35 +20,13 @@ using namespace tess;
 
 namespace {
 
-std::array<double, 16> multiply(const std::array<double, 16>& a, const std::array<double, 16>& b) {
-    std::array<double, 16> r{};
-    for (int c = 0; c < 4; ++c)
-        for (int row = 0; row < 4; ++row) {
-            double s = 0;
-            for (int k = 0; k < 4; ++k) s += a[size_t(k * 4 + row)] * b[size_t(c * 4 + k)];
-            r[size_t(c * 4 + row)] = s;
-        }
-    return r;
-}
-
-std::vector<std::array<double, 16>> mesh_instances(const Scene& scene, size_t mesh,
+// Every placement of one mesh among the nodes the scene draws (Scene::mesh_placement: the bind pose for a
+// skinned mesh).
+std::vector<std::array<double, 16>> mesh_instances(const Scene& scene, size_t mesh, const std::vector<int>& drawn,
                                                    const std::vector<std::array<double, 16>>& world) {
     std::vector<std::array<double, 16>> out;
-    for (size_t n = 0; n < scene.nodes.size(); ++n) {
-        const Node& node = scene.nodes[n];
-        if (node.mesh != int(mesh)) continue;
-        std::array<double, 16> m = n < world.size() ? world[n] : std::array<double, 16>{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
-        if (node.skin >= 0 && size_t(node.skin) < scene.skins.size()) {
-            const Skin& skin = scene.skins[size_t(node.skin)];
-            if (!skin.joints.empty() && size_t(skin.joints[0]) < world.size()) {
-                std::array<double, 16> ibm{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
-                if (skin.inverse_bind_matrices.size() >= 16)
-                    for (int i = 0; i < 16; ++i) ibm[size_t(i)] = skin.inverse_bind_matrices[size_t(i)];
-                m = multiply(world[size_t(skin.joints[0])], ibm);
-            }
-        }
-        out.push_back(m);
-    }
+    for (int n : drawn)
+        if (scene.nodes[size_t(n)].mesh == int(mesh)) out.push_back(scene.mesh_placement(n, world));
     return out;
 }
 
@@ -311,6 +288,7 @@ Status tessellate_scene(Scene& scene, const TessellateOptions& options, SceneTes
                                                                     ": faces but no vertices (index out of range)");
         }
     const auto world = scene.world_matrices();
+    const std::vector<int> drawn = scene.drawn_nodes();
     struct Job {
         size_t mesh;
         Merged merged;
@@ -333,7 +311,7 @@ Status tessellate_scene(Scene& scene, const TessellateOptions& options, SceneTes
             if (Status s = job->tess.prepare(in, options.surface); !s.ok())
                 return Status::error(s.code, where + ": " + s.message);
             job->rates = options.rates;
-            job->rates.instances = mesh_instances(scene, mi, world);
+            job->rates.instances = mesh_instances(scene, mi, drawn, world);
             job->rates.max_triangles = 0;
             if (options.rates.max_triangles > 0 || options.triangle_budget > 0)
                 if (Status s = job->tess.count_triangles(job->count, job->rates); !s.ok())

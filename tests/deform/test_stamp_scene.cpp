@@ -4,6 +4,7 @@
 #include "test_support.h"
 
 #include <map>
+#include <set>
 
 using namespace furrow;
 using namespace furrow::test;
@@ -307,4 +308,138 @@ TEST(StampFiles, StampsTheBundledSnowField) {
     const auto file = temp_dir() / "snow.glb";
     ASSERT_TRUE(save_scene(scene, file.string()).ok());
     EXPECT_VALID_GLTF(file);
+}
+
+namespace {
+
+// A 40 m ground turned 10° about up and drawn at `offset` (the node holds the offset in double, as a recentred
+// load leaves it), stamped by a sphere 0.15 m deep at (3, ·, −2) from the ground's centre.
+struct FarStamp {
+    Scene before, after;
+    StampReport rep;
+    std::array<double, 16> M{};
+};
+FarStamp stamp_far(std::array<double, 3> offset) {
+    FarStamp f;
+    f.before = ground_scene(flat_ground(40, 80));
+    const double a = 10 * 3.14159265358979323846 / 180;
+    f.before.nodes[0].rotation = {0, std::sin(a / 2), 0, std::cos(a / 2)};
+    f.before.nodes[0].translation = offset;
+    f.after = f.before;
+    StampOptions o;
+    o.snow.resolution = 512;
+    const double r = 0.5, p = 0.15;
+    Status s = stamp_scene(f.after, set_of({sphere(r, {{offset[0] + 3, offset[1] + r - p, offset[2] - 2}})}), o, &f.rep);
+    EXPECT_TRUE(s.ok()) << s.message;
+    f.M = f.after.world_matrices()[0];
+    return f;
+}
+
+std::array<double, 3> world_of(const std::array<double, 16>& M, const float* p) {
+    return {M[0] * p[0] + M[4] * p[1] + M[8] * p[2] + M[12], M[1] * p[0] + M[5] * p[1] + M[9] * p[2] + M[13],
+            M[2] * p[0] + M[6] * p[1] + M[10] * p[2] + M[14]};
+}
+
+// Worst and mean vertical deviation from the analytic imprint, in double, relative to the ground's centre.
+std::pair<double, double> far_imprint_deviation(const FarStamp& f, std::array<double, 3> offset) {
+    const Primitive& g = f.after.meshes[0].primitives[0];
+    double worst = 0, sum = 0;
+    for (size_t v = 0; v < g.vertex_count(); ++v) {
+        const auto w = world_of(f.M, &g.positions[3 * v]);
+        const double x = w[0] - offset[0], y = w[1] - offset[1], z = w[2] - offset[2];
+        const double e = std::abs(y - sphere_imprint(0.5, 0.15, std::hypot(x - 3, z + 2)));
+        worst = std::max(worst, e);
+        sum += e;
+    }
+    return {worst, sum / double(g.vertex_count())};
+}
+
+} // namespace
+
+// Far from the origin (1e5 m, and UTM-like 5e5 / −5.4e6 m) every ground point no print touches is bit-identical
+// in world space, and the imprint is as exact as at the origin: world positions were once built in float32
+// (steps of 8 mm at 1e5 m, 0.5 m at 5e6 m), which moved every vertex by millimetres to decimetres.
+TEST(StampScene, FarFromOriginUntouchedPointsAreBitIdentical) {
+    const FarStamp home = stamp_far({0, 0, 0});
+    const auto [home_worst, home_mean] = far_imprint_deviation(home, {0, 0, 0});
+    EXPECT_LT(home_worst, 0.03); // texels of 9 cm (512 over the turned 40 m ground); the worst sits at the kink
+    for (const std::array<double, 3> offset : {std::array<double, 3>{1e5, 12, 1e5}, std::array<double, 3>{5e5, 300, -5.4e6}}) {
+        SCOPED_TRACE("offset " + std::to_string(offset[0]) + ", " + std::to_string(offset[2]));
+        const FarStamp f = stamp_far(offset);
+        ASSERT_TRUE(f.rep.changed);
+        // The ground's frame is reported in world space.
+        EXPECT_NEAR(f.rep.frame.origin[0], home.rep.frame.origin[0] + offset[0], 1e-6);
+        EXPECT_NEAR(f.rep.frame.origin[2], home.rep.frame.origin[2] + offset[2], 1e-6);
+        std::set<std::array<double, 3>> out;
+        const Primitive& g = f.after.meshes[0].primitives[0];
+        for (size_t v = 0; v < g.vertex_count(); ++v) out.insert(world_of(f.M, &g.positions[3 * v]));
+        const Primitive& in = f.before.meshes[0].primitives[0];
+        const auto M0 = f.before.world_matrices()[0];
+        size_t untouched = 0, kept = 0;
+        std::vector<double> moves; // of the points not kept: distance to the nearest output point
+        for (size_t v = 0; v < in.vertex_count(); ++v) {
+            const auto w = world_of(M0, &in.positions[3 * v]);
+            if (std::hypot(w[0] - offset[0] - 3, w[2] - offset[2] + 2) < 1.0) continue; // the print and a ring
+            ++untouched;
+            if (out.count(w)) {
+                ++kept;
+                continue;
+            }
+            double nearest = INFINITY;
+            for (const auto& q : out) nearest = std::min(nearest, std::hypot(q[0] - w[0], q[1] - w[1], q[2] - w[2]));
+            moves.push_back(nearest);
+        }
+        EXPECT_GT(untouched, 6000u);
+        std::sort(moves.begin(), moves.end());
+        EXPECT_EQ(kept, untouched) << "untouched points moved: median " << (moves.empty() ? 0 : moves[moves.size() / 2]) << " m, max "
+                                   << (moves.empty() ? 0 : moves.back()) << " m";
+        // Touched points: the imprint as exact as at the origin, within 1e-6 of the ground's size.
+        const auto [worst, mean] = far_imprint_deviation(f, offset);
+        EXPECT_NEAR(worst, home_worst, 1e-6 * 40);
+        EXPECT_NEAR(mean, home_mean, 1e-6 * 40);
+        EXPECT_EQ(g.vertex_count(), home.after.meshes[0].primitives[0].vertex_count());
+    }
+}
+
+// Authored normals are kept where the displacement did not change the surface: a ground with a hard edge
+// (split normals along its middle column) stamped away from the edge keeps the edge, and keeps every normal
+// away from the print; inside the print the normals are those of the displaced surface. (Once every normal
+// was recomputed on welded points: the split vanished and a stamped box looked pillow-shaded.)
+TEST(StampScene, KeepsAuthoredHardNormalsAwayFromThePrint) {
+    Primitive g = seam_ground(4, 16);
+    const float tilt[3] = {0.6f, 0.8f, 0.0f}, up[3] = {0, 1, 0};
+    const size_t first_copy = size_t(17 * 17);
+    for (size_t v = 0; v < g.vertex_count(); ++v) {
+        const bool right = v >= first_copy || g.positions[3 * v] > 0;
+        std::copy_n(right ? tilt : up, 3, &g.normals[3 * v]);
+    }
+    Scene scene = ground_scene(g);
+    StampOptions o;
+    o.snow.texel = 0.01;
+    const double cx = -1.2, cz = 0.8;
+    ASSERT_TRUE(stamp_scene(scene, set_of({sphere(0.3, {{cx, 0.2, cz}})}), o).ok());
+    const Primitive& out = scene.meshes[0].primitives[0];
+    ASSERT_EQ(out.normals.size(), out.positions.size());
+    size_t far = 0, kept = 0, seam_up = 0, seam_tilt = 0, bent = 0;
+    for (size_t v = 0; v < out.vertex_count(); ++v) {
+        const float* p = &out.positions[3 * v];
+        const float* n = &out.normals[3 * v];
+        auto is = [&](const float* want) { return std::abs(n[0] - want[0]) < 1e-6f && std::abs(n[1] - want[1]) < 1e-6f && std::abs(n[2] - want[2]) < 1e-6f; };
+        const double rho = std::hypot(p[0] - cx, p[2] - cz);
+        if (rho > 0.08 && rho < 0.2) bent += n[1] < 0.995f; // the print's wall leans towards its centre
+        if (rho < 0.6) continue;
+        ++far;
+        if (p[0] == 0) {
+            seam_up += is(up);
+            seam_tilt += is(tilt);
+            kept += is(up) || is(tilt);
+        } else {
+            kept += is(p[0] > 0 ? tilt : up);
+        }
+    }
+    EXPECT_GT(far, 250u);
+    EXPECT_EQ(kept, far);
+    EXPECT_GE(seam_up, 17u);
+    EXPECT_EQ(seam_tilt, seam_up) << "each seam point keeps both of its normals";
+    EXPECT_GT(bent, 0u) << "inside the print the normals follow the displaced surface";
 }

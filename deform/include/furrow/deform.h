@@ -331,7 +331,14 @@ Status stamp_scene(Scene& scene, const ColliderSet& colliders, const StampOption
 Status stamp_files(Scene& out, const std::string& ground_path, const std::string& colliders_path,
                    const StampOptions& options = {}, StampReport* report = nullptr);
 
-// World-space triangles of every mesh node of a scene (the ground as stamp_scene sees it).
-void scene_triangles(std::vector<float>& positions, std::vector<uint32_t>& indices, const Scene& scene);
+// World-space triangles of every mesh node of a scene (the ground as stamp_scene sees it), as positions
+// relative to `origin`: they are formed in double and rounded to float only after the origin is taken off,
+// so a ground at 1e5..1e7 m keeps its precision when `origin` is near it (see ground_origin).
+void scene_triangles(std::vector<float>& positions, std::vector<uint32_t>& indices, const Scene& scene,
+                     const std::array<double, 3>& origin = {0, 0, 0});
+
+// The origin stamp_scene works relative to: the centre of the ground's world bounding box when the ground
+// lies further from the world origin than its own diagonal, else (0, 0, 0).
+std::array<double, 3> ground_origin(const Scene& scene);
 
 } // namespace furrow

@@ -185,8 +185,17 @@ struct Scene {
     std::vector<std::string> warnings; // non-fatal findings of the loader (e.g. a missing texture file)
     std::shared_ptr<const detail::Document> document; // the rest of the source; null for non-glTF sources
 
-    // World matrix (column-major) of every node, from the roots; nodes not reachable get identity.
+    // The one traversal every module uses (render, shells, tessellate, stamp):
+    // The nodes the default scene draws: depth first from `roots` (from every parentless node when `roots` is
+    // empty), each node once, children in order. Out-of-range indices and cycles are skipped.
+    std::vector<int> drawn_nodes() const;
+    // World matrix (column-major) of every node, along drawn_nodes(); nodes not drawn get identity.
     std::vector<std::array<double, 16>> world_matrices() const;
+    // Where node n draws its mesh, as one rigid matrix (world = placement × object). glTF 2.0 §3.7.3: a skinned
+    // mesh ignores its node's transform and is placed by its joints, world(joint) × inverseBind(joint); in the
+    // bind pose every joint gives the same matrix. furrow takes the joint with the largest total weight over
+    // the mesh's vertices (the lowest index among equals). Not skinned, or a skin it cannot read: world[n].
+    std::array<double, 16> mesh_placement(int n, const std::vector<std::array<double, 16>>& world) const;
 };
 
 // ---------------------------------------------------------------------------------------------------------
