@@ -158,32 +158,22 @@ Status tessellate_pass(WorkMesh& m, const std::vector<int>& face_rate, const Sta
 
 } // namespace
 
-void scene_triangles(std::vector<float>& positions, std::vector<uint32_t>& indices, const Scene& scene,
-                     const std::array<double, 3>& origin) {
-    positions.clear();
-    indices.clear();
+namespace {
+
+// Calls f(M, primitive) for every ground primitive the scene draws, M its placement (Scene::mesh_placement).
+template <class F>
+void for_each_ground_primitive(const Scene& scene, F&& f) {
     const auto world = scene.world_matrices();
-    const D3 O = d3(origin);
     for (int n : scene.drawn_nodes()) {
         const Node& node = scene.nodes[size_t(n)];
         if (node.mesh < 0 || size_t(node.mesh) >= scene.meshes.size()) continue;
         const Mat M = scene.mesh_placement(n, world);
-        for (const Primitive& p : scene.meshes[size_t(node.mesh)].primitives) {
-            if (!is_ground_primitive(p)) continue;
-            const uint32_t base = uint32_t(positions.size() / 3);
-            for (size_t v = 0; v < p.vertex_count(); ++v) {
-                // World position in double, made relative to `origin` before it is rounded to float.
-                const D3 q = xform_point(M, D3{p.positions[3 * v], p.positions[3 * v + 1], p.positions[3 * v + 2]}) - O;
-                positions.insert(positions.end(), {float(q.x), float(q.y), float(q.z)});
-            }
-            for (uint32_t i : triangle_indices(p))
-                if (i < p.vertex_count()) indices.push_back(base + i);
-                else indices.push_back(base); // out of range: a degenerate corner, never a crash
-        }
+        for (const Primitive& p : scene.meshes[size_t(node.mesh)].primitives)
+            if (is_ground_primitive(p)) f(M, p);
     }
 }
 
-namespace {
+D3 vertex(const Primitive& p, size_t v) { return {p.positions[3 * v], p.positions[3 * v + 1], p.positions[3 * v + 2]}; }
 
 // The colliders moved by −O: their paths are world positions.
 ColliderSet shifted(const ColliderSet& set, const D3& O) {
@@ -195,22 +185,32 @@ ColliderSet shifted(const ColliderSet& set, const D3& O) {
 
 } // namespace
 
-std::array<double, 3> ground_origin(const Scene& scene) {
-    const auto world = scene.world_matrices();
-    double lo[3] = {kInf, kInf, kInf}, hi[3] = {-kInf, -kInf, -kInf};
-    for (int n : scene.drawn_nodes()) {
-        const Node& node = scene.nodes[size_t(n)];
-        if (node.mesh < 0 || size_t(node.mesh) >= scene.meshes.size()) continue;
-        const Mat M = scene.mesh_placement(n, world);
-        for (const Primitive& p : scene.meshes[size_t(node.mesh)].primitives) {
-            if (!is_ground_primitive(p)) continue;
-            for (size_t v = 0; v < p.vertex_count(); ++v) {
-                const D3 q = xform_point(M, D3{p.positions[3 * v], p.positions[3 * v + 1], p.positions[3 * v + 2]});
-                const double c[3] = {q.x, q.y, q.z};
-                for (int k = 0; k < 3; ++k) lo[k] = std::min(lo[k], c[k]), hi[k] = std::max(hi[k], c[k]);
-            }
+void scene_triangles(std::vector<float>& positions, std::vector<uint32_t>& indices, const Scene& scene,
+                     const std::array<double, 3>& origin) {
+    positions.clear();
+    indices.clear();
+    const D3 O = d3(origin);
+    for_each_ground_primitive(scene, [&](const Mat& M, const Primitive& p) {
+        const uint32_t base = uint32_t(positions.size() / 3);
+        for (size_t v = 0; v < p.vertex_count(); ++v) {
+            const D3 q = xform_point(M, vertex(p, v)) - O; // in double, relative to `origin`, then rounded
+            positions.insert(positions.end(), {float(q.x), float(q.y), float(q.z)});
         }
-    }
+        for (uint32_t i : triangle_indices(p))
+            if (i < p.vertex_count()) indices.push_back(base + i);
+            else indices.push_back(base); // out of range: a degenerate corner, never a crash
+    });
+}
+
+std::array<double, 3> ground_origin(const Scene& scene) {
+    double lo[3] = {kInf, kInf, kInf}, hi[3] = {-kInf, -kInf, -kInf};
+    for_each_ground_primitive(scene, [&](const Mat& M, const Primitive& p) {
+        for (size_t v = 0; v < p.vertex_count(); ++v) {
+            const D3 q = xform_point(M, vertex(p, v));
+            const double c[3] = {q.x, q.y, q.z};
+            for (int k = 0; k < 3; ++k) lo[k] = std::min(lo[k], c[k]), hi[k] = std::max(hi[k], c[k]);
+        }
+    });
     if (!(lo[0] <= hi[0]) || !std::isfinite(lo[0] + lo[1] + lo[2] + hi[0] + hi[1] + hi[2])) return {0, 0, 0};
     const std::array<double, 3> c{0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1]), 0.5 * (lo[2] + hi[2])};
     const double diagonal = std::hypot(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]);
