@@ -340,7 +340,9 @@ double collider_top_offset(const Collider& c) {
     return c.shape == ColliderShape::image ? 0.0 : collider_bottom_offset(c);
 }
 
-StampResult stamp_sweep(const StampTarget& T, const Collider& c, const LocalPose& from, const LocalPose& to, double decay) {
+namespace {
+
+StampResult stamp_sweep_sharp(const StampTarget& T, const Collider& c, const LocalPose& from, const LocalPose& to, double decay) {
     StampResult res;
     res.reach = shape_radius(c);
     const double t = T.texel;
@@ -438,6 +440,85 @@ StampResult stamp_sweep(const StampTarget& T, const Collider& c, const LocalPose
         if (turns) sweep_fixed(T, c, a, b, b.heading, decay, res);
     }
     return res;
+}
+
+// ---- soft brushes (Collider::falloff) ---------------------------------------------------------------------
+// The sharp imprint h is rasterised into a private layer over the sweep's box grown by the falloff, then
+// dilated with a smooth profile, h_f(q) = min over p of h(p)·w(|q − p| / f) with w(x) = 1 − 3x² + 2x³ on
+// texel centres, and min-composited into the carve layer. Inside the solid's footprint h_f <= h (w(0) = 1);
+// outside, the edge slopes up to the surface over f (analytic for a box: −D·w(s / f), s the distance to its
+// footprint). The profile kernel is cut at kMaxFalloffTexels texels (its cost grows with its area).
+constexpr int kMaxFalloffTexels = 64;
+
+StampResult stamp_sweep_soft(const StampTarget& T, const Collider& c, const LocalPose& from, const LocalPose& to, double decay) {
+    StampResult res;
+    const double t = T.texel;
+    const int k = clamped_int(std::ceil(c.falloff / t), 1, kMaxFalloffTexels);
+    const double f = std::min(c.falloff, k * t);
+    // The sweep's texel box grown by the falloff, clamped to the grid.
+    const double R = shape_radius(c) + t + f;
+    const int ia = clamped_int(std::floor((std::min(from.u, to.u) - R) / t), 0, T.width);
+    const int ib = clamped_int(std::ceil((std::max(from.u, to.u) + R) / t) + 1, 0, T.width);
+    const int ja = clamped_int(std::floor((std::min(from.v, to.v) - R) / t), 0, T.height);
+    const int jb = clamped_int(std::ceil((std::max(from.v, to.v) + R) / t) + 1, 0, T.height);
+    if (ib <= ia || jb <= ja) return res;
+    const int W = ib - ia, H = jb - ja;
+    std::vector<float> sharp(size_t(W) * size_t(H), 0.0f), ground(size_t(W) * size_t(H));
+    for (int j = 0; j < H; ++j)
+        std::copy_n(T.ground + size_t(j + ja) * size_t(T.width) + size_t(ia), size_t(W), ground.begin() + long(size_t(j) * size_t(W)));
+    StampTarget L = T;
+    L.carve = sharp.data(), L.ground = ground.data(), L.width = W, L.height = H;
+    auto local = [&](LocalPose p) { return p.u -= ia * t, p.v -= ja * t, p; };
+    const StampResult inner = stamp_sweep_sharp(L, c, local(from), local(to), decay);
+    res.reach = inner.reach + f;
+    if (inner.written == 0) return res;
+    // The profile on the kernel's offsets.
+    struct Tap {
+        int di, dj;
+        float w;
+    };
+    std::vector<Tap> taps;
+    for (int dj = -k; dj <= k; ++dj)
+        for (int di = -k; di <= k; ++di) {
+            const double x = t * std::hypot(di, dj) / f;
+            if (x < 1) taps.push_back({di, dj, float(1 - x * x * (3 - 2 * x))});
+        }
+    // Rows near the sharp imprint only: its rectangle grown by k.
+    const TexelRect in = inner.rect;
+    const int j0 = std::max(0, in.y0 - k), j1 = std::min(H, in.y1 + k), i0 = std::max(0, in.x0 - k), i1 = std::min(W, in.x1 + k);
+    std::vector<StampResult> rows(size_t(std::max(0, j1 - j0)));
+    tbb::parallel_for(tbb::blocked_range<int>(j0, j1, 4), [&](const tbb::blocked_range<int>& r) {
+        for (int j = r.begin(); j != r.end(); ++j) {
+            StampResult& row = rows[size_t(j - j0)];
+            for (int i = i0; i < i1; ++i) {
+                if (std::isnan(ground[size_t(j) * size_t(W) + size_t(i)])) continue;
+                float h = 0;
+                for (const Tap& tp : taps) {
+                    const int si = i + tp.di, sj = j + tp.dj;
+                    if (si < in.x0 || si >= in.x1 || sj < in.y0 || sj >= in.y1) continue;
+                    h = std::min(h, sharp[size_t(sj) * size_t(W) + size_t(si)] * tp.w);
+                }
+                if (!(h < 0)) continue;
+                const int gi = i + ia, gj = j + ja;
+                if (atomic_min(&T.carve[size_t(gj) * size_t(T.width) + size_t(gi)], h) > h) {
+                    ++row.written;
+                    row.rect.unite({gi, gj, gi + 1, gj + 1});
+                }
+            }
+        }
+    });
+    for (const StampResult& row : rows) {
+        res.written += row.written;
+        res.rect.unite(row.rect);
+    }
+    return res;
+}
+
+} // namespace
+
+StampResult stamp_sweep(const StampTarget& T, const Collider& c, const LocalPose& from, const LocalPose& to, double decay) {
+    if (c.falloff > 0 && c.shape != ColliderShape::image) return stamp_sweep_soft(T, c, from, to, decay);
+    return stamp_sweep_sharp(T, c, from, to, decay);
 }
 
 } // namespace furrow::detail

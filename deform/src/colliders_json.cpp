@@ -121,6 +121,10 @@ Collider parse_one(const json& c, size_t index, const std::string& base_dir) {
     } else {
         throw Bad{at + ".shape: unknown shape \"" + s + "\" (expected sphere, box, capsule or image)"};
     }
+    if (out.shape != ColliderShape::image) {
+        keys.insert("falloff");
+        if (c.contains("falloff")) out.falloff = non_negative(c["falloff"], at + ".falloff");
+    }
     check_keys(c, keys, at);
 
     if (c.contains("name")) {

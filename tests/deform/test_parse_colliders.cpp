@@ -141,3 +141,21 @@ TEST(ParseColliders, LoadReportsAMissingFile) {
     Status s = load_colliders(set, (temp_dir() / "missing.json").string());
     EXPECT_EQ(s.code, StatusCode::io_error);
 }
+
+TEST(ParseColliders, FalloffOnSolidShapesOnly) {
+    ColliderSet set;
+    ASSERT_TRUE(parse(R"({"colliders": [{"shape": "sphere", "radius": 1, "falloff": 0.25, "path": [[0,0,0]]},
+                                        {"shape": "box", "size": [1,1,1], "falloff": 0, "path": [[0,0,0]]},
+                                        {"shape": "capsule", "radius": 1, "length": 1, "falloff": 2, "path": [[0,0,0]]}]})",
+                      &set)
+                    .ok());
+    ASSERT_EQ(set.colliders.size(), 3u);
+    EXPECT_EQ(set.colliders[0].falloff, 0.25);
+    EXPECT_EQ(set.colliders[1].falloff, 0.0);
+    EXPECT_EQ(set.colliders[2].falloff, 2.0);
+    expect_error(R"({"colliders": [{"shape": "sphere", "radius": 1, "falloff": -0.1, "path": [[0,0,0]]}]})",
+                 "colliders[0].falloff: must be a finite number >= 0, got -0.1");
+    // An image brush carries its own soft edge in its pixels.
+    expect_error(R"({"colliders": [{"shape": "image", "image": "footprint.png", "size": [0.1, 0.2], "depth": 0.05, "falloff": 0.1, "path": [[0,0,0]]}]})",
+                 "colliders[0]: unknown key \"falloff\"");
+}

@@ -464,3 +464,76 @@ TEST(SnowField, WorksForAnyUpAxis) {
     const double centre[3] = {0.1, -0.2, 0};
     EXPECT_NEAR(f.heightmap().sample_world(centre), -0.12, 1e-5);
 }
+
+namespace {
+
+// The soft brush's profile: 1 at the solid, 0 at `falloff` from it (smoothstep).
+double falloff_weight(double x) { return x >= 1 ? 0.0 : 1 - x * x * (3 - 2 * x); }
+
+} // namespace
+
+// Collider::falloff, box: the analytic soft imprint is −D·w(s / f), s the distance to the box's footprint.
+// Inside the footprint the box's flat floor; outside, a smooth slope back to the surface over f (the sharp box
+// once left a vertical wall there).
+TEST(SnowField, SoftBoxFollowsTheAnalyticFalloff) {
+    const double depth = 0.05, f = 0.1, hx = 0.2, hz = 0.15;
+    SnowField field = make_field(flat_ground(2, 1), fine(0.005));
+    Collider c = box({2 * hx, 0.3, 2 * hz}, 0, {{0.1, 0.15 - depth, -0.05}});
+    c.falloff = f;
+    ASSERT_TRUE(field.add_collider(c).ok());
+    field.update();
+    const Heightmap& h = field.heightmap();
+    double worst = 0, sum = 0, slope_worst = 0;
+    size_t n = 0, slope = 0;
+    for (int j = 0; j < h.frame.height; ++j)
+        for (int i = 0; i < h.frame.width; ++i) {
+            auto xz = texel_xz(h.frame, i, j);
+            const double dx = std::max(0.0, std::abs(xz[0] - 0.1) - hx), dz = std::max(0.0, std::abs(xz[1] + 0.05) - hz);
+            const double s = std::hypot(dx, dz);
+            const double want = -depth * falloff_weight(s / f);
+            const double e = std::abs(double(h.at(i, j)) - want);
+            worst = std::max(worst, e);
+            sum += e, ++n;
+            if (s > 0.01 && s < f) slope_worst = std::max(slope_worst, e), ++slope;
+        }
+    // The kernel samples the sharp imprint at texel centres: the nearest one to a slope point lies up to
+    // ~0.85 texel further than the outline, and the outline itself is anti-aliased over a texel; on a profile
+    // whose steepest slope is 1.5·D/f that is ≤ (0.85 + 0.5)·1.5·(texel/f)·D = 0.10·D here (measured
+    // 0.106·D, 0.0022·D on average over the map).
+    EXPECT_LT(slope_worst, 0.12 * depth);
+    EXPECT_LT(sum / double(n), 0.003 * depth);
+    EXPECT_LT(worst, 0.5 * depth);
+    EXPECT_GT(slope, 1000u);
+    EXPECT_EQ(texel_at(h, 0.1 + hx + f + 0.01, -0.05), 0.0f) << "nothing beyond the falloff";
+}
+
+// Collider::falloff, sphere: the imprint deepens towards the centre, so the minimum over the disc of radius f
+// lies on the radial line: h_f(ρ) = min over r in [0, f] of h(max(ρ − r, 0))·w(r / f).
+TEST(SnowField, SoftSphereFollowsTheAnalyticFalloff) {
+    const double r = 0.3, p = 0.08, f = 0.12;
+    SnowField field = make_field(flat_ground(2, 1), fine(0.005));
+    Collider c = sphere(r, {{0, r - p, 0}});
+    c.falloff = f;
+    ASSERT_TRUE(field.add_collider(c).ok());
+    field.update();
+    const Heightmap& h = field.heightmap();
+    auto oracle = [&](double rho) {
+        double best = 0;
+        for (int k = 0; k <= 4000; ++k) {
+            const double d = f * k / 4000;
+            best = std::min(best, sphere_imprint(r, p, std::max(rho - d, 0.0)) * falloff_weight(d / f));
+        }
+        return best;
+    };
+    double worst = 0;
+    for (int j = 0; j < h.frame.height; j += 3)
+        for (int i = 0; i < h.frame.width; i += 3) {
+            auto xz = texel_xz(h.frame, i, j);
+            worst = std::max(worst, std::abs(double(h.at(i, j)) - oracle(std::hypot(xz[0], xz[1]))));
+        }
+    // The kernel samples texel centres (5 mm): the oracle's continuous minimum is within a texel's slope.
+    EXPECT_LT(worst, 0.02 * p);
+    const double contact = std::sqrt(2 * r * p - p * p);
+    EXPECT_LT(texel_at(h, contact + 0.5 * f, 0), -0.01 * p) << "the slope reaches beyond the contact ring";
+    EXPECT_EQ(texel_at(h, contact + f + 0.02, 0), 0.0f);
+}

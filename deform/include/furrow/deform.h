@@ -84,6 +84,11 @@ struct Collider {
     double length = 0.0;                   // capsule: distance between the cap centres
     std::array<double, 3> size{0, 0, 0};   // box: sx, sy, sz; image: sx (across), sz (along) in [0], [1]
     double depth = 0.0;                    // image: imprint depth at pixel value 1
+    double falloff = 0.0;                  // sphere, box, capsule: width (metres) over which the imprint's
+                                           // edge slopes back up to the snow surface, a soft brush: the
+                                           // imprint h becomes min over p of h(p)·w(|q − p| / falloff),
+                                           // w(x) = 1 − 3x² + 2x³ (smoothstep falling from 1 to 0);
+                                           // 0 = the sharp edge of the solid
     std::array<double, 3> axis{1, 0, 0};   // capsule: axis in the collider frame (x across, y up, z along)
     std::shared_ptr<const ImageF> brush;   // image: decoded PNG (channel 0 is used), row 0 = toe
     std::string image_path;                // image: as resolved (informational)
