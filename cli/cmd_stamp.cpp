@@ -55,6 +55,14 @@ void register_stamp(CLI::App& app, GlobalFlags& g) {
         ->check(CLI::Range(0.0, 10.0));
     cmd->add_flag("--conserve-volume", a->opt.snow.conserve_volume,
                   "Rim volume = removed volume x (1 - compaction), exactly (rim width defaults to 8 texels)");
+    cmd->add_option("--rim-max-height", a->opt.snow.rim_max_height,
+                    "With --conserve-volume: the rim never rises above this x the local print depth; it widens instead "
+                    "(default 1; 0 = no limit)")
+        ->check(CLI::NonNegativeNumber);
+    cmd->add_option("--repose", a->opt.snow.repose_degrees,
+                    "With --conserve-volume: the snow's angle of repose in degrees, the steepest rim slope; the rim widens "
+                    "instead (default 40; 0 or 90 = no limit)")
+        ->check(CLI::Range(0.0, 90.0));
     cmd->add_option("--compaction", a->opt.snow.compaction, "With --conserve-volume: fraction of the removed snow compacted, 0..1 (default 0.3)")
         ->check(CLI::Range(0.0, 1.0));
     cmd->add_option("--refill", a->opt.snow.refill_rate, "Refill rate in 1/s: a stamp of age a keeps exp(-rate a) of its depth (default 0)")

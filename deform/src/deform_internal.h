@@ -110,6 +110,9 @@ struct RimInput {
     double height_ratio = 0.5;     // cosmetic rim
     bool conserve = false;
     double compaction = 0.3;
+    double max_height = 1.0;        // conserve: rim height <= this × the nearby print depth (0 = no limit)
+    double max_slope_degrees = 40;  // conserve: steepest rim slope (0 or >= 90 = no limit)
+    double max_width_m = 0;         // conserve: how far the rim may widen to keep those limits (>= width_m)
 };
 // The texels a rim computation owns: the tiles of one connected dirty region. It counts only the imprints
 // inside them and writes only them.

@@ -47,6 +47,11 @@ struct SnowField::Impl {
 
     TexelRect full() const { return {0, 0, ground.frame.width, ground.frame.height}; }
     double rim_width() const { return opt.rim_width > 0 ? opt.rim_width : (opt.conserve_volume ? 8 * ground.frame.texel : 0.0); }
+    // How wide a volume-conserving rim may grow to keep its height and slope limits (the windows hold it).
+    double rim_max_width() const {
+        const bool limited = opt.rim_max_height > 0 || (opt.repose_degrees > 0 && opt.repose_degrees < 90);
+        return opt.conserve_volume && limited ? rim_width() + 4 * max_reach : rim_width();
+    }
 
     LocalPose local(const ColliderPose& p) const {
         auto t = ground.frame.to_texel(p.centre.data());
@@ -88,6 +93,8 @@ Status SnowField::create(const float* positions, size_t vertex_count, const uint
     if (!finite_ge0(o.snow_depth)) return bad("snow depth must be a finite number >= 0");
     if (!finite_ge0(o.rim_width)) return bad("rim width must be a finite number >= 0");
     if (!finite_ge0(o.rim_height) || o.rim_height > 10) return bad("rim height must be in 0..10");
+    if (!finite_ge0(o.rim_max_height)) return bad("rim max height must be a finite number >= 0");
+    if (!finite_ge0(o.repose_degrees) || o.repose_degrees > 90) return bad("angle of repose must be in 0..90 degrees");
     if (!(o.compaction >= 0 && o.compaction <= 1)) return bad("compaction must be in 0..1");
     if (!finite_ge0(o.refill_rate)) return bad("refill rate must be a finite number >= 0");
     if (!finite_ge0(o.margin)) return bad("margin must be a finite number >= 0");
@@ -427,7 +434,7 @@ std::vector<TexelRect> SnowField::update() {
         // The rim reaches rw beyond an imprint and gathers volume from up to max_reach inside it: a region is
         // the stamped tiles grown by that margin, and each connected region is recomputed on its own.
         // A reach beyond the grid covers all of it: capped there before it can overflow an int.
-        const int pad = clamped_int(std::ceil((rw + m.max_reach) / f.texel), 0, std::max(f.width, f.height)) + 2;
+        const int pad = clamped_int(std::ceil((m.rim_max_width() + m.max_reach) / f.texel), 0, std::max(f.width, f.height)) + 2;
         const int tp = (pad + T - 1) / T;
         for (int y = 0; y < TY; ++y)
             for (int x = 0; x < TX; ++x) {
@@ -493,6 +500,9 @@ std::vector<TexelRect> SnowField::update() {
             in.height_ratio = m.opt.rim_height;
             in.conserve = m.opt.conserve_volume;
             in.compaction = m.opt.compaction;
+            in.max_height = m.opt.rim_max_height;
+            in.max_slope_degrees = m.opt.repose_degrees;
+            in.max_width_m = m.rim_max_width();
             m.lost_rim += compute_rim(m.rim.data(), in, gr.window, RimOwner{own.data(), TX, T});
             for (size_t c : gr.tiles) own[c] = 0;
             m.content.unite(gr.window);

@@ -15,21 +15,25 @@
 //     the removed volume × (1 − compaction) exactly (to rounding). Ratios of two smooth fields keep the ridge
 //     even along a staircase outline, where scattering each texel's volume to its nearest outside texel
 //     piles it into spikes at the steps.
-// The rim is not relaxed to an angle of repose: its width is the caller's (tall rims mean a narrow width for
-// the volume moved).
+// Limits (volume-conserving rims): a rim never rises above max_height × the depth of the print it comes from
+// (the deepest imprint within its gathering radius), nor slopes steeper than the snow's angle of repose (max_slope_degrees). Where the caller's
+// width would break either, the rim widens before it rises: the same volume is spread over a wider ring,
+// found in a few rounds (height goes as 1 / width at a fixed volume, slope as 1 / width²), up to the width
+// the caller's window holds.
 #include "deform_internal.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <numbers>
 
 namespace furrow::detail {
 namespace {
 
 // Working arrays, kept between calls (a game calls update() every frame): no allocation, no page faults.
 struct Scratch {
-    std::vector<float> source, mass, profile, num, den, result, tmp, f;
+    std::vector<float> source, mass, profile, num, den, result, tmp, f, depth;
     std::vector<uint8_t> is_source, receiver;
     std::vector<int> row_of, nearest;
 };
@@ -71,6 +75,32 @@ void box_pass(float* v, float* tmp, int w, int h, int n) {
                 if (sub) a -= sub[i];
             }
         }
+    });
+}
+
+// Running maximum over a (2n + 1)² box (zero outside), separable, O(N) with a monotone queue per line.
+void max_pass(float* v, float* tmp, int w, int h, int n) {
+    auto line = [n](const float* in, float* out, int len, size_t stride, std::vector<int>& q) {
+        q.clear();
+        size_t head = 0;
+        for (int i = 0; i < len + n; ++i) {
+            if (i < len) {
+                while (q.size() > head && in[size_t(q.back()) * stride] <= in[size_t(i) * stride]) q.pop_back();
+                q.push_back(i);
+            }
+            const int c = i - n; // the output this step completes
+            if (c < 0) continue;
+            while (q[head] < c - n) ++head;
+            out[size_t(c) * stride] = in[size_t(q[head]) * stride];
+        }
+    };
+    tbb::parallel_for(tbb::blocked_range<int>(0, h, 32), [&](const tbb::blocked_range<int>& r) {
+        std::vector<int> q;
+        for (int j = r.begin(); j != r.end(); ++j) line(v + size_t(j) * size_t(w), tmp + size_t(j) * size_t(w), w, 1, q);
+    });
+    tbb::parallel_for(tbb::blocked_range<int>(0, w, 64), [&](const tbb::blocked_range<int>& r) {
+        std::vector<int> q;
+        for (int i = r.begin(); i != r.end(); ++i) line(tmp + size_t(i), v + size_t(i), h, size_t(w), q);
     });
 }
 
@@ -152,107 +182,171 @@ void nearest_in_mask(Scratch& S, const uint8_t* mask, int w, int h) {
 
 } // namespace
 
+namespace {
+
+// The window's texels: imprint depth (every imprinted texel shapes the ridge), mass (with conserve, only the
+// imprints on owned texels count as volume, so that what is written balances what is owned), receivers.
+struct Window {
+    int w = 0, h = 0;
+    size_t N = 0;
+    float *source, *mass, *profile, *num, *den, *result, *tmp;
+    uint8_t *is_source, *receiver;
+};
+
+bool gather_sources(Window& W, const RimInput& in, const TexelRect& win, const RimOwner& own) {
+    bool any_source = false;
+    for (int j = 0; j < W.h; ++j)
+        for (int i = 0; i < W.w; ++i) {
+            const size_t g = size_t(j + win.y0) * size_t(in.width) + size_t(i + win.x0);
+            const float base = in.base ? in.base[g] : 0.0f;
+            const float s = base - in.carve[g];
+            const size_t x = size_t(j) * size_t(W.w) + size_t(i);
+            W.source[x] = W.mass[x] = 0;
+            W.is_source[x] = W.receiver[x] = 0;
+            if (s > 0) {
+                W.source[x] = s;
+                W.is_source[x] = 1;
+                if (own.owns(i + win.x0, j + win.y0)) {
+                    W.mass[x] = s;
+                    any_source = true;
+                }
+            } else if (!std::isnan(in.ground[g])) {
+                W.receiver[x] = 1;
+            }
+        }
+    return any_source;
+}
+
+// φ(τ) on the receivers, τ = distance from the imprint over the rim's width (texel centres; the outline is
+// half a texel out).
+void rim_profile(Window& W, const int* nearest, double texel, double width_m) {
+    const double reach2 = (width_m / texel + 0.5) * (width_m / texel + 0.5);
+    for (int j = 0; j < W.h; ++j)
+        for (int i = 0; i < W.w; ++i) {
+            const size_t x = size_t(j) * size_t(W.w) + size_t(i);
+            W.profile[x] = 0;
+            if (!W.receiver[x] || nearest[x] < 0) continue;
+            const int qi = nearest[x] % W.w, qj = nearest[x] / W.w;
+            const double d2 = double(i - qi) * (i - qi) + double(j - qj) * (j - qj);
+            if (d2 >= reach2) continue;
+            const double tau = texel * (std::sqrt(d2) - 0.5) / width_m;
+            if (tau > 0 && tau < 1) W.profile[x] = float(16 * tau * tau * (1 - tau) * (1 - tau));
+        }
+}
+
+// Gathering radius (texels): an imprint's half-width plus its rim, so that a rim point sees the volume it
+// carries. Beyond the window's size a box covers all of it, so the cap changes nothing but keeps i + n + 1
+// (in box_pass) from overflowing for a collider of 1e30 m.
+int gather_radius(const Window& W, const RimInput& in, double width_m) {
+    return std::max(2, clamped_int(std::ceil((width_m + in.gather_m) / in.texel / 2), 0, std::max(W.w, W.h)));
+}
+
+// The rim for one width: local amplitude (ratio of two smoothed fields) × profile, blurred, kept on owned
+// receivers, scaled (conserve: to the removed volume × (1 − compaction); cosmetic: by rim_height). Returns
+// the volume that could not be placed.
+double rim_amplitude(Window& W, const RimInput& in, const TexelRect& win, const RimOwner& own, double width_m) {
+    const size_t N = W.N;
+    const int n = gather_radius(W, in, width_m);
+    std::copy(in.conserve ? W.mass : W.source, (in.conserve ? W.mass : W.source) + N, W.num);
+    if (in.conserve) std::copy(W.profile, W.profile + N, W.den);
+    else
+        for (size_t x = 0; x < N; ++x) W.den[x] = W.is_source[x];
+    smooth(W.num, W.tmp, W.w, W.h, n);
+    smooth(W.den, W.tmp, W.w, W.h, n);
+    double removed = 0;
+    for (size_t x = 0; x < N; ++x) {
+        removed += W.mass[x];
+        W.result[x] = (W.profile[x] > 0 && W.den[x] > 0) ? W.profile[x] * W.num[x] / W.den[x] : 0.0f;
+    }
+    // Staircase noise of the texel-centre distances, blurred away (over a radius that grows with a widened
+    // rim: its stripes are as long as it is wide); imprinted texels stay untouched.
+    smooth(W.result, W.tmp, W.w, W.h, in.conserve ? std::clamp(int(width_m / (6 * in.texel)), 1, 16) : 1);
+    double raised = 0;
+    for (int j = 0; j < W.h; ++j)
+        for (int i = 0; i < W.w; ++i) {
+            const size_t x = size_t(j) * size_t(W.w) + size_t(i);
+            if (!W.receiver[x] || !own.owns(i + win.x0, j + win.y0)) W.result[x] = 0;
+            raised += W.result[x];
+        }
+    if (!in.conserve) {
+        const float k = float(in.height_ratio / 81.0); // the blur kernel sums to 81 (two 3 x 3 box passes)
+        for (size_t x = 0; x < N; ++x) W.result[x] *= k;
+        return 0.0;
+    }
+    // The region owns its imprints and, by its margin, their whole rims: the raised volume written here
+    // equals the volume removed here × (1 − compaction).
+    const double target = removed * (1.0 - in.compaction);
+    if (!(raised > 0)) return target * in.texel * in.texel;
+    const float k = float(target / raised);
+    for (size_t x = 0; x < N; ++x) W.result[x] *= k;
+    return 0.0;
+}
+
+// How far the rim breaks its limits: max over rim texels of height / (max_height × the local print depth) and of (slope / tan(repose))^½ (height goes as 1/width at a fixed volume, slope as 1/width²). <= 1:
+// within both.
+double rim_excess(Window& W, const RimInput& in, const float* local_depth) {
+    double excess = 0;
+    const double tan_repose = in.max_slope_degrees > 0 && in.max_slope_degrees < 90
+                                  ? std::tan(in.max_slope_degrees * std::numbers::pi / 180) : kInf;
+    for (int j = 0; j < W.h; ++j)
+        for (int i = 0; i < W.w; ++i) {
+            const size_t x = size_t(j) * size_t(W.w) + size_t(i);
+            const double r = W.result[x];
+            if (!(r > 0)) continue;
+            if (in.max_height > 0 && local_depth[x] > 0) excess = std::max(excess, r / (in.max_height * local_depth[x]));
+            // Forward differences between rim texels (the imprint's own wall is not the rim's slope).
+            double g2 = 0;
+            if (i + 1 < W.w && W.receiver[x + 1]) g2 += (W.result[x + 1] - r) * (W.result[x + 1] - r);
+            if (j + 1 < W.h && W.receiver[x + size_t(W.w)]) g2 += (W.result[x + size_t(W.w)] - r) * (W.result[x + size_t(W.w)] - r);
+            excess = std::max(excess, std::sqrt(std::sqrt(g2) / in.texel / tan_repose));
+        }
+    return excess;
+}
+
+} // namespace
+
 double compute_rim(float* rim, const RimInput& in, const TexelRect& win, const RimOwner& own) {
     const int w = win.x1 - win.x0, h = win.y1 - win.y0;
     if (w <= 0 || h <= 0) return 0.0;
     const size_t N = size_t(w) * size_t(h);
     static thread_local Scratch S;
-    for (auto* v : {&S.source, &S.mass, &S.profile, &S.num, &S.den, &S.result, &S.tmp}) fit(*v, N);
+    for (auto* v : {&S.source, &S.mass, &S.profile, &S.num, &S.den, &S.result, &S.tmp, &S.depth}) fit(*v, N);
     fit(S.is_source, N);
     fit(S.receiver, N);
-    float *source = S.source.data(), *mass = S.mass.data(), *profile = S.profile.data();
-    uint8_t *is_source = S.is_source.data(), *receiver = S.receiver.data();
-    auto gidx = [&](int i, int j) { return size_t(j + win.y0) * size_t(in.width) + size_t(i + win.x0); };
-    auto owned = [&](int i, int j) { return own.owns(i + win.x0, j + win.y0); };
-    // Every imprinted texel of the window shapes the ridge (distance, local depth); with conserve, only the
-    // imprints on owned texels count as volume, so that what is written balances what is owned.
-    bool any_source = false;
-    for (int j = 0; j < h; ++j)
-        for (int i = 0; i < w; ++i) {
-            const size_t g = gidx(i, j);
-            const float base = in.base ? in.base[g] : 0.0f;
-            const float s = base - in.carve[g];
-            const size_t x = size_t(j) * size_t(w) + size_t(i);
-            source[x] = mass[x] = 0;
-            is_source[x] = receiver[x] = 0;
-            if (s > 0) {
-                source[x] = s;
-                is_source[x] = 1;
-                if (owned(i, j)) {
-                    mass[x] = s;
-                    any_source = true;
-                }
-            } else if (!std::isnan(in.ground[g])) {
-                receiver[x] = 1;
-            }
-        }
+    Window W{w, h, N, S.source.data(), S.mass.data(), S.profile.data(), S.num.data(), S.den.data(), S.result.data(), S.tmp.data(),
+             S.is_source.data(), S.receiver.data()};
     auto write = [&](const float* result) {
         for (int j = 0; j < h; ++j)
             for (int i = 0; i < w; ++i)
-                if (owned(i, j)) rim[gidx(i, j)] = result ? result[size_t(j) * size_t(w) + size_t(i)] : 0.0f;
+                if (own.owns(i + win.x0, j + win.y0))
+                    rim[size_t(j + win.y0) * size_t(in.width) + size_t(i + win.x0)] = result ? result[size_t(j) * size_t(w) + size_t(i)] : 0.0f;
     };
-    if (!any_source || in.width_m <= 0) {
+    if (!gather_sources(W, in, win, own) || in.width_m <= 0) {
         write(nullptr);
         return 0.0;
     }
-    const double t = in.texel;
-    // Profile in the distance from the imprint (texel centres; the outline is half a texel out).
-    nearest_in_mask(S, is_source, w, h);
-    const int* nearest = S.nearest.data();
-    const double reach2 = (in.width_m / t + 0.5) * (in.width_m / t + 0.5);
-    for (int j = 0; j < h; ++j)
-        for (int i = 0; i < w; ++i) {
-            const size_t x = size_t(j) * size_t(w) + size_t(i);
-            profile[x] = 0;
-            if (!receiver[x] || nearest[x] < 0) continue;
-            const int qi = nearest[x] % w, qj = nearest[x] / w;
-            const double d2 = double(i - qi) * (i - qi) + double(j - qj) * (j - qj);
-            if (d2 >= reach2) continue;
-            const double tau = t * (std::sqrt(d2) - 0.5) / in.width_m;
-            if (tau > 0 && tau < 1) profile[x] = float(16 * tau * tau * (1 - tau) * (1 - tau));
+    nearest_in_mask(S, W.is_source, w, h);
+    double width = in.width_m;
+    rim_profile(W, S.nearest.data(), in.texel, width);
+    double lost = rim_amplitude(W, in, win, own, width);
+    if (in.conserve && (in.max_height > 0 || (in.max_slope_degrees > 0 && in.max_slope_degrees < 90))) {
+        // The local print depth a rim point may rise to: the deepest imprint within the gathering radius
+        // of the caller's width (what the rim's volume comes from).
+        float* depth = S.depth.data();
+        std::copy(W.source, W.source + N, depth);
+        max_pass(depth, W.tmp, w, h, 2 * gather_radius(W, in, in.width_m));
+        // The rim widens before it rises: while it is taller than the print is deep, or steeper than the
+        // snow's angle of repose, the same volume is spread over a wider ring (up to max_width_m, what the
+        // caller's window holds).
+        for (int round = 0; round < 12; ++round) {
+            const double excess = rim_excess(W, in, depth);
+            if (excess <= 1.0 || width >= in.max_width_m) break;
+            width = std::min(in.max_width_m, width * std::max(1.05, 1.02 * excess));
+            rim_profile(W, S.nearest.data(), in.texel, width);
+            lost = rim_amplitude(W, in, win, own, width);
         }
-    // Gathering radius: an imprint's half-width plus its rim, so that a rim point sees the volume it carries.
-    // Beyond the window's size a box covers all of it, so the cap changes nothing but keeps i + n + 1 (below)
-    // from overflowing for a collider of 1e30 m.
-    const int n = std::max(2, clamped_int(std::ceil((in.width_m + in.gather_m) / t / 2), 0, std::max(w, h)));
-    float *num = S.num.data(), *den = S.den.data(), *result = S.result.data(), *tmp = S.tmp.data();
-    std::copy(in.conserve ? mass : source, (in.conserve ? mass : source) + N, num);
-    if (in.conserve) std::copy(profile, profile + N, den);
-    else
-        for (size_t x = 0; x < N; ++x) den[x] = is_source[x];
-    smooth(num, tmp, w, h, n);
-    smooth(den, tmp, w, h, n);
-    double removed = 0;
-    for (size_t x = 0; x < N; ++x) {
-        removed += mass[x];
-        result[x] = (profile[x] > 0 && den[x] > 0) ? profile[x] * num[x] / den[x] : 0.0f;
     }
-    // Staircase noise of the texel-centre distances, blurred away; imprinted texels stay untouched.
-    smooth(result, tmp, w, h, 1);
-    double raised = 0;
-    for (int j = 0; j < h; ++j)
-        for (int i = 0; i < w; ++i) {
-            const size_t x = size_t(j) * size_t(w) + size_t(i);
-            if (!receiver[x] || !owned(i, j)) result[x] = 0;
-            raised += result[x];
-        }
-    double lost = 0;
-    if (in.conserve) {
-        // The region owns its imprints and, by its margin, their whole rims: the raised volume written here
-        // equals the volume removed here × (1 − compaction).
-        const double target = removed * (1.0 - in.compaction);
-        if (raised > 0) {
-            const float k = float(target / raised);
-            for (size_t x = 0; x < N; ++x) result[x] *= k;
-        } else {
-            lost = target * t * t;
-        }
-    } else {
-        // The blur kernel sums to 81 (two 3 x 3 box passes).
-        const float k = float(in.height_ratio / 81.0);
-        for (size_t x = 0; x < N; ++x) result[x] *= k;
-    }
-    write(result);
+    write(W.result);
     return lost;
 }
 

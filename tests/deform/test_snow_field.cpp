@@ -537,3 +537,70 @@ TEST(SnowField, SoftSphereFollowsTheAnalyticFalloff) {
     EXPECT_LT(texel_at(h, contact + 0.5 * f, 0), -0.01 * p) << "the slope reaches beyond the contact ring";
     EXPECT_EQ(texel_at(h, contact + f + 0.02, 0), 0.0f);
 }
+
+namespace {
+
+struct RimShape {
+    double deepest = 0, tallest = 0, steepest_degrees = 0, removed = 0, raised = 0;
+    size_t rim_texels = 0;
+};
+
+// A ball dragged 13 cm deep along a curve, no compaction, the caller's rim only 5 texels wide: the narrow
+// rim that holds all that snow is a wall (0.37 m on a 0.13 m print in the demo before the limits).
+RimShape dragged_ball_rim(const SnowOptions& base) {
+    SnowOptions o = base;
+    o.texel = 0.02;
+    o.rim_width = 0.1;
+    o.conserve_volume = true;
+    o.compaction = 0;
+    SnowField f = make_field(flat_ground(8, 1), o);
+    EXPECT_TRUE(f.add_collider(sphere(0.35, {{-2.5, 0.22, -2}, {-1, 0.22, -0.5}, {0.5, 0.22, -0.2}, {2, 0.22, 1}})).ok());
+    f.update();
+    const Heightmap& h = f.heightmap();
+    RimShape r;
+    r.removed = f.removed_volume(), r.raised = f.raised_volume();
+    const int W = h.frame.width, H = h.frame.height;
+    for (int j = 0; j < H; ++j)
+        for (int i = 0; i < W; ++i) {
+            const float v = h.at(i, j);
+            r.deepest = std::max(r.deepest, double(-v));
+            if (!(v > 0)) continue;
+            r.tallest = std::max(r.tallest, double(v));
+            ++r.rim_texels;
+            // Slope between neighbouring rim texels (central differences where both sides are rim).
+            if (i > 0 && i + 1 < W && j > 0 && j + 1 < H && h.at(i - 1, j) > 0 && h.at(i + 1, j) > 0 && h.at(i, j - 1) > 0 && h.at(i, j + 1) > 0) {
+                const double gx = (h.at(i + 1, j) - h.at(i - 1, j)) / (2 * o.texel), gz = (h.at(i, j + 1) - h.at(i, j - 1)) / (2 * o.texel);
+                r.steepest_degrees = std::max(r.steepest_degrees, std::atan(std::hypot(gx, gz)) * 180 / 3.14159265358979323846);
+            }
+        }
+    return r;
+}
+
+} // namespace
+
+// Volume-conserving rims: never taller than the print is deep, never steeper than the angle of repose (40° by
+// default), still conserving volume within 1 %: the rim widens before it rises.
+TEST(SnowField, ConservingRimWidensBeforeItRises) {
+    const RimShape limited = dragged_ball_rim(fine(0.02));
+    SnowOptions unlimited_o = fine(0.02);
+    unlimited_o.rim_max_height = 0;
+    unlimited_o.repose_degrees = 0;
+    const RimShape unlimited = dragged_ball_rim(unlimited_o);
+    // Without the limits: the old wall, taller than the print is deep and steeper than snow stands.
+    EXPECT_GT(unlimited.tallest, unlimited.deepest);
+    EXPECT_GT(unlimited.steepest_degrees, 45.0);
+    // With them (the defaults).
+    EXPECT_NEAR(limited.deepest, 0.13, 1e-3);
+    EXPECT_LE(limited.tallest, limited.deepest);
+    EXPECT_LT(limited.steepest_degrees, 40.0);
+    EXPECT_GT(limited.rim_texels, 2 * unlimited.rim_texels) << "the same snow over a wider ring";
+    EXPECT_NEAR(limited.raised, limited.removed, 0.01 * limited.removed);
+    EXPECT_NEAR(unlimited.raised, unlimited.removed, 0.01 * unlimited.removed);
+    // A lower angle of repose gives a lower, wider rim.
+    SnowOptions gentle = fine(0.02);
+    gentle.repose_degrees = 20;
+    const RimShape g = dragged_ball_rim(gentle);
+    EXPECT_LT(g.steepest_degrees, 20.0);
+    EXPECT_LE(g.tallest, limited.tallest);
+    EXPECT_NEAR(g.raised, g.removed, 0.01 * g.removed);
+}

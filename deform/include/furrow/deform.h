@@ -163,6 +163,11 @@ struct SnowOptions {
     bool conserve_volume = false; // rim volume = removed volume × (1 − compaction), exactly (needs rim_width,
                                   // which defaults to 8 texels when 0)
     double compaction = 0.3;     // with conserve_volume: fraction of the removed snow compacted, not raised
+    double rim_max_height = 1.0; // with conserve_volume: a rim never rises above this × the depth of the
+                                 // print it comes from (the deepest imprint nearby; 0 = no limit)...
+    double repose_degrees = 40;  // ... nor slopes steeper than the snow's angle of repose (0 or 90 = no
+                                 // limit). Where the rim width would break either, the rim widens (up to 4 ×
+                                 // the largest collider's half-width beyond rim_width) before it rises
     double refill_rate = 0.0;    // 1/s: a stamp of age a keeps exp(−rate·a) of its depth (and rim)
     double margin = 0.0;         // metres added around the ground's extent
     size_t max_bytes = size_t(1) << 30; // memory guard: refuse a heightmap whose layers need more
