@@ -1,4 +1,5 @@
 #include "bench_common.h"
+#include "data_dirs.h"
 
 #include <algorithm>
 #include <cstdio>
@@ -63,8 +64,8 @@ double PeakMemory::peak_mib() const { return std::max(0.0, status_kib("VmHWM:") 
 std::vector<fs::path> collect_bench_inputs(const BenchArgs& args, const std::vector<std::string>& extensions) {
     std::vector<std::string> inputs = args.inputs;
     if (inputs.empty()) {
-        for (const char* d : {FURROW_MODELS_DIR, FURROW_CORPUS_DIR})
-            if (fs::is_directory(d)) inputs.push_back(d);
+        for (const fs::path& d : {bundled_models_dir(), corpus_dir()})
+            if (fs::is_directory(d)) inputs.push_back(d.string());
     }
     auto wanted = [&](const fs::path& p) {
         std::string e = p.extension().string();

@@ -1,6 +1,7 @@
 // `furrow bench io`: load + save time per model as a ratio to memcpy of the same bytes, with the round-trip
 // error.
 #include "bench_common.h"
+#include "data_dirs.h"
 #include "cli_common.h"
 
 #include <algorithm>
@@ -130,7 +131,7 @@ nlohmann::json run_bench_io(const BenchArgs& args, const GlobalFlags& g, bool ta
 
 nlohmann::json bench_io_default(const BenchRun& r, const GlobalFlags& g) {
     BenchArgs a;
-    if (r.quick) a.inputs = {FURROW_MODELS_DIR};
+    if (r.quick) a.inputs = {bundled_models_dir().string()};
     if (r.repeat > 0) a.repeat = r.repeat;
     return run_bench_io(a, g, r.tables);
 }

@@ -6,6 +6,7 @@
 // demo's view, half and twice its distance, with the coverage furrow render predicts for a mip-mapping viewer
 // and, where three.js is installed (bash .ci/install-deps --tests), what three.js draws of the same view.
 #include "bench_common.h"
+#include "data_dirs.h"
 
 #include <furrow/render.h>
 #include <furrow/shells.h>
@@ -45,7 +46,7 @@ ImageF render8(const Scene& scene, const RenderOptions& o, const std::string& in
 // The fur views: the demo's creature with its fur (models/scene.json's camera), at 0.5, 1 and 2 times the
 // distance. Coverage = cutoff_coverage (render.h) against a 2×-supersampled render without mipmaps.
 nlohmann::json fur_distance_rows(const RenderBenchArgs& a, const GlobalFlags& g, bool tables) {
-    const fs::path models(FURROW_MODELS_DIR);
+    const fs::path models(bundled_models_dir().string());
     const std::string input = (models / "creature.glb").string();
     Scene scene = load_or_throw(input);
     FurOptions fo;
@@ -170,7 +171,7 @@ double transform_seconds(const Scene& scene, int repeat) {
 }
 
 nlohmann::json run(const RenderBenchArgs& a, const GlobalFlags& g, bool tables) {
-    const std::string input = a.input.empty() ? (fs::path(FURROW_MODELS_DIR) / "creature.glb").string() : a.input;
+    const std::string input = a.input.empty() ? (bundled_models_dir() / "creature.glb").string() : a.input;
     Scene scene = load_or_throw(input);
     if (a.layers > 0) {
         FurOptions fo;

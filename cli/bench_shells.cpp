@@ -6,6 +6,7 @@
 // what compares with a memcpy of the output; setup is a cost per base triangle that does not depend on N,
 // so the total's ratio to memcpy falls roughly as 1/N and is largest for few shells on small meshes.
 #include "bench_common.h"
+#include "data_dirs.h"
 #include "cli_common.h"
 
 #include <furrow/shells.h>
@@ -221,9 +222,9 @@ Row bench_one(const fs::path& file, int layers, const ShellsArgs& a) {
 nlohmann::json run_bench_shells(const ShellsArgs& a, const GlobalFlags& g, bool tables) {
     BenchArgs ba = a.base;
     if (ba.inputs.empty()) {
-        fs::path creature = fs::path(FURROW_MODELS_DIR) / "creature.glb";
+        fs::path creature = bundled_models_dir() / "creature.glb";
         if (fs::exists(creature)) ba.inputs.push_back(creature.string());
-        if (fs::is_directory(FURROW_CORPUS_DIR)) ba.inputs.push_back(FURROW_CORPUS_DIR);
+        if (fs::is_directory(corpus_dir().string())) ba.inputs.push_back(corpus_dir().string());
     }
     std::vector<fs::path> files = collect_bench_inputs(ba, {".glb", ".gltf", ".obj", ".ply", ".off", ".stl"});
     if (files.empty()) throw InputError("bench shells", "no input models found (give files or folders)");
@@ -283,7 +284,7 @@ nlohmann::json bench_shells_default(const BenchRun& r, const GlobalFlags& g) {
     ShellsArgs a;
     a.base.repeat = r.repeat > 0 ? r.repeat : 3;
     if (r.quick) {
-        a.base.inputs = {(fs::path(FURROW_MODELS_DIR) / "creature.glb").string()};
+        a.base.inputs = {(bundled_models_dir() / "creature.glb").string()};
         a.layers = {8, 32};
     }
     return run_bench_shells(a, g, r.tables);

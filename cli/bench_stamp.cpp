@@ -3,6 +3,7 @@
 // re-displacement, displacement + normals. Baselines are measured in the same run (a uniform grid at the texel
 // size, brute-force rays, plain rectangle fills, a full re-displacement, the mesh library's normals).
 #include "bench_common.h"
+#include "data_dirs.h"
 #include "cli_common.h"
 
 #include <furrow/deform.h>
@@ -189,9 +190,9 @@ static nlohmann::json run_bench_stamp(const Args& a, const GlobalFlags& g, bool 
 
     // ---- 2. Contact rays ---------------------------------------------------------------------------------------
     info(g, "bench stamp: contact rays");
-    std::vector<std::pair<std::string, std::string>> grounds = {{"ground.glb", std::string(FURROW_MODELS_DIR) + "/ground.glb"}};
+    std::vector<std::pair<std::string, std::string>> grounds = {{"ground.glb", bundled_models_dir().string() + "/ground.glb"}};
     {
-        const std::string terrain = std::string(FURROW_CORPUS_DIR) + "/terrain/terrain.glb";
+        const std::string terrain = corpus_dir().string() + "/terrain/terrain.glb";
         if (std::filesystem::exists(terrain)) grounds.push_back({"terrain.glb (corpus)", terrain});
     }
     Table rays({"ground", "triangles", "build ms", "rays", "rays/s (tree)", "rays/s (brute force)", "tree/brute"});
@@ -236,9 +237,9 @@ static nlohmann::json run_bench_stamp(const Args& a, const GlobalFlags& g, bool 
 
     // ---- 3. Stamps per second ----------------------------------------------------------------------------------
     info(g, "bench stamp: stamps");
-    Scene ground = load_or_throw(std::string(FURROW_MODELS_DIR) + "/ground.glb");
+    Scene ground = load_or_throw(bundled_models_dir().string() + "/ground.glb");
     ColliderSet demo;
-    require_ok(load_colliders(demo, std::string(FURROW_MODELS_DIR) + "/colliders.json"), "colliders.json");
+    require_ok(load_colliders(demo, bundled_models_dir().string() + "/colliders.json"), "colliders.json");
     std::vector<float> GP;
     std::vector<uint32_t> GI;
     scene_triangles(GP, GI, ground);

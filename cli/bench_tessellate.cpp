@@ -6,6 +6,7 @@
 // midpoints (Tessellator::measure), as % of the bounding-box diagonal (Metro convention), and in pixels
 // (distance x focal length / distance to the eye) for a 1920 x 1080 view with a 50 degree vertical field.
 #include "bench_common.h"
+#include "data_dirs.h"
 
 #include <furrow/shapes.h>
 #include <furrow/tessellate.h>
@@ -220,11 +221,11 @@ nlohmann::json run_bench_tessellate(const BenchArgs& args, const std::vector<dou
         models.push_back(terrain_patch());
     } else if (args.inputs.empty()) {
         models.push_back(terrain_patch());
-        const fs::path corpus = FURROW_CORPUS_DIR;
+        const fs::path corpus = corpus_dir().string();
         std::vector<fs::path> files;
         for (const char* f : {"spot/spot_control_mesh.obj", "bunny_closed/bunny.off"})
             if (fs::exists(corpus / f)) files.push_back(corpus / f);
-        if (files.empty()) files.push_back(fs::path(FURROW_MODELS_DIR) / "creature.glb");
+        if (files.empty()) files.push_back(bundled_models_dir() / "creature.glb");
         for (const auto& f : files) {
             BenchModel m;
             if (!file_model(m, f)) throw InputError(f.string(), "no triangle primitive to tessellate");

@@ -1,6 +1,7 @@
 // `furrow demo`: the main job on the bundled default scene (models/scene.json). Writes glTF files and PNG
 // previews into one folder and prints where they are.
 #include "cli_common.h"
+#include "data_dirs.h"
 
 #include <furrow/render.h>
 #include <furrow/deform.h>
@@ -11,6 +12,8 @@
 
 #include <filesystem>
 #include <fstream>
+#include <numbers>
+#include <optional>
 
 namespace furrow::cli {
 namespace fs = std::filesystem;
@@ -18,7 +21,7 @@ namespace fs = std::filesystem;
 namespace {
 
 struct DemoArgs {
-    std::string models = FURROW_MODELS_DIR;
+    std::string models = bundled_models_dir().string();
     std::string out = "furrow-demo";
     int width = 960, height = 720;
     int ssaa = 2;
@@ -74,8 +77,8 @@ void demo_model(const std::string& title, const fs::path& model, const RenderCam
 }
 
 // The creature's fur: 32 viewer-layout shells driven by the fur mask, saved and rendered.
-void demo_fur(const fs::path& model, const fs::path& mask, const RenderCamera& cam, const DemoArgs& a,
-              const fs::path& out, std::vector<std::string>& outputs, const GlobalFlags& g) {
+Scene demo_fur(const fs::path& model, const fs::path& mask, const RenderCamera& cam, const DemoArgs& a,
+               const fs::path& out, std::vector<std::string>& outputs, const GlobalFlags& g) {
     Scene scene = load_or_throw(model.string());
     FurOptions fo;
     fo.shells.layers = 32;
@@ -92,6 +95,7 @@ void demo_fur(const fs::path& model, const fs::path& mask, const RenderCamera& c
     outputs.push_back(glb.string());
     RenderOptions ro = preview_options(cam, a);
     write_render(scene, ro, out / "creature_fur_shaded.png", outputs);
+    return scene;
 }
 
 // The snow field: footprints, a rolling ball, a crate and a dragged log stamped into ground.glb, the ground
@@ -147,6 +151,80 @@ void demo_terrain(const nlohmann::json& t, const fs::path& models, const DemoArg
     write_render(scene, ro, out / "terrain_wireframe.png", outputs);
 }
 
+// `from` appended to `into`: its meshes, materials, textures, samplers, images, skins and nodes follow
+// those of `into`, every index shifted (nothing of `into` moves, as Scene asks). Its roots are returned, not
+// added to the default scene. Only `into`'s source document is kept (`from`'s extras and animations are not).
+std::vector<int> append_scene(Scene& into, const Scene& from) {
+    const int meshes = int(into.meshes.size()), materials = int(into.materials.size()), textures = int(into.textures.size());
+    const int samplers = int(into.samplers.size()), images = int(into.images.size()), skins = int(into.skins.size());
+    const int nodes = int(into.nodes.size());
+    auto shift = [](int i, int by) { return i >= 0 ? i + by : i; };
+    for (Mesh m : from.meshes) {
+        for (Primitive& p : m.primitives) p.material = shift(p.material, materials);
+        into.meshes.push_back(std::move(m));
+    }
+    for (Material m : from.materials) {
+        m.base_color_texture.texture = shift(m.base_color_texture.texture, textures);
+        into.materials.push_back(std::move(m));
+    }
+    for (Texture t : from.textures) into.textures.push_back({shift(t.image, images), shift(t.sampler, samplers)});
+    into.samplers.insert(into.samplers.end(), from.samplers.begin(), from.samplers.end());
+    into.images.insert(into.images.end(), from.images.begin(), from.images.end());
+    for (Skin k : from.skins) {
+        for (int& j : k.joints) j = shift(j, nodes);
+        k.skeleton = shift(k.skeleton, nodes);
+        into.skins.push_back(std::move(k));
+    }
+    for (Node n : from.nodes) {
+        n.mesh = shift(n.mesh, meshes);
+        n.skin = shift(n.skin, skins);
+        n.camera = -1; // cameras live in the source document, which is not carried over
+        for (int& c : n.children) c = shift(c, nodes);
+        into.nodes.push_back(std::move(n));
+    }
+    std::vector<int> roots;
+    for (int r : from.roots) roots.push_back(shift(r, nodes));
+    return roots;
+}
+
+// The combined scene: the furred creature standing in the snow (models/scene.json "scene": its position and
+// heading), the snow stamped by the bundled colliders and by the creature's own trail of paw prints; one
+// GLB and one picture.
+void demo_combined(const nlohmann::json& d, const nlohmann::json& snow, const fs::path& models, Scene fur, const DemoArgs& a,
+                   const fs::path& out, std::vector<std::string>& outputs, const GlobalFlags& g) {
+    const fs::path ground = models / snow.at("ground").get<std::string>();
+    const fs::path colliders = models / snow.at("colliders").get<std::string>();
+    ColliderSet set, trail;
+    require_ok(load_colliders(set, colliders.string()), colliders.string());
+    require_ok(parse_colliders(trail, d.at("trail").dump(), models.string()), (models / "scene.json").string());
+    set.colliders.insert(set.colliders.end(), trail.colliders.begin(), trail.colliders.end());
+    Scene scene = load_or_throw(ground.string());
+    StampOptions so;
+    so.snow.resolution = 1024;
+    so.snow.rim_width = 0.05;
+    const RenderCamera cam = camera_from_json(d.value("camera", nlohmann::json::object()));
+    if (cam.eye) so.camera = StampCamera{*cam.eye, cam.fov_degrees, a.height, 1.0};
+    StampReport rep;
+    require_ok(stamp_scene(scene, set, so, &rep), ground.string());
+    // The creature under one new root node: moved to its place and turned to its heading (about up).
+    Node place;
+    place.name = "creature_in_snow";
+    place.translation = d.at("position").get<std::array<double, 3>>();
+    const double h = d.value("heading", 0.0) * std::numbers::pi / 360;
+    place.rotation = {0, std::sin(h), 0, std::cos(h)};
+    place.children = fur.roots.empty() ? std::vector<int>{} : fur.roots;
+    const std::vector<int> ground_roots = append_scene(fur, scene);
+    fur.nodes.push_back(place);
+    fur.roots = {int(fur.nodes.size() - 1)};
+    fur.roots.insert(fur.roots.end(), ground_roots.begin(), ground_roots.end());
+    info(g, "scene: the furred creature in the snow, " + std::to_string(trail.colliders.size()) + " paw prints in its trail, " +
+                std::to_string(rep.triangles_out) + " snow triangles");
+    const fs::path glb = out / "scene.glb";
+    save_or_throw(fur, glb.string(), ground.string());
+    outputs.push_back(glb.string());
+    write_render(fur, preview_options(cam, a), out / "scene_shaded.png", outputs);
+}
+
 } // namespace
 
 void register_demo(CLI::App& app, GlobalFlags& g) {
@@ -169,6 +247,7 @@ void register_demo(CLI::App& app, GlobalFlags& g) {
         if (ec) throw InputError(a->out, "cannot create the output folder: " + ec.message());
         const fs::path out(a->out);
         std::vector<std::string> outputs;
+        std::optional<Scene> fur; // the furred creature, placed again in the combined scene
         Progress progress(g, "furrow demo");
         try {
             if (desc.contains("creature")) {
@@ -177,9 +256,9 @@ void register_demo(CLI::App& app, GlobalFlags& g) {
                 progress.stage("creature");
                 demo_model("creature", models / c.at("model").get<std::string>(), cam, *a, out, outputs, g);
                 progress.stage("creature fur");
-                demo_fur(models / c.at("model").get<std::string>(),
-                         c.contains("fur_mask") ? models / c["fur_mask"].get<std::string>() : fs::path(), cam, *a, out,
-                         outputs, g);
+                fur = demo_fur(models / c.at("model").get<std::string>(),
+                               c.contains("fur_mask") ? models / c["fur_mask"].get<std::string>() : fs::path(), cam, *a, out,
+                               outputs, g);
             }
             if (desc.contains("snow")) {
                 const auto& s = desc["snow"];
@@ -193,6 +272,9 @@ void register_demo(CLI::App& app, GlobalFlags& g) {
             }
             progress.stage("terrain");
             if (desc.contains("terrain")) demo_terrain(desc["terrain"], models, *a, out, outputs, g);
+            progress.stage("scene");
+            if (desc.contains("scene") && desc.contains("snow") && fur)
+                demo_combined(desc["scene"], desc["snow"], models, std::move(*fur), *a, out, outputs, g);
         } catch (const nlohmann::json::exception& e) {
             throw InputError(scene_file.string(), std::string("bad scene description: ") + e.what());
         }

@@ -419,6 +419,32 @@ inline std::string colliders_json() {
 // Where the demo puts things and looks from (metres, y up). The creature stands on the snow beside the trail.
 inline std::array<double, 3> creature_position() { return {-3.0, ground_surface_height(-3.0, 1.5), 1.5}; }
 
+// The combined scene: the creature walking toward +x (heading 90°), standing with its paws 3.5 cm deep in the
+// snow, and the prints of its last steps behind it. Paw centres in the creature's own frame are those of
+// shapes::creature (front ±0.25, +0.28; back ±0.25, −0.32; the sole at y = 0); each print is a ball of the
+// paw's size (r 0.1 m) pressed 3.5 cm in. A walk moves diagonal pairs together: front-left with back-right,
+// then front-right with back-left, half a stride (0.35 m) apart.
+constexpr double creature_heading_degrees = 90, creature_sink = 0.035, creature_stride = 0.7;
+inline std::string creature_trail_json() {
+    const auto c = creature_position();
+    const double h = creature_heading_degrees * std::numbers::pi / 180, r = 0.1;
+    const double fx = std::sin(h), fz = std::cos(h); // forward
+    const double lx = std::cos(h), lz = -std::sin(h); // the creature's local +x (its left) in world x, z
+    const double paw_x[4] = {0.25, -0.25, 0.25, -0.25}, paw_z[4] = {0.28, 0.28, -0.32, -0.32};
+    const double phase[4] = {0, 0.5, 0.5, 0}; // fraction of a stride each paw is behind the body's last step
+    std::string j = "{\"up\": [0, 1, 0], \"colliders\": [";
+    bool first = true;
+    for (int step = 0; step < 6; ++step)
+        for (int k = 0; k < 4; ++k) {
+            const double back = (step + phase[k]) * creature_stride;
+            const double x = c[0] + paw_x[k] * lx + (paw_z[k] - back) * fx, z = c[2] + paw_x[k] * lz + (paw_z[k] - back) * fz;
+            j += std::string(first ? "" : ",") + "\n        {\"shape\": \"sphere\", \"radius\": " + fmt(r) + ", \"path\": [" +
+                 fmt3(x, ground_surface_height(x, z) + r - creature_sink, z) + "]}";
+            first = false;
+        }
+    return j + "]}";
+}
+
 inline std::string scene_json() {
     auto c = creature_position();
     std::string j = "{\n";
@@ -429,7 +455,12 @@ inline std::string scene_json() {
     j += "           \"camera\": {\"eye\": [0, 9, 14], \"target\": [0, 0, 0], \"fov\": 45}},\n";
     // A low camera at one corner of the ground: near hills get fine triangles, the far side stays coarse.
     j += "  \"terrain\": {\"ground\": \"ground.glb\", \"scheme\": \"catmark\", \"screen_error\": 2, \"max_rate\": 8,\n";
-    j += "              \"camera\": {\"eye\": [-9, 3, 9], \"target\": [1, -0.5, -1], \"fov\": 50}}\n";
+    j += "              \"camera\": {\"eye\": [-9, 3, 9], \"target\": [1, -0.5, -1], \"fov\": 50}},\n";
+    // The combined scene: the furred creature in the stamped snow with its own trail; the camera ahead of it
+    // and to its right, looking back along the trail.
+    j += "  \"scene\": {\"position\": " + fmt3(c[0], c[1] - creature_sink, c[2]) + ", \"heading\": " + fmt(creature_heading_degrees) +
+         ",\n            \"camera\": {\"eye\": " + fmt3(c[0] + 2.4, c[1] + 1.2, c[2] - 1.7) + ", \"target\": " +
+         fmt3(c[0] - 0.9, c[1] + 0.3, c[2]) + ", \"fov\": 45},\n            \"trail\": " + creature_trail_json() + "}\n";
     j += "}\n";
     return j;
 }

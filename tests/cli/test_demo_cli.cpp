@@ -3,6 +3,8 @@
 
 #include <furrow/render.h>
 
+#include <nlohmann/json.hpp>
+
 #include <cmath>
 
 using namespace furrow;
@@ -13,13 +15,13 @@ TEST(demo_cli, WritesValidGltfAndPreviews) {
     RunResult r = run_furrow({"demo", "-o", dir.string(), "--ssaa", "1"});
     ASSERT_EQ(r.exit_code, 0) << r.err;
     EXPECT_NE(r.out.find("furrow demo wrote"), std::string::npos);
-    for (const char* glb : {"creature.glb", "creature_fur.glb", "ground.glb", "snow.glb", "terrain.glb"}) {
+    for (const char* glb : {"creature.glb", "creature_fur.glb", "ground.glb", "snow.glb", "terrain.glb", "scene.glb"}) {
         ASSERT_TRUE(std::filesystem::exists(dir / glb)) << glb;
         EXPECT_VALID_GLTF(dir / glb);
     }
     for (const char* png : {"creature_shaded.png", "creature_wireframe.png", "creature_fur_shaded.png", "ground_shaded.png",
                             "ground_wireframe.png", "snow_shaded.png", "snow_wireframe.png",
-                            "terrain_shaded.png", "terrain_wireframe.png"}) {
+                            "terrain_shaded.png", "terrain_wireframe.png", "scene_shaded.png"}) {
         ImageF img;
         ASSERT_TRUE(load_png(img, (dir / png).string()).ok()) << png;
         EXPECT_EQ(img.channels, 4);
@@ -81,4 +83,70 @@ TEST(demo_cli, MissingSceneDescriptionIsAnError) {
     RunResult r = run_furrow({"demo", "--models", dir.string(), "-o", (dir / "out").string()});
     EXPECT_EQ(r.exit_code, 1);
     EXPECT_EQ(r.err.rfind("Error: ", 0), 0u) << r.err;
+}
+
+// The combined scene (models/scene.json "scene"): the furred creature stands where the scene puts it, turned
+// to its heading, its paws in the snow, and every print of its trail is pressed into the ground as deep as
+// the scene asks (the bottom of each paw ball, within a centimetre).
+TEST(demo_cli, CombinedSceneHasTheFurredCreatureInItsOwnTrail) {
+    const auto dir = temp_dir() / "out";
+    RunResult r = run_furrow({"demo", "-o", dir.string(), "--ssaa", "1", "-q"});
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    Scene s;
+    ASSERT_TRUE(load_scene(s, (dir / "scene.glb").string()).ok());
+    const auto desc = nlohmann::json::parse(read_text(models_dir() / "scene.json"));
+    const auto& d = desc["scene"];
+    // The creature's subtree and the rest (the snow).
+    int place = -1;
+    for (size_t n = 0; n < s.nodes.size(); ++n)
+        if (s.nodes[n].name == "creature_in_snow") place = int(n);
+    ASSERT_GE(place, 0);
+    const auto position = d["position"].get<std::array<double, 3>>();
+    EXPECT_EQ(s.nodes[size_t(place)].translation, position);
+    std::vector<uint8_t> in_creature(s.nodes.size(), 0);
+    std::vector<int> stack{place};
+    while (!stack.empty()) {
+        const int n = stack.back();
+        stack.pop_back();
+        in_creature[size_t(n)] = 1;
+        for (int c : s.nodes[size_t(n)].children) stack.push_back(c);
+    }
+    size_t shells = 0;
+    for (const Material& m : s.materials) shells += m.alpha_mode == AlphaMode::mask;
+    EXPECT_GE(shells, 32u) << "the creature keeps its fur";
+    std::vector<std::array<double, 3>> snow;
+    const auto world = s.world_matrices();
+    double lo[3] = {1e9, 1e9, 1e9}, hi[3] = {-1e9, -1e9, -1e9};
+    for (int n : s.drawn_nodes()) {
+        if (s.nodes[size_t(n)].mesh < 0) continue;
+        const auto M = s.mesh_placement(n, world);
+        for (const Primitive& p : s.meshes[size_t(s.nodes[size_t(n)].mesh)].primitives)
+            for (size_t v = 0; v < p.vertex_count(); ++v) {
+                const float* q = &p.positions[3 * v];
+                const std::array<double, 3> w{M[0] * q[0] + M[4] * q[1] + M[8] * q[2] + M[12], M[1] * q[0] + M[5] * q[1] + M[9] * q[2] + M[13],
+                                              M[2] * q[0] + M[6] * q[1] + M[10] * q[2] + M[14]};
+                if (!in_creature[size_t(n)]) {
+                    snow.push_back(w);
+                    continue;
+                }
+                for (int k = 0; k < 3; ++k) lo[k] = std::min(lo[k], w[size_t(k)]), hi[k] = std::max(hi[k], w[size_t(k)]);
+            }
+    }
+    const auto P = d["position"].get<std::array<double, 3>>();
+    EXPECT_NEAR(0.5 * (lo[0] + hi[0]), P[0], 0.1);
+    EXPECT_NEAR(0.5 * (lo[2] + hi[2]), P[2], 0.1);
+    EXPECT_NEAR(lo[1], P[1], 0.03) << "the soles at the placed height";
+    // Heading 90°: the creature is longer along x (nose to tail) than across.
+    EXPECT_GT(hi[0] - lo[0], hi[2] - lo[2]);
+    size_t prints = 0;
+    for (const auto& c : d["trail"]["colliders"]) {
+        const auto centre = c["path"][0].get<std::array<double, 3>>();
+        const double bottom = centre[1] - c["radius"].get<double>();
+        double lowest = 1e9;
+        for (const auto& w : snow)
+            if (std::hypot(w[0] - centre[0], w[2] - centre[2]) < 0.03) lowest = std::min(lowest, w[1]);
+        EXPECT_NEAR(lowest, bottom, 0.01) << "print at " << centre[0] << ", " << centre[2];
+        ++prints;
+    }
+    EXPECT_EQ(prints, 24u);
 }
