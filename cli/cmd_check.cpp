@@ -96,7 +96,7 @@ const std::vector<Requirement>& requirements() {
          [](const CheckReport& t, const auto&) {
              return count_failure(t.unreferenced_vertices, "unreferenced vertex", "unreferenced vertices");
          }},
-        {"no-valence2", "no interior vertex with only two edges (OpenSubdiv 3.5 mishandles them)",
+        {"no-valence2", "no interior vertex with only two edges (a fold of the control hull; older subdivision tools mishandle them)",
          [](const CheckReport& t, const auto&) {
              return count_failure(t.valence2_interior_vertices, "interior vertex of valence 2",
                                   "interior vertices of valence 2");

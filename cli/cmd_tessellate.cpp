@@ -88,7 +88,7 @@ void register_tessellate(CLI::App& app, GlobalFlags& g) {
                     "Refinement levels near extraordinary vertices, 1..10 (default 2; each level ~8x closer)")
         ->check(CLI::Range(1, 10));
     cmd->add_flag("--strict", a->strict,
-                  "Refuse input that needs repair (degenerate, flipped or non-manifold faces, valence-2 vertices) "
+                  "Refuse input that needs repair (degenerate, flipped or non-manifold faces) "
                   "instead of repairing it or tessellating those faces linearly");
     cmd->footer("Criteria combine: each edge takes the largest rate any of them asks for, capped by --max-rate.\n"
                 "Only the camera's position, --fov and the height of --size matter (distances are measured from\n"

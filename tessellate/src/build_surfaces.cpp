@@ -135,14 +135,16 @@ Status build_surfaces(PreparedMesh& m) {
     fo.SetApproxLevelSharp(std::max(6, m.options.accuracy));
     if (m.K > 0) fo.SetDefaultFVarID(0);
     m.factory = std::make_unique<SurfaceFactory>(*m.refiner, fo);
+    fo.EnableCaching(false);
+    m.factory_uncached = std::make_unique<SurfaceFactory>(*m.refiner, fo);
 
     std::vector<uint8_t> failed(F, 0);
     tbb::parallel_for(tbb::blocked_range<size_t>(0, F, 256), [&](const tbb::blocked_range<size_t>& range) {
         Surface vtx, fvar;
         for (size_t f = range.begin(); f != range.end(); ++f) {
             if (m.face_refiner[f] < 0) continue;
-            bool ok = m.factory->InitVertexSurface(m.face_refiner[f], &vtx);
-            if (ok && m.K > 0) ok = m.factory->InitFaceVaryingSurface(m.face_refiner[f], &fvar);
+            bool ok = m.factory_of(f).InitVertexSurface(m.face_refiner[f], &vtx);
+            if (ok && m.K > 0) ok = m.factory_of(f).InitFaceVaryingSurface(m.face_refiner[f], &fvar);
             if (!ok) failed[f] = 1;
         }
     });

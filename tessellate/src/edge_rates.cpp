@@ -251,7 +251,7 @@ Status wanted_rates(std::vector<double>& out, const PreparedMesh& m, const RateO
             const uint32_t c0 = m.face_offset[f];
             const int n = int(m.face_size(f));
             const auto param = m.parameterization(f);
-            const bool smooth = m.smooth(f) && m.factory && m.factory->InitVertexSurface(m.face_refiner[f], &surface);
+            const bool smooth = m.smooth(f) && m.factory && m.factory_of(f).InitVertexSurface(m.face_refiner[f], &surface);
             if (smooth) {
                 patch.resize(size_t(surface.GetNumPatchPoints()) * 3);
                 surface.PreparePatchPoints(m.refiner_data.data(), Surface::PointDescriptor(3, m.W), patch.data(), 3);

@@ -293,8 +293,8 @@ Status evaluate_tessellation(TessellateOutput& out, const PreparedMesh& m, const
                 if (smooth_pass) {
                     // Surfaces were checked in build_surfaces; a failure here would be a bug, but it must not
                     // become a crash or a crack: such a face would keep its (already shared) boundary points.
-                    bool ok = m.factory->InitVertexSurface(m.face_refiner[f], &vtx);
-                    if (ok && K > 0) ok = m.factory->InitFaceVaryingSurface(m.face_refiner[f], &fvar);
+                    bool ok = m.factory_of(f).InitVertexSurface(m.face_refiner[f], &vtx);
+                    if (ok && K > 0) ok = m.factory_of(f).InitFaceVaryingSurface(m.face_refiner[f], &fvar);
                     process(f, ok, false, vtx, fvar, scratch);
                 } else {
                     process(f, false, true, vtx, fvar, scratch);

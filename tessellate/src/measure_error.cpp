@@ -63,7 +63,7 @@ Status measure_tessellation(ErrorReport& out, const PreparedMesh& m, const Tesse
         for (size_t run = range.begin(); run != range.end(); ++run) {
             const size_t f = t.triangle_patches[begin[run]];
             if (f >= m.face_count() || !m.smooth(f) || !m.factory) continue;
-            if (!m.factory->InitVertexSurface(m.face_refiner[f], &surface)) continue;
+            if (!m.factory_of(f).InitVertexSurface(m.face_refiner[f], &surface)) continue;
             patch.resize(size_t(surface.GetNumPatchPoints()) * 3);
             surface.PreparePatchPoints(m.refiner_data.data(), Surface::PointDescriptor(3, m.W), patch.data(), 3);
             const auto param = m.parameterization(f);

@@ -8,9 +8,9 @@
 //   - positions are welded, so UV seams do not become cracks; attributes become face-varying *values*
 //     (one per distinct attribute vector at a welded position), split only where they really differ;
 //   - polygons that visit a welded vertex twice are split there, what has no area left is dropped;
-//   - faces on edges with more than two faces or with opposite orientations, and faces around interior
-//     vertices of valence 2 (a fold OpenSubdiv 3.5 mishandles: PRs 1301, 1336, 1353) are kept out of the
-//     refiner and tessellated linearly;
+//   - faces on edges with more than two faces or with opposite orientations are kept out of the refiner and
+//     tessellated linearly; faces around interior vertices of valence 2 stay in it, evaluated without the
+//     surface cache (OpenSubdiv 3.5.0 may share their patches wrongly: PR 1353);
 //   - a *point* (shared tessellation vertex) exists per welded position and edge-connected fan of faces, so
 //     bowtie vertices split into one point per fan and every edge's two ends are the same points for all of
 //     its faces; the refiner gets the fans of the smooth faces only, so it never sees a non-manifold vertex;
@@ -475,9 +475,18 @@ Status prepare_mesh(PreparedMesh& m, const TessellateInput& in, const SurfaceOpt
                                  str(st.inconsistent_edges) + " edges with inconsistently oriented faces");
     }
 
-    // ---- fans of the smooth faces (the refiner's vertices); interior valence-2 vertices leave the refiner
+    // ---- fans of the smooth faces (the refiner's vertices). Interior vertices of valence 2 (two faces sharing
+    // both edges at a vertex: the control hull folds there) stay in the refiner. OpenSubdiv 3.5.0's Bfr gives
+    // their faces the right limit surface (against 9 levels of uniform refinement, test
+    // tessellate_reference.Valence2VerticesAreOnTheLimitSurface), but may share such a face's
+    // irregular patch wrongly through its surface cache (fixed in 3.6, PR 1353): those faces are evaluated
+    // without the cache (face_uncached). The other 3.5.0 bugs there need a semi-sharp edge (PR 1301), which
+    // furrow never makes, or a valence-2 dart, one infinitely sharp edge at the vertex (PR 1336), which its
+    // creases cannot make: both edges of a valence-2 vertex lie between the same two faces, so the crease
+    // angle marks both or neither.
     std::vector<uint32_t> smooth_class(C, none);
-    for (;;) {
+    m.face_uncached.assign(F, 0);
+    {
         DisjointSets ds(C);
         std::vector<uint32_t> join_sites;
         for (size_t e = 0; e < E; ++e) {
@@ -493,23 +502,15 @@ Status prepare_mesh(PreparedMesh& m, const TessellateInput& in, const SurfaceOpt
         for (uint32_t c = 0; c < C; ++c)
             if (!m.face_linear[m.corner_face[c]]) ++corners_in[ds.find(c)];
         for (uint32_t c : join_sites) ++joins_in[ds.find(c)];
-        size_t found = 0;
         for (uint32_t c = 0; c < C; ++c) {
             if (m.face_linear[m.corner_face[c]]) continue;
-            uint32_t r = ds.find(c);
+            const uint32_t r = ds.find(c);
+            smooth_class[c] = r;
             if (corners_in[r] == 2 && joins_in[r] == 2) {
-                m.face_linear[m.corner_face[c]] = 1;
-                if (r == c) ++found;
+                m.face_uncached[m.corner_face[c]] = 1;
+                if (r == c) ++st.valence2_vertices;
             }
         }
-        if (!found) {
-            for (uint32_t c = 0; c < C; ++c)
-                if (!m.face_linear[m.corner_face[c]]) smooth_class[c] = ds.find(c);
-            break;
-        }
-        st.valence2_vertices += found;
-        if (o.refuse_bad_topology)
-            return Status::error(StatusCode::invalid_input, str(found) + " interior vertices of valence 2");
     }
     // Refiner vertices numbered by their first corner.
     {

@@ -48,6 +48,7 @@ struct PreparedMesh {
     std::vector<uint32_t> face_offset;
     std::vector<uint32_t> face_source; // input face index
     std::vector<uint8_t> face_linear;  // 1: tessellated linearly (fallback)
+    std::vector<uint8_t> face_uncached; // 1: at an interior valence-2 vertex: surfaces from factory_uncached
     std::vector<int> face_refiner;     // face index in the refiner, -1 for faces left out of it
     std::vector<uint32_t> corner_input, corner_welded, corner_point, corner_value, corner_group;
     std::vector<uint32_t> corner_edge, corner_side; // the edge that starts at the corner, and this face's side
@@ -89,6 +90,8 @@ struct PreparedMesh {
     std::vector<uint32_t> refiner_vertex_welded;
     std::unique_ptr<osd::Far::TopologyRefiner> refiner;
     std::unique_ptr<SurfaceFactory> factory;
+    std::unique_ptr<SurfaceFactory> factory_uncached; // the same without a cache (OpenSubdiv 3.5.0, PR 1353)
+    const SurfaceFactory& factory_of(size_t f) const { return face_uncached[f] ? *factory_uncached : *factory; }
     std::vector<float> refiner_data;  // W per refiner vertex
     std::vector<float> refiner_fvar;  // K per refiner face-varying value
 

@@ -31,7 +31,7 @@ void verify_error(std::vector<double>& wanted, const PreparedMesh& m, const Rate
             std::vector<float> patch, coords, pos;
             std::vector<int> fr, facets;
             for (size_t f = range.begin(); f != range.end(); ++f) {
-                if (!m.smooth(f) || !m.factory || !m.factory->InitVertexSurface(m.face_refiner[f], &surface)) continue;
+                if (!m.smooth(f) || !m.factory || !m.factory_of(f).InitVertexSurface(m.face_refiner[f], &surface)) continue;
                 patch.resize(size_t(surface.GetNumPatchPoints()) * 3);
                 surface.PreparePatchPoints(m.refiner_data.data(), Surface::PointDescriptor(3, m.W), patch.data(), 3);
                 const auto param = m.parameterization(f);

@@ -222,7 +222,7 @@ Primitive pillow() {
 }
 
 // A cube as polygons (OBJ) with one edge split by a vertex pushed outward: its two faces become pentagons and
-// the new vertex is interior with valence 2 (the case OpenSubdiv 3.5 mishandles).
+// the new vertex is interior with valence 2 (a fold of the control hull).
 const char* k_valence2_obj = "v -0.5 -0.5 -0.5\nv 0.5 -0.5 -0.5\nv 0.5 0.5 -0.5\nv -0.5 0.5 -0.5\n"
                              "v -0.5 -0.5 0.5\nv 0.5 -0.5 0.5\nv 0.5 0.5 0.5\nv -0.5 0.5 0.5\n"
                              "v 0.55 0.55 0\n"
@@ -453,7 +453,7 @@ void run_shells(const HardCase& c, const fs::path& in, const fs::path& dir) {
     }
 }
 
-void run_tessellate(const HardCase&, const fs::path& in, const fs::path& dir, const CheckReport& input) {
+void run_tessellate(const HardCase& c, const fs::path& in, const fs::path& dir, const CheckReport& input) {
     const fs::path out = dir / "tess.glb";
     const auto r = run_furrow({"tessellate", in.string(), "-o", out.string(), "--uniform", "2"});
     if (!succeeded_or_refused_cleanly(r, "tessellate")) return;
@@ -463,9 +463,11 @@ void run_tessellate(const HardCase&, const fs::path& in, const fs::path& dir, co
     if (input.closed && input.boundary_edges == 0) {
         EXPECT_EQ(o.boundary_edges, 0u) << "a closed input must stay closed";
     }
-    // The surface stays where the input was (subdivision only shrinks it).
+    // The surface stays where the input was (subdivision only shrinks it). The pillow (two triangles back to
+    // back, every vertex of valence 2) is on its limit surface since valence-2 vertices stopped falling back
+    // to linear faces, and that limit is small: 8 levels of Far uniform refinement give 7.4 % of its diagonal.
     EXPECT_LE(o.diagonal, input.diagonal * 1.001 + 1e-9);
-    EXPECT_GE(o.diagonal, input.diagonal * 0.25);
+    EXPECT_GE(o.diagonal, input.diagonal * (c.name == "Valence2Pillow" ? 0.05 : 0.25));
 }
 
 void run_stamp(const HardCase& c, const fs::path& in, const fs::path& dir, const CheckReport& input, const Scene& scene) {

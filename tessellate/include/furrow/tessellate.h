@@ -9,9 +9,10 @@
 //     vertices are split only where attribute values (or normals across a crease) really differ;
 //   - the output is deterministic: the same bytes for any thread count (TBB).
 // Input problems OpenSubdiv cannot take (degenerate faces, faces oriented against their neighbours, edges with
-// more than two faces, interior vertices of valence 2 — see OpenSubdiv PRs 1301/1336/1353) are repaired or
-// tessellated linearly (the faces keep their corners and are shared with their neighbours, so still no
+// more than two faces) are repaired or tessellated linearly (the faces keep their corners and are shared with their neighbours, so still no
 // crack), and reported in TessellateStats; SurfaceOptions::refuse_bad_topology turns them into an error.
+// Interior vertices of valence 2 are evaluated on the limit surface like any other (their faces bypass the
+// surface cache, which OpenSubdiv 3.5.0 may share wrongly there: PR 1353).
 //
 // Terrain seen from a camera, in one call (the scene's triangle primitives are replaced, all else is kept):
 //     furrow::TessellateOptions o;
@@ -136,7 +137,7 @@ struct TessellateStats {
     size_t non_manifold_edges = 0;         // ... because of these (more than two faces)
     size_t inconsistent_edges = 0;         // ... or these (both faces traverse the edge the same way, on a
                                            //     non-orientable part)
-    size_t valence2_vertices = 0;          // ... or these (interior vertices of valence 2)
+    size_t valence2_vertices = 0;          // interior vertices of valence 2 (on the limit surface: not a fallback)
     size_t failed_faces = 0;               // ... or OpenSubdiv found no limit surface
     size_t split_vertices = 0;             // non-manifold (bowtie) vertices split into one point per fan
     size_t crease_edges = 0;
