@@ -68,9 +68,7 @@ std::vector<fs::path> collect_bench_inputs(const BenchArgs& args, const std::vec
             if (fs::is_directory(d)) inputs.push_back(d.string());
     }
     auto wanted = [&](const fs::path& p) {
-        std::string e = p.extension().string();
-        std::transform(e.begin(), e.end(), e.begin(), [](unsigned char c) { return char(std::tolower(c)); });
-        return std::find(extensions.begin(), extensions.end(), e) != extensions.end();
+        return std::find(extensions.begin(), extensions.end(), lower_extension(p.string())) != extensions.end();
     };
     std::vector<fs::path> files;
     for (const auto& in : inputs) {

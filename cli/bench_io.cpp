@@ -46,7 +46,7 @@ IoRow bench_one(const fs::path& file, const fs::path& tmp, int repeat) {
     std::vector<char> bytes((std::istreambuf_iterator<char>(in)), {});
     // A .gltf's buffers and images may live in files beside it: the loader reads those bytes too, so the
     // baseline copies them as well.
-    if (file.extension() == ".gltf" || file.extension() == ".GLTF") {
+    if (lower_extension(file.string()) == ".gltf") {
         nlohmann::json doc = nlohmann::json::parse(bytes.begin(), bytes.end(), nullptr, false);
         if (doc.is_object())
             for (const char* key : {"buffers", "images"})

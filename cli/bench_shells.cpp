@@ -215,7 +215,7 @@ Row bench_one(const fs::path& file, int layers, const ShellsArgs& a) {
     keep.keep_frames = true;
     FurReport fr;
     require_ok(add_fur_shells(s, keep, &fr), file.string());
-    measure(row, base, fr, layers, a.max_samples);
+    measure(row, s, fr, layers, a.max_samples); // s: its bases may have been refined (FurReport::refined_faces)
     return row;
 }
 

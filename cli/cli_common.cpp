@@ -1,5 +1,6 @@
 #include "cli_common.h"
 
+#include <cctype>
 #include <chrono>
 #include <condition_variable>
 #include <cstdio>
@@ -83,6 +84,24 @@ Scene load_or_throw(const std::string& path, const LoadOptions& options) {
     return scene;
 }
 
+std::string lower_extension(const std::string& path) {
+    std::string e = std::filesystem::path(path).extension().string();
+    for (char& c : e) c = char(std::tolower(static_cast<unsigned char>(c)));
+    return e;
+}
+
+void require_extension(const std::string& path, const std::string& option, std::initializer_list<const char*> allowed) {
+    const std::string ext = lower_extension(path);
+    std::string list;
+    size_t i = 0;
+    for (const char* a : allowed) {
+        if (ext == a) return;
+        list += (i == 0 ? "" : i + 1 == allowed.size() ? " or " : ", ") + std::string(a);
+        ++i;
+    }
+    throw CLI::ValidationError(option, "must end in " + list);
+}
+
 bool same_file(const std::string& a, const std::string& b) {
     std::error_code ec;
     if (std::filesystem::equivalent(a, b, ec)) return true;
@@ -95,9 +114,7 @@ bool same_file(const std::string& a, const std::string& b) {
 // resolved against its folder. Data URIs and absolute URLs are skipped.
 static std::vector<std::string> gltf_resources(const std::string& in_path) {
     std::vector<std::string> files;
-    std::string ext = std::filesystem::path(in_path).extension().string();
-    for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
-    if (ext != ".gltf") return files;
+    if (lower_extension(in_path) != ".gltf") return files;
     std::ifstream in(in_path, std::ios::binary);
     nlohmann::json j = nlohmann::json::parse(in, nullptr, false);
     if (!j.is_object()) return files;
@@ -129,9 +146,7 @@ void refuse_overwriting_input(const std::string& out_path, const std::string& in
         throw InputError(out_path, "output path is the input file; refusing to overwrite the input");
     // A .gltf output also writes <stem>.bin beside it, which may be a file the input reads: `convert a.gltf
     // -o data.gltf` silently overwrote the input's data.bin. Inputs are never modified.
-    std::string ext = std::filesystem::path(out_path).extension().string();
-    for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
-    if (ext != ".gltf") return;
+    if (lower_extension(out_path) != ".gltf") return;
     const std::string bin = std::filesystem::path(out_path).replace_extension(".bin").string();
     for (const std::string& f : gltf_resources(in_path))
         if (same_file(bin, f))

@@ -5,6 +5,7 @@
 #include <furrow/mesh.h>
 
 #include <array>
+#include <initializer_list>
 #include <memory>
 #include <optional>
 #include <stdexcept>
@@ -60,6 +61,13 @@ bool same_file(const std::string& a, const std::string& b);
 // Throws InputError naming the output if writing out_path would overwrite in_path or, for a .gltf output, if
 // its .bin would overwrite a buffer or image file the .gltf input reads.
 void refuse_overwriting_input(const std::string& out_path, const std::string& in_path);
+
+// The extension of `path` in lower case, with its dot (".glb"; "" without one): what save_scene and
+// save_heightmap choose the format by, so a name that passes require_extension is one they write.
+std::string lower_extension(const std::string& path);
+// The output checks of every command, before any work: throws CLI::ValidationError(option, "must end in .glb
+// or .gltf") unless the lower-case extension of `path` is one of `allowed` (lower case, with the dot).
+void require_extension(const std::string& path, const std::string& option, std::initializer_list<const char*> allowed);
 
 // Prints to stderr unless quiet.
 void info(const GlobalFlags& g, const std::string& line);

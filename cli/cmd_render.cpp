@@ -14,12 +14,6 @@
 namespace furrow::cli {
 namespace {
 
-std::string lower_extension(const std::string& path) {
-    std::string e = std::filesystem::path(path).extension().string();
-    for (char& c : e) c = char(std::tolower(static_cast<unsigned char>(c)));
-    return e;
-}
-
 // Writes bytes to a temporary file beside `path` (stage_file), to be renamed into place by commit_file, so a
 // failure never leaves a half-written output. Throws InputError naming `path`.
 std::string stage_file(const std::string& path, const std::vector<uint8_t>& bytes) {
@@ -115,9 +109,8 @@ void run_render(const RenderArgs& a, const GlobalFlags& g) {
     if (a.camera.eye && a.camera.target && *a.camera.eye == *a.camera.target)
         throw CLI::ValidationError("--camera", "the camera position and --target coincide");
     if (!a.background.empty()) o.background = parse_colour(a.background);
-    if (lower_extension(a.out) != ".png") throw CLI::ValidationError("--output", "must end in .png");
-    if (!a.depth_out.empty() && lower_extension(a.depth_out) != ".pfm")
-        throw CLI::ValidationError("--depth-out", "must end in .pfm");
+    require_extension(a.out, "--output", {".png"});
+    if (!a.depth_out.empty()) require_extension(a.depth_out, "--depth-out", {".pfm"});
     for (const std::string* out : {&a.out, &a.depth_out})
         if (!out->empty() && same_file(*out, a.in))
             throw InputError(*out, "output path is the input file; refusing to overwrite the input");

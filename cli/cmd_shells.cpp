@@ -113,13 +113,7 @@ void register_shells(CLI::App& app, GlobalFlags& g) {
                 "Lengths are in world units; each vertex's length is reduced where the fur would otherwise run into the\n"
                 "mesh (thin gaps, concave corners); the summary says how many vertices were clamped.");
     cmd->callback([a, &g] {
-        const std::string ext = [&] {
-            std::string e = a->out.size() >= 5 ? a->out.substr(a->out.size() - 5) : a->out;
-            for (char& c : e) c = char(std::tolower(static_cast<unsigned char>(c)));
-            return e;
-        }();
-        if (ext != ".gltf" && (ext.size() < 4 || ext.substr(ext.size() - 4) != ".glb"))
-            throw CLI::ValidationError("--output", "must end in .glb or .gltf");
+        require_extension(a->out, "--output", {".glb", ".gltf"});
         if (same_file(a->out, a->in)) throw InputError(a->out, "output path is the input file; refusing to overwrite the input");
         a->fur.layout = a->layout == "engine" ? ShellLayout::engine : ShellLayout::viewer;
         if (!a->mask.empty()) {
@@ -146,6 +140,8 @@ void register_shells(CLI::App& app, GlobalFlags& g) {
         if (r.dropped_triangles) line += " (" + std::to_string(r.dropped_triangles) + " bald shell triangles dropped)";
         if (r.fin_quads) line += ", " + plural(r.fin_quads, "fin");
         if (a->fur.shells.lod_levels > 1) line += ", " + std::to_string(a->fur.shells.lod_levels) + " LOD levels";
+        if (r.refined_faces)
+            line += "; " + plural(r.refined_faces, "base face") + " split where clamped corners starved the fur";
         info(g, line);
         info(g, "  " + std::to_string(r.clamped_vertices) + " of " + std::to_string(r.welded_vertices) +
                     " vertices clamped (" + std::to_string(r.clamped_by_ray) + " by free space, " + std::to_string(r.clamped_by_fold) +

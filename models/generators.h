@@ -6,6 +6,7 @@
 
 #include <furrow/mesh.h>
 #include <furrow/shapes.h>
+#include <furrow_kernel/atomic_file.h>
 
 #include <algorithm>
 #include <array>
@@ -13,7 +14,6 @@
 #include <cstdint>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <numbers>
 #include <string>
 #include <vector>
@@ -468,12 +468,10 @@ inline std::string scene_json() {
 // ---------------------------------------------------------------------------------------------------------
 // Everything
 // ---------------------------------------------------------------------------------------------------------
+// Written as save_scene and save_png write the other assets (furrow_kernel/atomic_file.h): all or nothing, so
+// an interrupted run never leaves a half-written asset in models/.
 inline Status write_text_file(const std::filesystem::path& path, const std::string& text) {
-    std::ofstream f(path, std::ios::binary | std::ios::trunc);
-    f.write(text.data(), std::streamsize(text.size()));
-    f.close();
-    if (!f) return Status::error(StatusCode::io_error, "cannot write " + path.string());
-    return Status::success();
+    return kernel::atomic_write(path.string(), text.data(), text.size());
 }
 
 // The files generate_all() writes, in order.

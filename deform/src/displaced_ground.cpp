@@ -7,8 +7,12 @@
 // computed once per welded point and copied to every vertex of that position (OpenSubdiv issue 168: displace
 // shared points once, never per face). An incremental update moves the points whose bilinear footprint meets
 // the dirty rectangle and renormalises every point of the faces around them, which is exactly the set whose
-// angle-weighted normal can change.
+// angle-weighted normal can change. Each face's part of a normal, and which faces are degenerate, are the
+// kernel's (furrow_kernel/angle_weighted_normal.h), as in compute_vertex_normals.
 #include "deform_internal.h"
+
+#include <furrow_kernel/angle_weighted_normal.h>
+#include <furrow_kernel/welded_ids.h>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -27,21 +31,17 @@ void welded_normals(double* normals, const std::vector<double>& P, const uint32_
     tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 512), [&](const tbb::blocked_range<size_t>& r) {
         for (size_t q = r.begin(); q != r.end(); ++q) {
             const uint32_t v = which ? which[q] : uint32_t(q);
-            D3 sum{0, 0, 0};
+            kernel::Vec3 sum;
             for (uint32_t k = off[v]; k < off[size_t(v) + 1]; ++k) {
                 const uint32_t* t = tri + 3 * size_t(faces[k]);
                 const int c = t[0] == v ? 0 : t[1] == v ? 1 : 2;
-                auto pt = [&](uint32_t i) { return D3{P[3 * size_t(i)], P[3 * size_t(i) + 1], P[3 * size_t(i) + 2]}; };
-                const D3 p0 = pt(t[c]), p1 = pt(t[(c + 1) % 3]), p2 = pt(t[(c + 2) % 3]);
-                const D3 e1 = p1 - p0, e2 = p2 - p0;
-                const D3 nrm = cross(e1, e2);
-                const double a2 = norm(nrm);
-                if (!(a2 > 0) || !std::isfinite(a2)) continue;
-                // atan2(|e1×e2|, e1·e2) keeps its digits near 0 and pi, unlike acos of a normalised dot.
-                const double angle = std::atan2(a2, dot(e1, e2));
-                sum = sum + nrm * (angle / a2);
+                const kernel::Vec3 p[3] = {kernel::point_at(P.data(), t[0]), kernel::point_at(P.data(), t[1]),
+                                           kernel::point_at(P.data(), t[2])};
+                const auto face = kernel::face_normal(p[0], p[1], p[2]);
+                if (!face) continue; // the kernel's degenerate faces, as in compute_vertex_normals
+                sum = sum + kernel::corner_angle(p[c], p[(c + 1) % 3], p[(c + 2) % 3], face->double_area) * face->unit;
             }
-            const double l = norm(sum);
+            const double l = kernel::norm(sum);
             double* o = normals + 3 * size_t(v);
             if (l > 0) o[0] = sum.x / l, o[1] = sum.y / l, o[2] = sum.z / l;
             else o[0] = o[1] = o[2] = 0;
@@ -123,14 +123,9 @@ Status DisplacedGround::prepare(const float* positions, size_t vertex_count, con
     std::vector<uint32_t> first(vertex_count);
     weld_positions(first.data(), positions, vertex_count);
     // Welded points numbered in order of first appearance.
-    std::vector<uint32_t> id(vertex_count, UINT32_MAX);
-    m->remap.resize(vertex_count);
-    uint32_t points = 0;
-    for (size_t v = 0; v < vertex_count; ++v) {
-        const uint32_t r = first[v];
-        if (id[r] == UINT32_MAX) id[r] = points++;
-        m->remap[v] = id[r];
-    }
+    kernel::WeldedIds welded = kernel::welded_ids(first.data(), vertex_count);
+    m->remap = std::move(welded.of_vertex);
+    const uint32_t points = uint32_t(welded.first.size());
     m->rest.resize(3 * size_t(points));
     m->copy_off.assign(size_t(points) + 1, 0);
     for (size_t v = 0; v < vertex_count; ++v) {

@@ -5,50 +5,22 @@
 // IHDR, tEXt, IDAT (zlib, RFC 1950/1951), IEND, CRC-32 per chunk. The PNG encoder writes stored (uncompressed)
 // deflate blocks: a heightmap is written once per run, and a dependency on zlib would have to travel with
 // the installed package. 8-bit storage is not offered: at a few centimetres of depth, 256 levels show steps
-// (field notes). Both files carry the frame as JSON so a later run places the map exactly.
+// (field notes). Both files carry the frame as JSON so a later run places the map exactly. They are written
+// as meshes and images are (furrow_kernel/atomic_file.h): all or nothing, into an existing folder.
 #include "deform_internal.h"
+
+#include <furrow_kernel/atomic_file.h>
 
 #include <nlohmann/json.hpp>
 
-#include <atomic>
-#include <cerrno>
-#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
-#include <unistd.h>
 
 namespace furrow {
 namespace {
 
 using nlohmann::json;
-
-Status write_atomically(const std::string& path, const std::vector<uint8_t>& bytes) {
-    namespace fs = std::filesystem;
-    static std::atomic<unsigned> counter{0};
-    fs::path p(path);
-    fs::path dir = p.parent_path().empty() ? fs::path(".") : p.parent_path();
-    std::error_code ec;
-    if (!fs::is_directory(dir, ec)) return Status::error(StatusCode::io_error, "output folder '" + dir.string() + "' does not exist");
-    const std::string tmp = (dir / ("." + p.filename().string() + ".furrow-tmp-" + std::to_string(getpid()) + "-" +
-                                    std::to_string(counter.fetch_add(1))))
-                                .string();
-    FILE* f = std::fopen(tmp.c_str(), "wb");
-    if (!f) return Status::error(StatusCode::io_error, std::string("cannot write: ") + std::strerror(errno));
-    bool ok = bytes.empty() || std::fwrite(bytes.data(), 1, bytes.size(), f) == bytes.size();
-    ok = std::fflush(f) == 0 && ok;
-    ok = std::fclose(f) == 0 && ok;
-    if (!ok) {
-        std::remove(tmp.c_str());
-        return Status::error(StatusCode::io_error, "write failed");
-    }
-    if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-        int err = errno;
-        std::remove(tmp.c_str());
-        return Status::error(StatusCode::io_error, std::string("cannot rename into place: ") + std::strerror(err));
-    }
-    return Status::success();
-}
 
 json frame_json(const HeightmapFrame& f) {
     return json{{"origin", f.origin}, {"axis_u", f.axis_u}, {"axis_v", f.axis_v}, {"up", f.up}, {"texel", f.texel},
@@ -221,7 +193,7 @@ Status save_heightmap(const Heightmap& hm, const std::string& path) {
     } else {
         return Status::error(StatusCode::invalid_argument, "heightmap files must end in .pfm (float) or .png (16-bit)");
     }
-    return write_atomically(path, bytes);
+    return kernel::atomic_write(path, bytes.data(), bytes.size());
 }
 
 Status load_heightmap(Heightmap& out, const std::string& path) {

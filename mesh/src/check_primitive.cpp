@@ -14,46 +14,21 @@
 
 #include "self_intersections.h"
 
+#include <furrow_kernel/disjoint_sets.h>
+#include <furrow_kernel/vec3.h>
+
 #include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <limits>
-#include <numeric>
 #include <vector>
 
 namespace furrow {
 namespace {
 
 constexpr double pi = std::numbers::pi;
-
-struct DisjointSets {
-    std::vector<uint32_t> parent;
-    explicit DisjointSets(size_t n) : parent(n) { std::iota(parent.begin(), parent.end(), 0u); }
-    uint32_t find(uint32_t x) {
-        while (parent[x] != x) {
-            parent[x] = parent[parent[x]];
-            x = parent[x];
-        }
-        return x;
-    }
-    void unite(uint32_t a, uint32_t b) {
-        a = find(a);
-        b = find(b);
-        // The smaller index becomes the root: the structure, and so any order derived from it, depends on
-        // the input only.
-        if (a < b) parent[b] = a;
-        else if (b < a) parent[a] = b;
-    }
-};
-
-struct V3 {
-    double x, y, z;
-};
-V3 operator-(V3 a, V3 b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
-V3 cross(V3 a, V3 b) { return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x}; }
-double dot(V3 a, V3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
-double length(V3 a) { return std::sqrt(dot(a, a)); }
-bool finite(V3 a) { return std::isfinite(a.x) && std::isfinite(a.y) && std::isfinite(a.z); }
+using kernel::DisjointSets;
+using V3 = kernel::Vec3;
 
 size_t count_non_finite(const std::vector<float>& values) {
     size_t n = 0;
@@ -85,9 +60,7 @@ CheckReport check_primitive(const Primitive& prim, const CheckOptions& options) 
                         count_non_finite(t.tangent_deltas);
     for (const CustomAttribute& a : prim.custom) r.nan_values += count_non_finite(a.values);
 
-    auto point = [&](size_t v) {
-        return V3{double(positions[3 * v]), double(positions[3 * v + 1]), double(positions[3 * v + 2])};
-    };
+    auto point = [&](size_t v) { return kernel::point_at(positions, v); };
     {
         double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
         bool any = false;
@@ -100,7 +73,7 @@ CheckReport check_primitive(const Primitive& prim, const CheckOptions& options) 
         }
         if (any) {
             for (int k = 0; k < 3; ++k) r.bbox_min[k] = lo[k], r.bbox_max[k] = hi[k];
-            r.diagonal = length(V3{hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]});
+            r.diagonal = norm(V3{hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]});
         }
     }
     r.has_uv = !prim.uv0.empty();
@@ -205,7 +178,7 @@ CheckReport check_primitive(const Primitive& prim, const CheckOptions& options) 
         double area = 0;
         for (size_t i = 1; i + 1 < size; ++i) {
             const V3 p1 = point(indices[begin + i]), p2 = point(indices[begin + i + 1]);
-            const double double_area = length(cross(p1 - p0, p2 - p0));
+            const double double_area = norm(cross(p1 - p0, p2 - p0));
             area += 0.5 * double_area;
             if (!(0.5 * double_area > zero_area)) continue; // angles of a zero-area triangle are noise
             const V3 p[3] = {p0, p1, p2};

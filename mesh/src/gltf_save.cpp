@@ -1,8 +1,9 @@
 // glTF 2.0 writing. The output is rebuilt from the Scene: one binary buffer, one tightly packed buffer view per
 // accessor, every image embedded, and the rest of the source document (animations, cameras, extras, unknown
 // extensions) carried over. Target: the Khronos glTF-Validator reports 0 errors and 0 warnings.
-#include "atomic_file.h"
 #include "document.h"
+
+#include <furrow_kernel/atomic_file.h>
 
 #include <nlohmann/json.hpp>
 
@@ -544,7 +545,7 @@ Status save_scene(const Scene& scene, const std::string& path, const SaveOptions
             u32(0x004E4942); // BIN
             glb.insert(glb.end(), bin.begin(), bin.end());
         }
-        return detail::atomic_write(path, glb.data(), glb.size());
+        return kernel::atomic_write(path, glb.data(), glb.size());
     }
     if (!bin.empty()) {
         j["buffers"] = nlohmann::json::array({{{"byteLength", bin.size()}, {"uri", bin_name}}});
@@ -552,10 +553,10 @@ Status save_scene(const Scene& scene, const std::string& path, const SaveOptions
         const std::string text = j.dump(options.pretty_json ? 2 : -1);
         // Both files or neither (the .bin used to be renamed into place before the .gltf was tried, so an
         // unwritable .gltf path left a stray .bin behind).
-        return detail::atomic_write_pair(bin_path, bin.data(), bin.size(), path, text.data(), text.size());
+        return kernel::atomic_write_pair(bin_path, bin.data(), bin.size(), path, text.data(), text.size());
     }
     const std::string text = j.dump(options.pretty_json ? 2 : -1);
-    return detail::atomic_write(path, text.data(), text.size());
+    return kernel::atomic_write(path, text.data(), text.size());
 }
 
 } // namespace furrow

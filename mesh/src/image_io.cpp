@@ -1,7 +1,6 @@
 // PNG/JPEG decoding and PNG encoding with stb_image / stb_image_write (compiled in tinygltf_impl.cpp).
-#include "atomic_file.h"
-
 #include <furrow/mesh.h>
+#include <furrow_kernel/atomic_file.h>
 #include <stb_image.h>
 #include <stb_image_write.h>
 
@@ -135,7 +134,7 @@ Status save_png(const std::string& path, const ImageF& image, bool srgb_encode) 
         },
         &out, image.width, image.height, image.channels, px.data(), image.width * image.channels);
     if (out.empty()) return Status::error(StatusCode::io_error, "PNG encoding failed");
-    return detail::atomic_write(path, out.data(), out.size());
+    return kernel::atomic_write(path, out.data(), out.size());
 }
 
 } // namespace furrow

@@ -8,10 +8,13 @@
 // That function needs a halfedge graph, and a CGAL::Surface_mesh cannot hold non-manifold edges or
 // vertices: exactly the meshes `furrow check` is most often asked about. So when the welded triangles do not
 // all fit into a Surface_mesh, the same decision procedure is applied to the soup, with adjacency read from
-// the welded vertex indices instead of from halfedges. On a manifold mesh both agree pair for pair.
+// the welded vertex indices instead of from halfedges (kernel::triangles_intersect, which the shells'
+// intersection test shares). On a manifold mesh both agree pair for pair.
 //
 // This is the only file of furrow::mesh that includes CGAL headers (they dominate compile time).
 #include "self_intersections.h"
+
+#include <furrow_kernel/triangle_pair_intersection.h>
 
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/Polygon_mesh_processing/self_intersections.h>
@@ -27,8 +30,6 @@ namespace {
 
 using Kernel = CGAL::Exact_predicates_inexact_constructions_kernel;
 using Point = Kernel::Point_3;
-using Triangle = Kernel::Triangle_3;
-using Segment = Kernel::Segment_3;
 using Mesh = CGAL::Surface_mesh<Point>;
 
 // A counting output iterator: only the number of pairs is reported, and CGAL reports a collinear face
@@ -63,48 +64,6 @@ long long count_on_surface_mesh(const std::vector<Point>& points,
     return count;
 }
 
-// The decision of CGAL's internal do_faces_intersect, with adjacency from vertex indices.
-bool soup_pair_intersects(const std::vector<Point>& points, const std::array<uint32_t, 3>& a,
-                          const std::array<uint32_t, 3>& b) {
-    int shared = 0, ia = -1, ib = -1; // ia/ib: position of the (first) shared vertex in a and b
-    bool in_b[3] = {false, false, false};
-    for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 3; ++j)
-            if (a[i] == b[j]) {
-                if (shared == 0) ia = i, ib = j;
-                ++shared;
-                in_b[i] = true;
-            }
-    const Point &a0 = points[a[0]], &a1 = points[a[1]], &a2 = points[a[2]];
-    const Point &b0 = points[b[0]], &b1 = points[b[1]], &b2 = points[b[2]];
-    if (shared >= 2) {
-        // Shared edge (u, v): the pair intersects only if the triangles fold onto each other, i.e. are
-        // coplanar with both apices on the same side of the edge.
-        int u = -1, v = -1, apex_a = -1;
-        for (int i = 0; i < 3; ++i) {
-            if (!in_b[i]) apex_a = i;
-            else if (u < 0) u = i;
-            else if (v < 0) v = i;
-        }
-        if (apex_a < 0) apex_a = 3 - u - v; // all three shared: the "apex" is the remaining corner
-        uint32_t apex_b = b[0];
-        for (int j = 0; j < 3; ++j)
-            if (b[j] != a[u] && b[j] != a[v]) apex_b = b[j];
-        if (shared == 3) apex_b = a[apex_a];
-        const Point &pu = points[a[u]], &pv = points[a[v]], &pa = points[a[apex_a]], &pb = points[apex_b];
-        return CGAL::coplanar(pu, pv, pa, pb) && CGAL::coplanar_orientation(pu, pv, pa, pb) == CGAL::POSITIVE;
-    }
-    const Triangle ta(a0, a1, a2), tb(b0, b1, b2);
-    if (shared == 1) {
-        // Touching at the shared vertex is adjacency; anything more means the opposite edge of one
-        // triangle reaches the other.
-        const Segment opposite_a(points[a[(ia + 1) % 3]], points[a[(ia + 2) % 3]]);
-        const Segment opposite_b(points[b[(ib + 1) % 3]], points[b[(ib + 2) % 3]]);
-        return CGAL::do_intersect(ta, opposite_b) || CGAL::do_intersect(tb, opposite_a);
-    }
-    return CGAL::do_intersect(ta, tb);
-}
-
 long long count_on_soup(const std::vector<Point>& points, const std::vector<std::array<uint32_t, 3>>& triangles) {
     using Box = CGAL::Box_intersection_d::Box_with_info_d<double, 3, size_t,
                                                           CGAL::Box_intersection_d::ID_FROM_BOX_ADDRESS>;
@@ -122,7 +81,7 @@ long long count_on_soup(const std::vector<Point>& points, const std::vector<std:
     for (const Box& b : boxes) box_ptrs.push_back(&b);
     long long count = 0;
     auto callback = [&](const Box* x, const Box* y) {
-        if (soup_pair_intersects(points, triangles[x->info()], triangles[y->info()])) ++count;
+        if (kernel::triangles_intersect(points, triangles[x->info()], triangles[y->info()])) ++count;
     };
     CGAL::box_self_intersection_d<CGAL::Sequential_tag>(box_ptrs.begin(), box_ptrs.end(), callback);
     return count;

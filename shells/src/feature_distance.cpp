@@ -5,8 +5,8 @@
 // geometric tests at the leaves are CGAL's (Simple_cartesian constructions; Epick exact predicates for the
 // intersection test), the traversal is triangle_bvh.h's. T. Möller, B. Trumbore, "Fast, Minimum Storage
 // Ray/Triangle Intersection", JGT 2(1), 1997 (only as a loose pre-filter in front of CGAL's construction).
-// A. Meyer, S. Pion, "FPG: A code generator for fast and certified geometric predicates", RNC 2008 (the
-// error bound of CGAL's semi-static orientation filter, reused by CertainSide).
+// The exact test of one pair of triangles is the kernel's (triangle_pair_intersection.h), shared with
+// furrow::mesh's self-intersection count.
 //
 // One SurfaceIndex (hierarchy + CGAL triangles) is built per frame and shared by every query; every query
 // loop is a TBB parallel_for writing only its own entries, so results do not depend on the thread count.
@@ -16,6 +16,8 @@
 // The only CGAL file of furrow::shells (its headers dominate compile time).
 #include "shells_internal.h"
 #include "triangle_bvh.h"
+
+#include <furrow_kernel/triangle_pair_intersection.h>
 
 #include <furrow/shells.h>
 
@@ -48,98 +50,50 @@ using Triangle = Kernel::Triangle_3;
 
 using Exact = CGAL::Exact_predicates_inexact_constructions_kernel;
 
-// The sign of orientation(p, q, r, s) where CGAL's semi-static filter certifies it (the same expression and
-// error bound as CGAL/Filtered_kernel/internal/Static_filters/Orientation_3.h, 5.5), 0 where it does not
-// (or the sign is 0), for one plane (p, q, r) and several s. Most candidate pairs of the intersection test
-// lie on one side of each other's plane; deciding that here skips building the CGAL objects and the full
-// predicate.
-class CertainSide {
-public:
-    CertainSide(const Exact::Point_3& p, const Exact::Point_3& q, const Exact::Point_3& r)
-        : px(p.x()), py(p.y()), pz(p.z()), pqx(q.x() - px), pqy(q.y() - py), pqz(q.z() - pz), prx(r.x() - px), pry(r.y() - py),
-          prz(r.z() - pz), m01(pqx * pry - prx * pqy), ax(std::max(std::abs(pqx), std::abs(prx))),
-          ay(std::max(std::abs(pqy), std::abs(pry))), az(std::max(std::abs(pqz), std::abs(prz))) {}
-    [[gnu::always_inline]] int operator()(const Exact::Point_3& s) const {
-        const double psx = s.x() - px, psy = s.y() - py, psz = s.z() - pz;
-        const double maxx = std::max(ax, std::abs(psx)), maxy = std::max(ay, std::abs(psy)), maxz = std::max(az, std::abs(psz));
-        const double m02 = pqx * psy - psx * pqy, m12 = prx * psy - psx * pry;
-        const double det = m01 * psz - m02 * prz + m12 * pqz;
-        const double eps = 5.1107127829973299e-15 * maxx * maxy * maxz;
-        // CGAL's guards against underflow of eps and overflow of det (on the smallest and largest maximum).
-        const double lo = std::min(std::min(maxx, maxy), maxz), hi = std::max(std::max(maxx, maxy), maxz);
-        if (lo < 1e-97 || !(hi < 1e102)) return 0;
-        return det > eps ? 1 : det < -eps ? -1 : 0;
-    }
-    // All of xs strictly on one side of the plane, certainly.
-    bool apart(std::initializer_list<const Exact::Point_3*> xs) const {
-        int first = 0;
-        for (const Exact::Point_3* x : xs) {
-            const int side = (*this)(*x);
-            if (side == 0 || (first != 0 && side != first)) return false;
-            first = side;
-        }
-        return true;
-    }
-
-private:
-    double px, py, pz, pqx, pqy, pqz, prx, pry, prz, m01, ax, ay, az;
-};
-
-// CGAL::do_intersect(Triangle_3(a, b, c), Segment_3(p, q)), answered without CGAL where certified signs
-// suffice (as in most pairs of neighbouring shell triangles): p and q strictly on one side of the plane
-// cannot meet the triangle; strictly on opposite sides, the segment crosses the plane inside the closed
-// triangle if and only if orientation(p, q, ·, ·) over its three edges has no two opposite signs
-// (T. Möller, "A Fast Triangle-Triangle Intersection Test", JGT 2(2), 1997; the edge test of O. Devillers,
-// P. Guigue, "Faster Triangle-Triangle Intersection Tests", INRIA RR-4488, 2002).
-[[gnu::always_inline]] inline bool segment_meets_triangle(const Exact::Point_3& a, const Exact::Point_3& b, const Exact::Point_3& c, const Exact::Point_3& p,
-                            const Exact::Point_3& q) {
-    const CertainSide plane(a, b, c);
-    const int sp = plane(p), sq = plane(q);
-    if (sp != 0 && sp == sq) return false;
-    if (sp != 0 && sq != 0) {
-        const int s1 = CertainSide(p, q, a)(b), s2 = CertainSide(p, q, b)(c), s3 = CertainSide(p, q, c)(a);
-        if (s1 != 0 && s2 != 0 && s3 != 0) return s1 == s2 && s2 == s3;
-        if ((s1 * s2 < 0) || (s2 * s3 < 0) || (s1 * s3 < 0)) return false;
-    }
-    return CGAL::do_intersect(Exact::Triangle_3(a, b, c), Exact::Segment_3(p, q));
+// The pair decision of CGAL Polygon_mesh_processing::self_intersections (kernel::triangles_intersect, as in
+// furrow::mesh's check), except for two triangles on the same three vertices: the shells of a duplicated
+// base face coincide, which is one surface twice, not fur running into fur (check counts such a pair, as
+// CGAL does; here it would shorten the fur of every duplicated face to nothing).
+bool pair_intersects(const std::vector<Exact::Point_3>& pts, const std::array<uint32_t, 3>& a, const std::array<uint32_t, 3>& b) {
+    const bool same_corners = std::is_permutation(a.begin(), a.end(), b.begin());
+    return !same_corners && kernel::triangles_intersect(pts, a, b);
 }
 
-// The pair decision of CGAL Polygon_mesh_processing::self_intersections (as in furrow::mesh's check),
-// with adjacency read from vertex ids.
-bool pair_intersects(const std::vector<Exact::Point_3>& pts, const std::array<uint32_t, 3>& a, const std::array<uint32_t, 3>& b) {
-    int shared = 0, ia = -1, ib = -1;
-    bool in_b[3] = {false, false, false};
-    for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 3; ++j)
-            if (a[i] == b[j]) {
-                if (shared == 0) ia = i, ib = j;
-                ++shared;
-                in_b[i] = true;
-            }
-    if (shared >= 3) return false;
-    if (shared == 2) {
-        int u = -1, v = -1, apex = -1;
-        for (int i = 0; i < 3; ++i) {
-            if (!in_b[i]) apex = i;
-            else if (u < 0) u = i;
-            else v = i;
-        }
-        uint32_t apex_b = b[0];
-        for (int j = 0; j < 3; ++j)
-            if (b[j] != a[u] && b[j] != a[v]) apex_b = b[j];
-        const auto &pu = pts[a[u]], &pv = pts[a[v]], &pa = pts[a[apex]], &pb = pts[apex_b];
-        if (CertainSide(pu, pv, pa)(pb) != 0) return false; // certainly not coplanar: no fold
-        return CGAL::coplanar(pu, pv, pa, pb) && CGAL::coplanar_orientation(pu, pv, pa, pb) == CGAL::POSITIVE;
+// The triangle with its corners moved `by` of the way toward `toward` (where `moved` says so).
+Exact::Triangle_3 pulled(const std::vector<Exact::Point_3>& pts, const std::array<uint32_t, 3>& t, const std::array<bool, 3>& moved,
+                         const std::array<double, 3>& toward, double by) {
+    std::array<Exact::Point_3, 3> q;
+    for (size_t k = 0; k < 3; ++k) {
+        const Exact::Point_3& p = pts[t[k]];
+        q[k] = moved[k] ? Exact::Point_3(p.x() + by * (toward[0] - p.x()), p.y() + by * (toward[1] - p.y()), p.z() + by * (toward[2] - p.z())) : p;
     }
-    const auto &a0 = pts[a[0]], &a1 = pts[a[1]], &a2 = pts[a[2]], &b0 = pts[b[0]], &b1 = pts[b[1]], &b2 = pts[b[2]];
-    if (shared == 1) {
-        const auto &oa0 = pts[a[(ia + 1) % 3]], &oa1 = pts[a[(ia + 2) % 3]];
-        const auto &ob0 = pts[b[(ib + 1) % 3]], &ob1 = pts[b[(ib + 2) % 3]];
-        return segment_meets_triangle(a0, a1, a2, ob0, ob1) || segment_meets_triangle(b0, b1, b2, oa0, oa1);
-    }
-    // A triangle wholly on one side of the other's plane cannot meet it.
-    if (CertainSide(a0, a1, a2).apart({&b0, &b1, &b2}) || CertainSide(b0, b1, b2).apart({&a0, &a1, &a2})) return false;
-    return CGAL::do_intersect(Exact::Triangle_3(a0, a1, a2), Exact::Triangle_3(b0, b1, b2));
+    return Exact::Triangle_3(q[0], q[1], q[2]);
+}
+
+// A shell triangle (corner ids into pts: v < W at the base, W + v lifted) against a base triangle. Where the
+// base face under the shell only *touches* that triangle in the input, at its border (a T-junction: a corner
+// lying on another face without being one of its vertices, as printed models are often built: the stationary
+// corner lies on the other face), the shell touches it there too: that contact is the input's, not the fur's. Such a pair is tested
+// with the stationary corners moved a hair (1e-3 of the way) toward the moving ones, so that only the fur's
+// own crossings count. A base face that crosses the other (a self-intersecting input) keeps the strict test.
+bool shell_meets_base(const std::vector<Exact::Point_3>& pts, size_t W, const std::array<uint32_t, 3>& base_face,
+                      const std::array<uint32_t, 3>& other, const std::array<uint32_t, 3>& shell) {
+    if (!pair_intersects(pts, other, shell)) return false;
+    size_t stationary = 0;
+    for (uint32_t v : shell) stationary += v < W;
+    if (stationary == 0 || stationary == 3 || !pair_intersects(pts, other, base_face)) return true;
+    const Exact::Triangle_3 g(pts[other[0]], pts[other[1]], pts[other[2]]);
+    bool corner_on_g = false; // the T-junction itself: a stationary corner lying on the other face
+    for (uint32_t v : shell) corner_on_g = corner_on_g || (v < W && CGAL::do_intersect(g, pts[v]));
+    if (!corner_on_g) return true;
+    std::array<double, 3> centre{0, 0, 0};
+    for (uint32_t v : base_face) centre[0] += pts[v].x() / 3, centre[1] += pts[v].y() / 3, centre[2] += pts[v].z() / 3;
+    if (CGAL::do_intersect(g, pulled(pts, base_face, {true, true, true}, centre, 1e-3))) return true; // a real crossing
+    std::array<double, 3> lifted{0, 0, 0};
+    for (uint32_t v : shell)
+        if (v >= W) lifted[0] += pts[v].x(), lifted[1] += pts[v].y(), lifted[2] += pts[v].z();
+    for (double& x : lifted) x /= double(3 - stationary);
+    return CGAL::do_intersect(g, pulled(pts, shell, {shell[0] < W, shell[1] < W, shell[2] < W}, lifted, 1e-3));
 }
 
 // Möller–Trumbore with a generous tolerance: false only where the ray clearly misses the triangle (or hits
@@ -386,7 +340,7 @@ size_t CrossingTest::run(uint8_t* hit, const std::vector<double>& shell, const s
     tbb::parallel_for(tbb::blocked_range<size_t>(0, cand.size(), 256), [&](const tbb::blocked_range<size_t>& r) {
         for (size_t k = r.begin(); k != r.end(); ++k) {
             const Candidate& c = cand[k];
-            crossing[k] = c.other < T ? pair_intersects(st.pts, triangles[c.other], st.stri[c.f])
+            crossing[k] = c.other < T ? shell_meets_base(st.pts, W, triangles[c.f], triangles[c.other], st.stri[c.f])
                                       : pair_intersects(st.pts, st.stri[c.f], st.stri[c.other - T]);
         }
     });
@@ -395,10 +349,21 @@ size_t CrossingTest::run(uint8_t* hit, const std::vector<double>& shell, const s
         if (crossing[k]) pairs.emplace_back(cand[k].f, cand[k].other);
     std::sort(pairs.begin(), pairs.end());
     pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
+    // Blame: a shell that crosses the base is at fault. Where two shells cross and only one of them also
+    // crosses the base (a wall's fur running through a shelf, and so through the shelf's fur), only that one
+    // is shortened; the other's fur is where it belongs.
+    std::vector<uint8_t> into_base(T, 0);
+    for (const auto& [f, other] : pairs)
+        if (other < T) into_base[f] = 1;
     for (const auto& [f, other] : pairs) {
-        for (uint32_t v : triangles[f]) hit[v] = 1;
-        if (other >= T)
-            for (uint32_t v : triangles[other - T]) hit[v] = 1;
+        const bool shell_pair = other >= T;
+        const uint32_t g = shell_pair ? other - T : 0;
+        const bool blame_f = !shell_pair || into_base[f] || !into_base[g];
+        const bool blame_g = shell_pair && (into_base[g] || !into_base[f]);
+        if (blame_f)
+            for (uint32_t v : triangles[f]) hit[v] = 1;
+        if (blame_g)
+            for (uint32_t v : triangles[g]) hit[v] = 1;
     }
     return pairs.size();
 }

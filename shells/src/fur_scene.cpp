@@ -26,6 +26,7 @@
 #include <chrono>
 #include <cmath>
 #include <map>
+#include <optional>
 #include <unordered_map>
 
 namespace furrow {
@@ -267,7 +268,11 @@ struct Grown {
     std::vector<float> albedo; // per base vertex
     std::vector<uint32_t> tris;
     size_t dropped = 0;
+    std::optional<Primitive> refined; // the base primitive refined where clamps starved its faces
 };
+
+// The base primitive the shells of `g` grow from: its refinement, if it got one.
+const Primitive& base_of(const Scene& scene, const Grown& g) { return g.refined ? *g.refined : scene.meshes[g.mesh].primitives[g.prim]; }
 
 // Copies the per-vertex attributes that follow the base vertex (normals, UVs, skin, morph deltas).
 void copy_attributes(Primitive& out, const Primitive& base, const std::vector<uint32_t>& src, const std::vector<float>& uv0_override) {
@@ -307,6 +312,53 @@ Status check_triangle_limit(const Scene& scene, const std::vector<std::pair<size
                          "the shells would add up to " + std::to_string(size_t(estimate)) + " triangles (" +
                              std::to_string(base) + " base triangles × " + std::to_string(shells) + "), over the limit of " +
                              std::to_string(opt.max_triangles) + " (raise it with --max-triangles)");
+}
+
+// The shell frame of one base primitive: the mask sampled at its vertices, the comb carried from UV space to
+// object space, then compute_shell_frame. `o` holds the length in object units and gravity in object space.
+Status grow_frame(ShellFrame& frame, const Primitive& p, const std::vector<uint32_t>& tris, const FurOptions& opt, const ShellOptions& o) {
+    const size_t n = p.vertex_count();
+    const bool has_mask = !opt.mask.pixels.empty(), has_comb = !opt.comb.pixels.empty();
+    std::vector<float> mask, comb;
+    if (has_mask) {
+        mask.resize(n);
+        parallel(n, 2048, [&](size_t v) {
+            mask[v] = detail::sample_bilinear(opt.mask, opt.mask_channel, p.uv0[2 * v], p.uv0[2 * v + 1]);
+        });
+    }
+    if (has_comb) {
+        // The comb's (x, y) lives in UV space: carry it to object space with the UV gradients of the
+        // triangles around each copy (dp/du, dp/dv), as a tangent frame would.
+        std::vector<double> du(3 * n, 0.0), dv(3 * n, 0.0);
+        for (size_t f = 0; f + 3 <= tris.size(); f += 3) {
+            uint32_t a = tris[f], b = tris[f + 1], c = tris[f + 2];
+            double e1[3], e2[3];
+            for (int k = 0; k < 3; ++k)
+                e1[k] = double(p.positions[3 * b + k]) - p.positions[3 * a + k], e2[k] = double(p.positions[3 * c + k]) - p.positions[3 * a + k];
+            double u1 = double(p.uv0[2 * b]) - p.uv0[2 * a], v1 = double(p.uv0[2 * b + 1]) - p.uv0[2 * a + 1];
+            double u2 = double(p.uv0[2 * c]) - p.uv0[2 * a], v2 = double(p.uv0[2 * c + 1]) - p.uv0[2 * a + 1];
+            double det = u1 * v2 - u2 * v1;
+            if (!(std::abs(det) > 1e-20)) continue;
+            for (uint32_t v : {a, b, c})
+                for (int k = 0; k < 3; ++k) {
+                    du[3 * v + k] += (e1[k] * v2 - e2[k] * v1) / det;
+                    dv[3 * v + k] += (e2[k] * u1 - e1[k] * u2) / det;
+                }
+        }
+        comb.resize(3 * n);
+        for (size_t v = 0; v < n; ++v) {
+            double cx = 2.0 * detail::sample_bilinear(opt.comb, 0, p.uv0[2 * v], p.uv0[2 * v + 1]) - 1.0;
+            double cy = 2.0 * detail::sample_bilinear(opt.comb, 1, p.uv0[2 * v], p.uv0[2 * v + 1]) - 1.0;
+            double lu = std::sqrt(du[3 * v] * du[3 * v] + du[3 * v + 1] * du[3 * v + 1] + du[3 * v + 2] * du[3 * v + 2]);
+            double lv = std::sqrt(dv[3 * v] * dv[3 * v] + dv[3 * v + 1] * dv[3 * v + 1] + dv[3 * v + 2] * dv[3 * v + 2]);
+            for (int k = 0; k < 3; ++k) {
+                double x = (lu > 0 ? cx * du[3 * v + k] / lu : 0) - (lv > 0 ? cy * dv[3 * v + k] / lv : 0); // "up" = −v
+                comb[3 * v + k] = float(x);
+            }
+        }
+    }
+    return compute_shell_frame(frame, p.positions.data(), n, tris.data(), tris.size(), has_mask ? mask.data() : nullptr,
+                               has_comb ? comb.data() : nullptr, o);
 }
 
 } // namespace
@@ -411,49 +463,25 @@ Status add_fur_shells(Scene& scene, const FurOptions& opt, FurReport* report) {
                 !std::isfinite(p.positions[3 * size_t(i) + 2]))
                 return Status::error(StatusCode::invalid_input, "mesh " + std::to_string(g.mesh) + " primitive " +
                                                                     std::to_string(g.prim) + ": a triangle corner has a non-finite position");
-        std::vector<float> mask, comb;
-        if (has_mask) {
-            mask.resize(n);
-            parallel(n, 2048, [&](size_t v) {
-                mask[v] = detail::sample_bilinear(opt.mask, opt.mask_channel, p.uv0[2 * v], p.uv0[2 * v + 1]);
-            });
-        }
-        if (has_comb) {
-            // The comb's (x, y) lives in UV space: carry it to object space with the UV gradients of the
-            // triangles around each copy (dp/du, dp/dv), as a tangent frame would.
-            std::vector<double> du(3 * n, 0.0), dv(3 * n, 0.0);
-            for (size_t f = 0; f + 3 <= g.tris.size(); f += 3) {
-                uint32_t a = g.tris[f], b = g.tris[f + 1], c = g.tris[f + 2];
-                double e1[3], e2[3];
-                for (int k = 0; k < 3; ++k)
-                    e1[k] = double(p.positions[3 * b + k]) - p.positions[3 * a + k], e2[k] = double(p.positions[3 * c + k]) - p.positions[3 * a + k];
-                double u1 = double(p.uv0[2 * b]) - p.uv0[2 * a], v1 = double(p.uv0[2 * b + 1]) - p.uv0[2 * a + 1];
-                double u2 = double(p.uv0[2 * c]) - p.uv0[2 * a], v2 = double(p.uv0[2 * c + 1]) - p.uv0[2 * a + 1];
-                double det = u1 * v2 - u2 * v1;
-                if (!(std::abs(det) > 1e-20)) continue;
-                for (uint32_t v : {a, b, c})
-                    for (int k = 0; k < 3; ++k) {
-                        du[3 * v + k] += (e1[k] * v2 - e2[k] * v1) / det;
-                        dv[3 * v + k] += (e2[k] * u1 - e1[k] * u2) / det;
-                    }
-            }
-            comb.resize(3 * n);
-            for (size_t v = 0; v < n; ++v) {
-                double cx = 2.0 * detail::sample_bilinear(opt.comb, 0, p.uv0[2 * v], p.uv0[2 * v + 1]) - 1.0;
-                double cy = 2.0 * detail::sample_bilinear(opt.comb, 1, p.uv0[2 * v], p.uv0[2 * v + 1]) - 1.0;
-                double lu = std::sqrt(du[3 * v] * du[3 * v] + du[3 * v + 1] * du[3 * v + 1] + du[3 * v + 2] * du[3 * v + 2]);
-                double lv = std::sqrt(dv[3 * v] * dv[3 * v] + dv[3 * v + 1] * dv[3 * v + 1] + dv[3 * v + 2] * dv[3 * v + 2]);
-                for (int k = 0; k < 3; ++k) {
-                    double x = (lu > 0 ? cx * du[3 * v + k] / lu : 0) - (lv > 0 ? cy * dv[3 * v + k] / lv : 0); // "up" = −v
-                    comb[3 * v + k] = float(x);
-                }
-            }
-        }
         ShellOptions o = so;
         o.length = so.length / pl.scale;
         o.gravity = pl.gravity;
-        Status s = compute_shell_frame(g.frame, p.positions.data(), n, g.tris.data(), g.tris.size(),
-                                       has_mask ? mask.data() : nullptr, has_comb ? comb.data() : nullptr, o);
+        Status s = grow_frame(g.frame, p, g.tris, opt, o);
+        if (s.ok() && opt.refine_starved) {
+            // Coarse faces whose corners are all clamped: bisected until fur grows inside them (the base
+            // primitive is then replaced by its refinement, committed with the shells).
+            Primitive q = p;
+            size_t split = 0;
+            s = detail::refine_starved_faces(q, g.tris, g.frame, o.length,
+                                             [&](const Primitive& r, const std::vector<uint32_t>& t, ShellFrame& f) { return grow_frame(f, r, t, opt, o); },
+                                             split);
+            if (s.ok() && split > 0) {
+                q.indices = g.tris;
+                q.face_sizes.clear();
+                g.refined = std::move(q);
+                rep.refined_faces += split;
+            }
+        }
         if (!s.ok()) return Status::error(s.code, "mesh " + std::to_string(g.mesh) + " primitive " + std::to_string(g.prim) + ": " + s.message);
         // Model only what is there: a triangle whose three corners are bald would sit on the skin.
         const size_t T = g.tris.size() / 3;
@@ -462,7 +490,7 @@ Status add_fur_shells(Scene& scene, const FurOptions& opt, FurReport* report) {
             keep[f] = g.frame.length[g.tris[3 * f]] > 0 || g.frame.length[g.tris[3 * f + 1]] > 0 || g.frame.length[g.tris[3 * f + 2]] > 0;
         g.dropped = T - size_t(std::count(keep.begin(), keep.end(), uint8_t(1)));
         const double tile_world = opt.tile_size > 0 ? opt.tile_size : 4.0 * std::max(so.length, 1e-12);
-        g.sv = shell_vertices(p, g.tris, keep, tile_world / pl.scale);
+        g.sv = shell_vertices(base_of(scene, g), g.tris, keep, tile_world / pl.scale);
         if (opt.keep_frames) rep.frames.push_back(FurFrame{g.mesh, g.prim, o.length, g.tris, g.frame});
         rep.primitives += 1;
         rep.base_triangles += T;
@@ -475,7 +503,7 @@ Status add_fur_shells(Scene& scene, const FurOptions& opt, FurReport* report) {
     }
 
     texture_task.wait();
-    for (Grown& g : grown) g.albedo = vertex_albedo(scene, scene.meshes[g.mesh].primitives[g.prim], cache);
+    for (Grown& g : grown) g.albedo = vertex_albedo(scene, base_of(scene, g), cache);
 
     // --- textures and materials (appended: existing indices stay valid)
     const int density_tex = add_texture(scene, "fur_strands", *density_png, 10497);
@@ -514,7 +542,7 @@ Status add_fur_shells(Scene& scene, const FurOptions& opt, FurReport* report) {
     const size_t original_meshes = scene.meshes.size();
     std::vector<std::vector<Primitive>> added(size_t(levels) * original_meshes); // [level][mesh]
     for (const Grown& g : grown) {
-        const Primitive& base = scene.meshes[g.mesh].primitives[g.prim];
+        const Primitive& base = base_of(scene, g);
         const size_t m = g.sv.src.size();
         if (m == 0) continue;
         Primitive proto;
@@ -706,7 +734,13 @@ Status add_fur_shells(Scene& scene, const FurOptions& opt, FurReport* report) {
         }
     }
 
-    // --- attach: level 0 into the meshes themselves; level k >= 1 into copies on nodes outside the scene
+    // --- attach: refined bases in place of their originals; level 0 into the meshes themselves; level k >= 1
+    // into copies on nodes outside the scene
+    for (Grown& g : grown)
+        if (g.refined) {
+            scene.meshes[g.mesh].primitives[g.prim] = std::move(*g.refined);
+            g.refined.reset();
+        }
     for (size_t mi = 0; mi < original_meshes; ++mi) {
         auto& lvl0 = added[mi];
         if (lvl0.empty()) continue;

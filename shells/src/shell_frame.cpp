@@ -41,6 +41,9 @@
 
 #include <furrow/shells.h>
 
+#include <furrow_kernel/angle_weighted_normal.h>
+#include <furrow_kernel/welded_ids.h>
+
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -58,15 +61,7 @@ namespace {
 // of its value along the undeformed triangle: positive is what matters, the margin absorbs rounding.
 constexpr double kSweepRatio = 0.05;
 
-struct V3 {
-    double x = 0, y = 0, z = 0;
-};
-V3 operator+(V3 a, V3 b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
-V3 operator-(V3 a, V3 b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
-V3 operator*(double s, V3 a) { return {s * a.x, s * a.y, s * a.z}; }
-double dot(V3 a, V3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
-V3 cross(V3 a, V3 b) { return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x}; }
-double norm(V3 a) { return std::sqrt(dot(a, a)); }
+using V3 = kernel::Vec3;
 
 template <class F>
 void parallel(size_t n, size_t grain, F&& f) {
@@ -144,36 +139,20 @@ Status compute_shell_frame(ShellFrame& out, const float* positions, size_t verte
     // --- weld by exact position; welded ids in order of first appearance
     std::vector<uint32_t> remap(n);
     weld_positions(remap.data(), positions, n);
-    std::vector<uint32_t> wid(n);
-    std::vector<uint32_t> rep; // welded id -> first vertex
-    for (size_t v = 0; v < n; ++v) {
-        if (remap[v] == v) {
-            wid[v] = uint32_t(rep.size());
-            rep.push_back(uint32_t(v));
-        } else {
-            wid[v] = wid[remap[v]];
-        }
-    }
+    const kernel::WeldedIds welded = kernel::welded_ids(remap.data(), n);
+    const std::vector<uint32_t>& wid = welded.of_vertex;
+    const std::vector<uint32_t>& rep = welded.first; // welded id -> first vertex
     const size_t W = rep.size();
     out.welded_vertices = W;
     std::vector<V3> P(W);
     std::vector<uint8_t> finite(W, 1);
-    double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
     for (size_t w = 0; w < W; ++w) {
-        const float* p = positions + 3 * size_t(rep[w]);
-        P[w] = {p[0], p[1], p[2]};
-        finite[w] = std::isfinite(P[w].x) && std::isfinite(P[w].y) && std::isfinite(P[w].z);
-        if (!finite[w]) continue;
-        double c[3] = {P[w].x, P[w].y, P[w].z};
-        for (int k = 0; k < 3; ++k) lo[k] = std::min(lo[k], c[k]), hi[k] = std::max(hi[k], c[k]);
+        P[w] = kernel::point_at(positions, rep[w]);
+        finite[w] = kernel::finite(P[w]);
     }
-    double diag2 = 0;
-    for (int k = 0; k < 3; ++k)
-        if (hi[k] >= lo[k]) diag2 += (hi[k] - lo[k]) * (hi[k] - lo[k]);
-    // Same zero-area threshold as check_primitive and compute_vertex_normals: such a face has no normal.
-    const double min_double_area = 2.0 * CheckOptions{}.zero_area_relative * diag2;
 
-    // --- valid welded faces, their unit normals and corner angles
+    // --- valid welded faces, their unit normals and corner angles; a degenerate face (the kernel's rule, the
+    // same as compute_vertex_normals') has no normal
     const size_t F = index_count / 3;
     std::vector<std::array<uint32_t, 3>> tri;
     std::vector<V3> fn;
@@ -183,16 +162,12 @@ Status compute_shell_frame(ShellFrame& out, const float* positions, size_t verte
         std::array<uint32_t, 3> t{wid[indices[3 * f]], wid[indices[3 * f + 1]], wid[indices[3 * f + 2]]};
         if (t[0] == t[1] || t[1] == t[2] || t[2] == t[0]) continue;
         if (!finite[t[0]] || !finite[t[1]] || !finite[t[2]]) continue;
-        V3 nrm = cross(P[t[1]] - P[t[0]], P[t[2]] - P[t[0]]);
-        double a2 = norm(nrm);
-        if (!(a2 > min_double_area) || !std::isfinite(a2)) continue;
+        const auto face = kernel::face_normal(P[t[0]], P[t[1]], P[t[2]]);
+        if (!face) continue;
         std::array<double, 3> ang{};
-        for (int k = 0; k < 3; ++k) {
-            V3 e1 = P[t[(k + 1) % 3]] - P[t[k]], e2 = P[t[(k + 2) % 3]] - P[t[k]];
-            ang[k] = std::atan2(a2, dot(e1, e2)); // accurate near 0 and pi, unlike acos
-        }
+        for (int k = 0; k < 3; ++k) ang[k] = kernel::corner_angle(P[t[k]], P[t[(k + 1) % 3]], P[t[(k + 2) % 3]], face->double_area);
         tri.push_back(t);
-        fn.push_back((1.0 / a2) * nrm);
+        fn.push_back(face->unit);
         angle.push_back(ang);
     }
     const size_t T = tri.size();

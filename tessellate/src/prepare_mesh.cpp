@@ -18,6 +18,9 @@
 // Every classification is a sort or a union-find over corners in index order: deterministic, O(n log n).
 #include "tessellate_internal.h"
 
+#include <furrow_kernel/disjoint_sets.h>
+#include <furrow_kernel/welded_ids.h>
+
 #include <algorithm>
 #include <numbers>
 #include <cstring>
@@ -27,25 +30,7 @@
 namespace furrow::tess {
 namespace {
 
-struct DisjointSets {
-    std::vector<uint32_t> parent;
-    explicit DisjointSets(size_t n) : parent(n) { std::iota(parent.begin(), parent.end(), 0u); }
-    uint32_t find(uint32_t x) {
-        while (parent[x] != x) {
-            parent[x] = parent[parent[x]];
-            x = parent[x];
-        }
-        return x;
-    }
-    // The smaller root wins, so roots are the lowest corner of each class whatever the union order.
-    void unite(uint32_t a, uint32_t b) {
-        a = find(a);
-        b = find(b);
-        if (a == b) return;
-        if (a < b) parent[b] = a;
-        else parent[a] = b;
-    }
-};
+using kernel::DisjointSets;
 
 // Indices 0..n-1 ordered by key(i), ties by index: sorting (key, index) records in place is several times
 // faster than sorting indices through a comparator that recomputes keys.
@@ -276,13 +261,9 @@ Status prepare_mesh(PreparedMesh& m, const TessellateInput& in, const SurfaceOpt
     // ---- weld
     std::vector<uint32_t> remap(nv);
     if (nv) weld_positions(remap.data(), in.positions, nv, 3, o.weld_tolerance);
-    std::vector<uint32_t> welded_of(nv, none);
-    for (size_t v = 0; v < nv; ++v)
-        if (remap[v] == v) {
-            welded_of[v] = uint32_t(m.welded_input.size());
-            m.welded_input.push_back(uint32_t(v));
-        }
-    for (size_t v = 0; v < nv; ++v) welded_of[v] = welded_of[remap[v]];
+    kernel::WeldedIds welded = kernel::welded_ids(remap.data(), nv);
+    const std::vector<uint32_t>& welded_of = welded.of_vertex;
+    m.welded_input = std::move(welded.first);
     m.W = 3;
     for (const auto& a : in.vertex_data) {
         m.vertex_data_components.push_back(a.components);

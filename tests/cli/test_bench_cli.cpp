@@ -101,9 +101,10 @@ TEST(bench_cli, ShellsAndRenderPlotPoints) {
     EXPECT_EQ(j["plot"]["points"][0]["error"].get<double>(), j["rows"][0]["max_relative_error"].get<double>());
     // Shell faces at their height where not clamped (measured at the faces' centroids: mean 0.00125, worst
     // 0.225 on the creature, where the distance to the nearest base point is not the height over the face
-    // beneath).
+    // beneath; 0.312 since faces starved at the legs' concave creases are refined: their small faces beside
+    // the crease have the crease's other side nearer than their own base face).
     EXPECT_LT(j["rows"][0]["mean_relative_error"].get<double>(), 0.005);
-    EXPECT_LT(j["rows"][0]["max_relative_error"].get<double>(), 0.3);
+    EXPECT_LT(j["rows"][0]["max_relative_error"].get<double>(), 0.35);
 
     r = run_furrow({"bench", "render", creature, "--layers", "0", "--repeat", "1", "--json"});
     ASSERT_EQ(r.exit_code, 0) << r.err;

@@ -68,10 +68,13 @@ TEST(add_fur_shells_corpus, NoCracksAtSeamsAndHardEdges) {
         ASSERT_TRUE(add_fur_shells(s, o, &r).ok()) << file;
         ASSERT_FALSE(r.frames.empty());
         const FurFrame& f = r.frames[0];
-        EXPECT_EQ(test::cracked_positions(base, f.frame, 8), 0u) << file;
+        // The base the shells grew from: the input, or its refinement where clamps starved coarse faces
+        // (r.refined_faces; the Fox's paws).
+        const Primitive grown_base = s.meshes[0].primitives[0];
+        EXPECT_EQ(test::cracked_positions(grown_base, f.frame, 8), 0u) << file;
         // The shells as written: welded, each has the positions of the base triangles it keeps (those with
         // some fur; a self-intersecting input like the Duck gets bald spots) and the same border.
-        Primitive kept = base;
+        Primitive kept = grown_base;
         triangulate(kept);
         kept.indices.clear();
         for (size_t t = 0; t + 3 <= f.triangles.size(); t += 3)
@@ -93,9 +96,10 @@ TEST(add_fur_shells_corpus, ShellsAddNoIntersection) {
     struct Item {
         const char* file;
         double relative_length;
+        bool t_junctions = false;
     };
     // 70375 is a 1 mm plate (any inward offset above 0.5 mm crosses it); bunny_closed has valence-16 fans.
-    for (Item it : {Item{"thingi10k_70375/70375.stl", 0.05}, Item{"spot/spot_triangulated.obj", 0.05},
+    for (Item it : {Item{"thingi10k_70375/70375.stl", 0.05, true}, Item{"spot/spot_triangulated.obj", 0.05},
                     Item{"bunny_closed/bunny.off", 0.08}, Item{"duck/Duck.glb", 0.05}}) {
         Scene s = load(test::corpus(it.file));
         Primitive base = s.meshes[0].primitives[0];
@@ -108,7 +112,11 @@ TEST(add_fur_shells_corpus, ShellsAddNoIntersection) {
                                         nullptr, nullptr, o)
                         .ok());
         const long long own = test::intersecting_pairs(base);
-        EXPECT_EQ(test::intersecting_pairs(test::merged_shells(base, f, 4)), own) << it.file;
+        // 70375's own contacts are T-junctions (a vertex lying on another face). The shells' bald corners sit
+        // on them, so each of the 4 layers touches the same points, and nothing else: fur grows beside them
+        // (once it was cut to nothing around every such point, which left printed shelves bald).
+        const long long expected = it.t_junctions ? own * (1 + 4) : own;
+        EXPECT_EQ(test::intersecting_pairs(test::merged_shells(base, f, 4)), expected) << it.file;
     }
 }
 

@@ -258,7 +258,8 @@ size_t weld_positions(uint32_t* remap, const float* positions, size_t vertex_cou
                       double tolerance = 0.0);
 
 // Angle-weighted vertex pseudo-normals (Thürmer & Wüthrich 1998), accumulated in double over the welded
-// vertices so every split copy of a position gets the same normal. Degenerate faces contribute nothing;
+// vertices so every split copy of a position gets the same normal. Degenerate faces (a repeated vertex, a
+// non-finite corner, or an area <= 1e-14 × the square of the face's longest edge) contribute nothing;
 // a vertex without a valid face gets (0,0,0) — callers choose a fallback. Triangles only
 // (indices.size() multiple of 3). Writes vertex_count normals.
 void compute_vertex_normals(float* normals_out, const float* positions, size_t vertex_count,

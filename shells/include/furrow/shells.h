@@ -147,6 +147,9 @@ struct FurOptions {
     double tile_size = 0;       // world size of one strand-texture tile; 0 = 4 × length
     double root_shade = 0.45;   // COLOR_0 = albedo × (root_shade + (1 − root_shade) × height fraction)
     bool keep_frames = false;   // return each primitive's ShellFrame in FurReport::frames (for measurements)
+    bool refine_starved = true; // split base triangles whose corners the clamps starve (coarse faces at concave
+                                // corners: a shelf whose corners all meet walls), so fur grows inside them;
+                                // the base surface and its shading do not change (FurReport::refined_faces)
     size_t max_triangles = 0;   // > 0: refuse (invalid_argument), before anything is grown, when the shells,
                                 // fins and LOD levels could add more triangles than this (base triangles ×
                                 // shells of every level, + 6 per triangle and level with fins); `furrow shells`
@@ -171,6 +174,8 @@ struct FurReport {
     size_t welded_vertices = 0;
     size_t clamped_vertices = 0, clamped_by_ray = 0, clamped_by_fold = 0, clamped_by_even_cap = 0;
     size_t bald_vertices = 0;
+    size_t refined_faces = 0;       // base triangles bisected so that fur grows inside coarse faces whose
+                                    // corners are clamped (the base primitive is replaced by its refinement)
     std::vector<int> lod_nodes;     // LOD level k >= 1: node index (outside the default scene), per source node
     std::vector<FurFrame> frames;   // with FurOptions::keep_frames
     std::vector<std::string> warnings;

@@ -1,15 +1,26 @@
-#include "atomic_file.h"
+// furrow's private kernel: atomic file output (write to a temporary file beside the target, then rename), in
+// one place. Shared because every writer of furrow (mesh's glTF and PNG output, deform's heightmaps, the
+// sample-model generator) must refuse a missing output folder the same way and must never leave a
+// half-written output, or a stray temporary, behind. Header-only, so that a tool that links only
+// furrow::mesh (models/generate_models.cpp) reaches it too. Not installed and not part of any public header
+// (see affine.h).
+#pragma once
+
+#include <furrow/mesh.h>
 
 #include <atomic>
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <string>
+#include <system_error>
 #include <unistd.h>
 
-namespace furrow::detail {
+namespace furrow::kernel {
 
-std::string temp_path_beside(const std::string& path) {
+// A unique temporary path beside `path` (same folder, so rename is atomic).
+inline std::string temp_path_beside(const std::string& path) {
     static std::atomic<unsigned> counter{0};
     namespace fs = std::filesystem;
     fs::path p(path);
@@ -19,7 +30,7 @@ std::string temp_path_beside(const std::string& path) {
 }
 
 // Writes the bytes to a temporary file beside `path` (tmp), after checking that `path` can be replaced.
-static Status stage(const std::string& path, const void* data, size_t size, std::string& tmp) {
+[[nodiscard]] inline Status stage_file(const std::string& path, const void* data, size_t size, std::string& tmp) {
     namespace fs = std::filesystem;
     fs::path p(path);
     fs::path dir = p.parent_path().empty() ? fs::path(".") : p.parent_path();
@@ -42,7 +53,7 @@ static Status stage(const std::string& path, const void* data, size_t size, std:
 }
 
 // Renames a staged temporary into place (removing it on failure).
-static Status commit(const std::string& tmp, const std::string& path) {
+[[nodiscard]] inline Status commit_file(const std::string& tmp, const std::string& path) {
     if (std::rename(tmp.c_str(), path.c_str()) != 0) {
         int err = errno;
         std::remove(tmp.c_str());
@@ -51,33 +62,36 @@ static Status commit(const std::string& tmp, const std::string& path) {
     return Status::success();
 }
 
-Status atomic_write(const std::string& path, const void* data, size_t size) {
+// Writes bytes to `path` atomically (temporary file in the same folder, then rename).
+[[nodiscard]] inline Status atomic_write(const std::string& path, const void* data, size_t size) {
     std::string tmp;
-    Status s = stage(path, data, size, tmp);
+    Status s = stage_file(path, data, size, tmp);
     if (!s.ok()) return s;
-    return commit(tmp, path);
+    return commit_file(tmp, path);
 }
 
-Status atomic_write_pair(const std::string& first, const void* first_data, size_t first_size, const std::string& second,
-                         const void* second_data, size_t second_size) {
+// Writes two files (a .gltf's .bin, then the .gltf) both or neither: both are staged as temporaries first,
+// so a second output that cannot be written no longer leaves the first one behind.
+[[nodiscard]] inline Status atomic_write_pair(const std::string& first, const void* first_data, size_t first_size,
+                                              const std::string& second, const void* second_data, size_t second_size) {
     std::string tmp1, tmp2;
-    Status s = stage(first, first_data, first_size, tmp1);
+    Status s = stage_file(first, first_data, first_size, tmp1);
     if (!s.ok()) return s;
-    s = stage(second, second_data, second_size, tmp2);
+    s = stage_file(second, second_data, second_size, tmp2);
     if (!s.ok()) {
         std::remove(tmp1.c_str());
         return s;
     }
     std::error_code ec;
     const bool first_existed = std::filesystem::exists(first, ec);
-    s = commit(tmp1, first);
+    s = commit_file(tmp1, first);
     if (!s.ok()) {
         std::remove(tmp2.c_str());
         return s;
     }
-    s = commit(tmp2, second);
+    s = commit_file(tmp2, second);
     if (!s.ok() && !first_existed) std::remove(first.c_str());
     return s;
 }
 
-} // namespace furrow::detail
+} // namespace furrow::kernel

@@ -1,0 +1,35 @@
+// furrow's private geometry kernel: welded positions numbered 0..k-1, in one place. Shared because shells
+// (shell_frame), tessellate (prepare_mesh) and deform (displaced_ground) all work on the position-welded mesh
+// and copy the result back to every split copy of a position; they must number the welded points the same
+// way, in order of first appearance, so that every sum over them runs in the same, input-given order.
+// Not installed and not part of any public header (see affine.h).
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+namespace furrow::kernel {
+
+struct WeldedIds {
+    std::vector<uint32_t> of_vertex; // vertex -> welded id, 0..k-1
+    std::vector<uint32_t> first;     // welded id -> its first vertex (the weld's representative); k entries
+};
+
+// Dense ids for a remap as weld_positions (furrow/mesh.h) writes it: remap[v] is the first vertex with v's
+// position, so remap[v] <= v and remap[remap[v]] == remap[v]. Ids follow the order of first appearance.
+inline WeldedIds welded_ids(const uint32_t* remap, size_t vertex_count) {
+    WeldedIds w;
+    w.of_vertex.resize(vertex_count);
+    for (size_t v = 0; v < vertex_count; ++v) {
+        if (remap[v] == v) {
+            w.of_vertex[v] = uint32_t(w.first.size());
+            w.first.push_back(uint32_t(v));
+        } else {
+            w.of_vertex[v] = w.of_vertex[remap[v]];
+        }
+    }
+    return w;
+}
+
+} // namespace furrow::kernel

@@ -1,0 +1,188 @@
+// Coarse meshes at concave corners: a face whose corners are all clamped (every shelf vertex of a printed
+// bookshelf sits where the shelf meets a wall) interpolates their zero length over its whole area, though fur
+// could grow in its middle. Such faces are refined before any shell is emitted, in rounds:
+//   1. mark: a triangle is *starved* when its corners grow less than 0.8 of the fur asked there, or *uneven*
+//      when their lengths differ by more than half of it (the clamp varies strongly across the face), and its
+//      longest edge is longer than twice the fur (finer than the fur buys nothing: the clamp's own reach);
+//   2. split: the longest edge of every marked triangle is bisected in every triangle that has it (longest-
+//      edge bisection: M.-C. Rivara, "Mesh refinement processes based on the generalized bisection of
+//      simplices", SIAM J. Numer. Anal. 21(3), 1984), so the mesh stays conforming (no crack between the
+//      shells of neighbours) and the angles of the new triangles stay bounded. Edges are matched by welded
+//      position, so both sides of a UV seam split at the same point;
+//   3. the frame is recomputed on the refined triangles.
+// A split of a starved triangle is a probe: when its new vertex grows no more fur than the ends of its edge
+// (a crevice where nothing fits), its starved children are not split again, so the cost is bounded by what
+// the fur gains, and by a budget (kMaxGrowth × the input's triangles). Uneven triangles (a transition from
+// clamped to free fur) are split until their edges are as short as twice the fur. The new vertex carries every attribute
+// at the mean of its edge's ends: linear interpolation is reproduced exactly, so the base surface and its
+// shading do not change (skin weights are merged and renormalised over the 4 largest).
+#include "shells_internal.h"
+
+#include <algorithm>
+#include <cstring>
+#include <map>
+#include <unordered_map>
+
+namespace furrow::detail {
+namespace {
+
+constexpr int kMaxRounds = 16;
+constexpr size_t kMaxGrowth = 8; // the refined triangles at most this × the input's (+ 4096)
+
+// Welded-position key of an undirected edge.
+struct EdgeKey {
+    std::array<uint32_t, 6> bits;
+    bool operator<(const EdgeKey& o) const { return bits < o.bits; }
+};
+EdgeKey edge_key(const Primitive& p, uint32_t a, uint32_t b) {
+    std::array<float, 3> pa, pb;
+    for (int k = 0; k < 3; ++k) pa[size_t(k)] = p.positions[3 * size_t(a) + size_t(k)] + 0.0f, pb[size_t(k)] = p.positions[3 * size_t(b) + size_t(k)] + 0.0f;
+    if (pb < pa) std::swap(pa, pb);
+    EdgeKey key;
+    std::memcpy(key.bits.data(), pa.data(), 12);
+    std::memcpy(key.bits.data() + 3, pb.data(), 12);
+    return key;
+}
+
+void mean_of(std::vector<float>& v, size_t per, uint32_t a, uint32_t b) {
+    if (v.empty()) return;
+    for (size_t k = 0; k < per; ++k) v.push_back(float(0.5 * (double(v[per * a + k]) + double(v[per * b + k]))));
+}
+
+void normalise_last(std::vector<float>& v, size_t per) {
+    if (v.empty()) return;
+    float* x = &v[v.size() - per];
+    const double l = std::sqrt(double(x[0]) * x[0] + double(x[1]) * x[1] + double(x[2]) * x[2]);
+    if (l > 0) x[0] = float(x[0] / l), x[1] = float(x[1] / l), x[2] = float(x[2] / l);
+}
+
+// Appends the midpoint of vertex a and b with every attribute of p; returns its index.
+uint32_t append_midpoint(Primitive& p, uint32_t a, uint32_t b) {
+    const uint32_t m = uint32_t(p.vertex_count());
+    mean_of(p.positions, 3, a, b);
+    mean_of(p.normals, 3, a, b);
+    normalise_last(p.normals, 3);
+    if (!p.tangents.empty()) {
+        mean_of(p.tangents, 4, a, b);
+        normalise_last(p.tangents, 4);
+        p.tangents.back() = p.tangents[4 * size_t(a) + 3];
+    }
+    mean_of(p.uv0, 2, a, b);
+    mean_of(p.uv1, 2, a, b);
+    mean_of(p.colors, 4, a, b);
+    for (CustomAttribute& c : p.custom) mean_of(c.values, size_t(c.components), a, b);
+    for (MorphTarget& t : p.targets) {
+        mean_of(t.position_deltas, 3, a, b);
+        mean_of(t.normal_deltas, 3, a, b);
+        mean_of(t.tangent_deltas, 3, a, b);
+    }
+    if (!p.joints.empty() && !p.weights.empty()) {
+        std::map<uint16_t, double> w;
+        for (uint32_t v : {a, b})
+            for (size_t k = 0; k < 4; ++k) w[p.joints[4 * v + k]] += 0.5 * double(p.weights[4 * v + k]);
+        std::vector<std::pair<double, uint16_t>> order;
+        for (const auto& [j, x] : w) order.push_back({-x, j}); // heaviest first, then the lowest joint
+        std::sort(order.begin(), order.end());
+        order.resize(4, {0.0, 0});
+        double sum = 0;
+        for (const auto& o : order) sum += -o.first;
+        for (const auto& o : order) {
+            p.joints.push_back(o.second);
+            p.weights.push_back(sum > 0 ? float(-o.first / sum) : 0.0f);
+        }
+    }
+    return m;
+}
+
+// Which triangles to refine this round: starved or uneven, long enough, and not below a split that did not
+// help. Returns, per triangle, the corner that starts its longest edge (or -1).
+std::vector<int> mark(const Primitive& p, const std::vector<uint32_t>& tris, const ShellFrame& frame, const std::vector<uint8_t>& blocked,
+                      double length) {
+    const size_t T = tris.size() / 3;
+    std::vector<int> split(T, -1);
+    for (size_t t = 0; t < T; ++t) {
+        const uint32_t* c = &tris[3 * t];
+        double asked = 0, lo = INFINITY, hi = 0;
+        for (int k = 0; k < 3; ++k) {
+            asked = std::max(asked, double(frame.requested[c[k]]));
+            lo = std::min(lo, double(frame.length[c[k]]));
+            hi = std::max(hi, double(frame.length[c[k]]));
+        }
+        const bool uneven = hi - lo > 0.5 * asked, starved = hi < 0.8 * asked;
+        // A starved triangle is a probe: below a probe that found no room (blocked), it is left alone. An
+        // uneven one holds a transition, refined until it is as narrow as the fur.
+        if (!(asked > 0) || !(uneven || (starved && !blocked[t]))) continue;
+        int longest = -1;
+        double best = 0;
+        for (int k = 0; k < 3; ++k) {
+            const float* a = &p.positions[3 * size_t(c[k])];
+            const float* b = &p.positions[3 * size_t(c[(k + 1) % 3])];
+            const double l = std::hypot(double(b[0]) - a[0], double(b[1]) - a[1], double(b[2]) - a[2]);
+            if (l > best) best = l, longest = k;
+        }
+        if (best > 2 * std::max(asked, 1e-12 * length)) split[t] = longest;
+    }
+    return split;
+}
+
+} // namespace
+
+Status refine_starved_faces(Primitive& p, std::vector<uint32_t>& tris, ShellFrame& frame, double length, const RegrowFrame& regrow,
+                            size_t& faces_split) {
+    faces_split = 0;
+    const size_t budget = kMaxGrowth * (tris.size() / 3) + 4096;
+    std::vector<uint8_t> blocked(tris.size() / 3, 0);
+    std::vector<std::array<uint32_t, 3>> made; // this round's new vertices: (midpoint, edge end, edge end)
+    for (int round = 0; round < kMaxRounds; ++round) {
+        const std::vector<int> split = mark(p, tris, frame, blocked, length);
+        // The edges to bisect (welded), each with the triangles that have it.
+        std::map<EdgeKey, std::vector<size_t>> edges;
+        for (size_t t = 0; t < split.size(); ++t)
+            if (split[t] >= 0) edges[edge_key(p, tris[3 * t + size_t(split[t])], tris[3 * t + size_t((split[t] + 1) % 3)])];
+        if (edges.empty() || tris.size() / 3 + 2 * edges.size() > budget) break;
+        for (size_t t = 0; t < tris.size() / 3; ++t)
+            for (int k = 0; k < 3; ++k) {
+                auto it = edges.find(edge_key(p, tris[3 * t + size_t(k)], tris[3 * t + size_t((k + 1) % 3)]));
+                if (it != edges.end()) it->second.push_back(t);
+            }
+        // Bisect, in key order (deterministic); a triangle already split this round waits for the next.
+        std::vector<uint8_t> touched(tris.size() / 3, 0);
+        std::map<std::pair<uint32_t, uint32_t>, uint32_t> midpoint; // by (lower, higher) vertex index
+        made.clear();
+        for (const auto& [key, around] : edges) {
+            bool free = true;
+            for (size_t t : around) free = free && !touched[t];
+            if (!free) continue;
+            for (size_t t : around) {
+                touched[t] = 1;
+                int k = 0;
+                while (edge_key(p, tris[3 * t + size_t(k)], tris[3 * t + size_t((k + 1) % 3)]) < key ||
+                       key < edge_key(p, tris[3 * t + size_t(k)], tris[3 * t + size_t((k + 1) % 3)]))
+                    ++k;
+                const uint32_t a = tris[3 * t + size_t(k)], b = tris[3 * t + size_t((k + 1) % 3)], c = tris[3 * t + size_t((k + 2) % 3)];
+                auto [it, fresh] = midpoint.try_emplace({std::min(a, b), std::max(a, b)}, 0u);
+                if (fresh) {
+                    it->second = append_midpoint(p, a, b);
+                    made.push_back({it->second, a, b});
+                }
+                const uint32_t m = it->second;
+                tris[3 * t] = a, tris[3 * t + 1] = m, tris[3 * t + 2] = c; // (a, m, c) in place
+                tris.insert(tris.end(), {m, b, c});                      // (m, b, c) appended
+                touched.push_back(1);
+                blocked.push_back(0);
+                ++faces_split;
+            }
+        }
+        Status s = regrow(p, tris, frame);
+        if (!s.ok()) return s;
+        // A split that grew no more fur than its edge's ends: its triangles are not split further.
+        std::vector<uint8_t> unhelpful(p.vertex_count(), 0);
+        for (const auto& [m, a, b] : made)
+            unhelpful[m] = frame.length[m] <= std::max(frame.length[a], frame.length[b]) + 0.1 * frame.requested[m];
+        for (size_t t = 0; t < tris.size() / 3; ++t)
+            for (int k = 0; k < 3; ++k) blocked[t] = blocked[t] || (unhelpful[tris[3 * t + size_t(k)]] && touched[t]);
+    }
+    return Status::success();
+}
+
+} // namespace furrow::detail
