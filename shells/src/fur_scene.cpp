@@ -301,11 +301,34 @@ void copy_attributes(Primitive& out, const Primitive& base, const std::vector<ui
 
 // FurOptions::max_triangles against an upper bound of what would be added: every base triangle on every shell
 // of every level, and two fin triangles per edge (3 edges per triangle at most) on every level.
+size_t added_per_base_triangle(const FurOptions& opt) {
+    size_t shells = 0;
+    for (int k = 0; k < opt.shells.lod_levels; ++k) shells += size_t(std::max(1, opt.shells.layers >> k)) + (opt.fins ? 6 : 0);
+    return shells;
+}
+
+size_t base_triangles(const Scene& scene, const std::vector<std::pair<size_t, size_t>>& work) {
+    size_t base = 0;
+    for (const auto& [mi, pi] : work) base += scene.meshes[mi].primitives[pi].triangle_count();
+    return base;
+}
+
+// How many triangles the refinement may make of a primitive of T triangles: FurOptions::refine_budget, and
+// within max_triangles, the room the limit leaves shared among the primitives by their triangle counts (so
+// the shells of the refined bases still fit).
+size_t refine_budget(size_t T, size_t all_base, const FurOptions& opt) {
+    size_t budget = 8 * T + opt.refine_budget;
+    if (opt.max_triangles > 0 && all_base > 0) {
+        const double allowed = double(opt.max_triangles) / double(added_per_base_triangle(opt)); // all bases
+        const double share = std::floor(allowed * double(T) / double(all_base));
+        budget = std::min(budget, size_t(std::max(double(T), share)));
+    }
+    return budget;
+}
+
 Status check_triangle_limit(const Scene& scene, const std::vector<std::pair<size_t, size_t>>& work, const FurOptions& opt) {
     if (opt.max_triangles == 0) return Status::success();
-    size_t base = 0, shells = 0;
-    for (const auto& [mi, pi] : work) base += scene.meshes[mi].primitives[pi].triangle_count();
-    for (int k = 0; k < opt.shells.lod_levels; ++k) shells += size_t(std::max(1, opt.shells.layers >> k)) + (opt.fins ? 6 : 0);
+    const size_t base = base_triangles(scene, work), shells = added_per_base_triangle(opt);
     const double estimate = double(base) * double(shells);
     if (estimate <= double(opt.max_triangles)) return Status::success();
     return Status::error(StatusCode::invalid_argument,
@@ -416,6 +439,7 @@ Status add_fur_shells(Scene& scene, const FurOptions& opt, FurReport* report) {
     }
     if (work.empty()) return Status::error(StatusCode::invalid_input, "no triangles to grow fur on");
     if (Status st = check_triangle_limit(scene, work, opt); !st.ok()) return st;
+    const size_t all_base = base_triangles(scene, work);
 
     // The strand textures depend on the options alone: drawn and encoded (or found in the cache) on another
     // core while the frames are computed, as are the base-colour textures (below). Waited for on every way
@@ -474,7 +498,7 @@ Status add_fur_shells(Scene& scene, const FurOptions& opt, FurReport* report) {
             size_t split = 0;
             s = detail::refine_starved_faces(q, g.tris, g.frame, o.length,
                                              [&](const Primitive& r, const std::vector<uint32_t>& t, ShellFrame& f) { return grow_frame(f, r, t, opt, o); },
-                                             split);
+                                             refine_budget(g.tris.size() / 3, all_base, opt), split);
             if (s.ok() && split > 0) {
                 q.indices = g.tris;
                 q.face_sizes.clear();

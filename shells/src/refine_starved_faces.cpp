@@ -12,7 +12,8 @@
 //   3. the frame is recomputed on the refined triangles.
 // A split of a starved triangle is a probe: when its new vertex grows no more fur than the ends of its edge
 // (a crevice where nothing fits), its starved children are not split again, so the cost is bounded by what
-// the fur gains, and by a budget (kMaxGrowth × the input's triangles). Uneven triangles (a transition from
+// the fur gains, and by a budget (FurOptions::refine_budget: 8 × the input's triangles + 4096 by default,
+// less where the shells' triangle limit leaves less room). Uneven triangles (a transition from
 // clamped to free fur) are split until their edges are as short as twice the fur. The new vertex carries every attribute
 // at the mean of its edge's ends: linear interpolation is reproduced exactly, so the base surface and its
 // shading do not change (skin weights are merged and renormalised over the 4 largest).
@@ -27,7 +28,6 @@ namespace furrow::detail {
 namespace {
 
 constexpr int kMaxRounds = 16;
-constexpr size_t kMaxGrowth = 8; // the refined triangles at most this × the input's (+ 4096)
 
 // Welded-position key of an undirected edge.
 struct EdgeKey {
@@ -128,9 +128,8 @@ std::vector<int> mark(const Primitive& p, const std::vector<uint32_t>& tris, con
 } // namespace
 
 Status refine_starved_faces(Primitive& p, std::vector<uint32_t>& tris, ShellFrame& frame, double length, const RegrowFrame& regrow,
-                            size_t& faces_split) {
+                            size_t budget, size_t& faces_split) {
     faces_split = 0;
-    const size_t budget = kMaxGrowth * (tris.size() / 3) + 4096;
     std::vector<uint8_t> blocked(tris.size() / 3, 0);
     std::vector<std::array<uint32_t, 3>> made; // this round's new vertices: (midpoint, edge end, edge end)
     for (int round = 0; round < kMaxRounds; ++round) {

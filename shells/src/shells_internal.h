@@ -16,10 +16,10 @@ namespace furrow::detail {
 
 // ---- refine_starved_faces.cpp: bisects the triangles of p whose corners the clamps starve (see the file),
 // recomputing `frame` with `regrow` after each round; p gains the new vertices (every attribute at the mean
-// of an edge's ends), `tris` the new triangles.
+// of an edge's ends), `tris` the new triangles, never more than `max_triangles` of them in all.
 using RegrowFrame = std::function<Status(const Primitive&, const std::vector<uint32_t>&, ShellFrame&)>;
 Status refine_starved_faces(Primitive& p, std::vector<uint32_t>& tris, ShellFrame& frame, double length, const RegrowFrame& regrow,
-                            size_t& faces_split);
+                            size_t max_triangles, size_t& faces_split);
 
 // Droop as a bent strand that keeps its length: at arc fraction u its direction has turned from the extrusion
 // direction D toward ĝ (gravity along the surface) by θ(u) = θ_tip·u², curving more toward the tip, as a

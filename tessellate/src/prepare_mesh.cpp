@@ -464,7 +464,8 @@ Status prepare_mesh(PreparedMesh& m, const TessellateInput& in, const SurfaceOpt
     // without the cache (face_uncached). The other 3.5.0 bugs there need a semi-sharp edge (PR 1301), which
     // furrow never makes, or a valence-2 dart, one infinitely sharp edge at the vertex (PR 1336), which its
     // creases cannot make: both edges of a valence-2 vertex lie between the same two faces, so the crease
-    // angle marks both or neither.
+    // angle marks both or neither. A crease at any corner of such a face still makes 3.5.0's builder read
+    // out of bounds: build_surfaces takes those faces out of Bfr (keep_valence2_faces_off_creases).
     std::vector<uint32_t> smooth_class(C, none);
     m.face_uncached.assign(F, 0);
     {

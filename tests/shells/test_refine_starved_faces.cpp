@@ -120,3 +120,27 @@ TEST(RefineStarvedFaces, FurGrowsOnCoarseShelves) {
     };
     EXPECT_NEAR(area(base), area(original), 1e-5 * area(original));
 }
+
+// The output-size guard holds after refinement: the refined base's shells stay within max_triangles (once
+// the guard judged the coarse base, and the refinement could grow it 100-fold past the limit).
+TEST(RefineStarvedFaces, StaysWithinTheTriangleLimit) {
+    Scene s = make_scene(cabinet(3, 1.0f, 0.3f, 0.35f, 0.018f), "cabinet");
+    FurOptions o;
+    o.shells.layers = 8;
+    o.shells.length = 0.015;
+    o.max_triangles = 8 * 600; // room for 600 base triangles of 8 shells each; the cabinet has 24
+    FurReport rep;
+    ASSERT_TRUE(add_fur_shells(s, o, &rep).ok());
+    EXPECT_GT(rep.refined_faces, 0u);
+    EXPECT_LE(rep.base_triangles, 600u);
+    EXPECT_LE(rep.shell_triangles, o.max_triangles);
+    // And FurOptions::refine_budget bounds it on its own.
+    Scene t = make_scene(cabinet(3, 1.0f, 0.3f, 0.35f, 0.018f), "cabinet");
+    FurOptions b = o;
+    b.max_triangles = 0;
+    b.refine_budget = 100;
+    FurReport small;
+    ASSERT_TRUE(add_fur_shells(t, b, &small).ok());
+    EXPECT_LE(small.base_triangles, 8u * 24u + 100u);
+    EXPECT_GT(small.refined_faces, 0u);
+}

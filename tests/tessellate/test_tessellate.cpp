@@ -351,6 +351,40 @@ TEST(tessellate, Valence2InteriorVertexStaysSmoothAndCrackFree) {
     EXPECT_EQ(r.inconsistent_edges, 0u);
 }
 
+// The same valence-2 vertex with a crease at a corner of its faces (the tessellate fuzzer's find): OpenSubdiv
+// 3.5.0's Bfr reads out of bounds building those faces' irregular patches, so they are tessellated linearly
+// (counted as failed faces), and the output stays crack-free around them.
+TEST(tessellate, Valence2VertexNextToACreaseFallsBackLinear) {
+    Primitive p = shapes::quad_grid(3, 3, 3, 3);
+    const uint32_t v = 16;
+    p.positions.insert(p.positions.end(), {0.1f, 0.0f, 0.05f});
+    if (!p.uv0.empty()) p.uv0.insert(p.uv0.end(), {0.52f, 0.5f});
+    if (!p.normals.empty()) p.normals.insert(p.normals.end(), {0.0f, 1.0f, 0.0f});
+    const size_t centre = 4;
+    std::vector<uint32_t> quad(p.indices.begin() + long(centre * 4), p.indices.begin() + long(centre * 4 + 4));
+    p.indices.erase(p.indices.begin() + long(centre * 4), p.indices.begin() + long(centre * 4 + 4));
+    p.face_sizes.pop_back();
+    p.indices.insert(p.indices.end(), {quad[0], quad[1], quad[2], v});
+    p.indices.insert(p.indices.end(), {quad[0], v, quad[2], quad[3]});
+    p.face_sizes.push_back(4);
+    p.face_sizes.push_back(4);
+    p.positions[3 * quad[0] + 1] += 0.5f; // a peak at a corner of both faces: the edges around it crease
+    TessellateOptions o = uniform_options(SubdivisionScheme::catmark, 3);
+    o.surface.crease_angle_degrees = 10;
+    TessellateOutput t = run_tessellate(p, o);
+    EXPECT_EQ(t.stats.valence2_vertices, 1u);
+    EXPECT_GT(t.stats.crease_edges, 0u);
+    EXPECT_EQ(t.stats.failed_faces, 2u);
+    EXPECT_EQ(t.stats.linear_faces, 2u);
+    bool said = false;
+    for (const std::string& w : t.stats.warnings) said |= w.find("valence-2 vertices next to a crease") != std::string::npos;
+    EXPECT_TRUE(said);
+    CheckReport r = check_primitive(primitive_of(t));
+    EXPECT_EQ(r.boundary_edges, size_t(2 * (3 + 3) * 3));
+    EXPECT_EQ(r.non_manifold_edges, 0u);
+    EXPECT_EQ(r.inconsistent_edges, 0u);
+}
+
 // Two triangles touching at one vertex: the vertex is split per fan; faces repeating a vertex are dropped
 // or split.
 TEST(tessellate, BowtieAndDegenerateFacesRepaired) {

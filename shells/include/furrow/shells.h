@@ -150,10 +150,12 @@ struct FurOptions {
     bool refine_starved = true; // split base triangles whose corners the clamps starve (coarse faces at concave
                                 // corners: a shelf whose corners all meet walls), so fur grows inside them;
                                 // the base surface and its shading do not change (FurReport::refined_faces)
+    size_t refine_budget = 4096; // refinement makes a primitive of T triangles at most 8·T + this many (and
+                                 // never more than max_triangles leaves room for)
     size_t max_triangles = 0;   // > 0: refuse (invalid_argument), before anything is grown, when the shells,
                                 // fins and LOD levels could add more triangles than this (base triangles ×
                                 // shells of every level, + 6 per triangle and level with fins); `furrow shells`
-                                // sets 20,000,000
+                                // sets 20,000,000. Refinement only grows the base within what is left.
 };
 
 struct FurFrame {
