@@ -79,8 +79,8 @@ void register_shells(CLI::App& app, GlobalFlags& g) {
     cmd->add_option("--spacing-power", a->fur.shells.spacing_power,
                     "Shell i at height (i/N)^p: 1 = even (default), > 1 packs shells near the skin")
         ->check(CLI::Range(0.1, 10.0));
-    cmd->add_option("--droop", a->fur.shells.droop, "Gravity bends the strands, keeping their length: the tips turn toward gravity by droop x 45 degrees "
-                    "(2 lays a wall's tips level, 4 hangs them); 0..4 (default 0)")
+    cmd->add_option("--droop", a->fur.shells.droop, "Gravity bends the strands, keeping their length: the tips turn toward gravity by droop x 17.5 degrees "
+                    "(4 hangs a wall's tips down); 0..4 (default 0)")
         ->check(CLI::Range(0.0, 4.0));
     cmd->add_option("--comb", a->comb, "Comb map PNG (flow-map style: r = lean along +u, g = lean up the image, 0.5 = none)");
     cmd->add_option("--comb-strength", a->fur.shells.comb_strength, "Tip lean per unit comb vector, as a fraction of the length (default 1)")

@@ -33,7 +33,9 @@
 //     classic P += g·t³ pushes the tips into the skin wherever gravity points into it. Droop bends the
 //     strand instead of shifting its tip (detail::bend_integrals): its length is kept, so the fold clamp
 //     has nothing to undo where the surface is smooth (the shifted tips stretched strands up to 4×, and
-//     the clamp cut 6861 of the creature's 8066 vertices to a quarter of their length at droop 2).
+//     the clamp cut 6861 of the creature's 8066 vertices to a quarter of their length at droop 2). The bend
+//     stays short of the tangent plane (70° at droop 4, on a wall): past it the layers of a shell stack
+//     would cross, and the sweep clamp shortened 65 % of the creature's fur at droop 4 when it reached 180°.
 //
 // Determinism: every parallel loop writes only its own entries, every sum runs in a fixed order, the
 // iterations are Jacobi-style (a pass reads the previous pass's lengths only).
@@ -60,6 +62,11 @@ namespace {
 // The sweep of one triangle's shells (layer to layer) stays one-to-one while the Jacobian keeps this fraction
 // of its value along the undeformed triangle: positive is what matters, the margin absorbs rounding.
 constexpr double kSweepRatio = 0.05;
+
+// The tip's bend at droop 4 (the top of the range) where gravity lies wholly along the surface: 70°. At 80°
+// the sweep clamp still cut a third of the creature's fur (8 shells, 4 cm): near the tangent plane, neighbouring
+// strands' layers cross; at 70° 97 % of it keeps its full length.
+constexpr double kMaxDroopRadians = 70.0 * std::numbers::pi / 180.0;
 
 using V3 = kernel::Vec3;
 
@@ -255,9 +262,12 @@ Status compute_shell_frame(ShellFrame& out, const float* positions, size_t verte
             return v;
         };
         if (comb) lean[w] = o.comb_strength * along_surface(combw[w]);
-        // Droop: the tip's bend angle θ_tip = droop·π/4 × (how much gravity lies along the surface), toward
-        // gravity's surface direction (detail::bend_integrals): droop 2 lays a wall's tips level, 4 hangs them.
-        if (o.droop > 0) sag[w] = (o.droop * std::numbers::pi / 4) * along_surface(g);
+        // Droop: the tip's bend angle θ_tip = droop/4 · 70° × (how much gravity lies along the surface), toward
+        // gravity's surface direction (detail::bend_integrals): droop 4 hangs a wall's tips 20° short of
+        // straight down. A stack of shells cannot show a strand bent past its surface's tangent plane (the
+        // upper layers would pass below the lower ones, and the sweep clamp would cut the fur instead), so
+        // the bend stays short of 90°.
+        if (o.droop > 0) sag[w] = (o.droop / 4 * kMaxDroopRadians) * along_surface(g);
     });
 
     // Where a strand of unit length reaches at height fraction s (comb lean and droop bend included).

@@ -71,7 +71,9 @@ TEST(bench_cli, AllBenchmarksJsonAndPlots) {
         EXPECT_EQ(svg.rfind("<?xml", 0), 0u) << name;
         EXPECT_NE(svg.find("</svg>"), std::string::npos) << name;
         EXPECT_EQ(svg.find("nan"), std::string::npos) << name;
-        if (name.rfind("tessellate_", 0) == 0) EXPECT_EQ(count(svg, "<polyline"), 5u) << name;
+        if (name.rfind("tessellate_", 0) == 0) {
+            EXPECT_EQ(count(svg, "<polyline"), 5u) << name;
+        }
         ++svgs;
     }
     EXPECT_EQ(svgs, 3u); // io: time vs triangles; tessellate's terrain: error vs time and vs triangles

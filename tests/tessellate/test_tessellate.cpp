@@ -327,14 +327,15 @@ TEST(tessellate, NonManifoldEdgeFallsBackLinear) {
 // A quad split in two by an interior vertex of valence 2: its faces stay on the limit surface (once they
 // fell back to linear; tessellate_reference.Valence2VerticesAreOnTheLimitSurface measures them), and the
 // output stays crack-free.
-TEST(tessellate, Valence2InteriorVertexStaysSmoothAndCrackFree) {
-    Primitive p = shapes::quad_grid(3, 3, 3, 3); // vertices 0..15, centre quad corners 5, 6, 10, 9
-    // Replace the centre quad [5, 9, 10, 6] (a, b, c, d order of quad_grid) by two quads through a new vertex.
+// A 3 × 3 quad grid whose centre quad [5, 9, 10, 6] (a, b, c, d order of quad_grid) is replaced by two quads
+// through a new vertex 16 of valence 2; `centre_quad` returns the replaced quad's corners.
+static Primitive valence2_grid(std::vector<uint32_t>* centre_quad = nullptr) {
+    Primitive p = shapes::quad_grid(3, 3, 3, 3);
     const uint32_t v = 16;
     p.positions.insert(p.positions.end(), {0.1f, 0.0f, 0.05f});
     if (!p.uv0.empty()) p.uv0.insert(p.uv0.end(), {0.52f, 0.5f}); // every array grows with the new vertex
     if (!p.normals.empty()) p.normals.insert(p.normals.end(), {0.0f, 1.0f, 0.0f});
-    size_t centre = 4;
+    const size_t centre = 4;
     std::vector<uint32_t> quad(p.indices.begin() + long(centre * 4), p.indices.begin() + long(centre * 4 + 4));
     p.indices.erase(p.indices.begin() + long(centre * 4), p.indices.begin() + long(centre * 4 + 4));
     p.face_sizes.pop_back();
@@ -342,6 +343,12 @@ TEST(tessellate, Valence2InteriorVertexStaysSmoothAndCrackFree) {
     p.indices.insert(p.indices.end(), {quad[0], v, quad[2], quad[3]});
     p.face_sizes.push_back(4);
     p.face_sizes.push_back(4);
+    if (centre_quad) *centre_quad = quad;
+    return p;
+}
+
+TEST(tessellate, Valence2InteriorVertexStaysSmoothAndCrackFree) {
+    Primitive p = valence2_grid();
     TessellateOutput t = run_tessellate(p, uniform_options(SubdivisionScheme::catmark, 3));
     EXPECT_EQ(t.stats.valence2_vertices, 1u);
     EXPECT_EQ(t.stats.linear_faces, 0u);
@@ -355,19 +362,8 @@ TEST(tessellate, Valence2InteriorVertexStaysSmoothAndCrackFree) {
 // 3.5.0's Bfr reads out of bounds building those faces' irregular patches, so they are tessellated linearly
 // (counted as failed faces), and the output stays crack-free around them.
 TEST(tessellate, Valence2VertexNextToACreaseFallsBackLinear) {
-    Primitive p = shapes::quad_grid(3, 3, 3, 3);
-    const uint32_t v = 16;
-    p.positions.insert(p.positions.end(), {0.1f, 0.0f, 0.05f});
-    if (!p.uv0.empty()) p.uv0.insert(p.uv0.end(), {0.52f, 0.5f});
-    if (!p.normals.empty()) p.normals.insert(p.normals.end(), {0.0f, 1.0f, 0.0f});
-    const size_t centre = 4;
-    std::vector<uint32_t> quad(p.indices.begin() + long(centre * 4), p.indices.begin() + long(centre * 4 + 4));
-    p.indices.erase(p.indices.begin() + long(centre * 4), p.indices.begin() + long(centre * 4 + 4));
-    p.face_sizes.pop_back();
-    p.indices.insert(p.indices.end(), {quad[0], quad[1], quad[2], v});
-    p.indices.insert(p.indices.end(), {quad[0], v, quad[2], quad[3]});
-    p.face_sizes.push_back(4);
-    p.face_sizes.push_back(4);
+    std::vector<uint32_t> quad;
+    Primitive p = valence2_grid(&quad);
     p.positions[3 * quad[0] + 1] += 0.5f; // a peak at a corner of both faces: the edges around it crease
     TessellateOptions o = uniform_options(SubdivisionScheme::catmark, 3);
     o.surface.crease_angle_degrees = 10;

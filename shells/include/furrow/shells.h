@@ -37,9 +37,9 @@ struct ShellOptions {
     double length = 0.05;         // L: full fur length (object units here; world units in FurOptions)
     double spacing_power = 1.0;   // s(t) = t^p; 1 = evenly spaced, > 1 packs shells near the skin; 0.1..10
     double droop = 0.0;           // gravity bends the strands, keeping their length: the tip turns toward
-                                  // gravity's direction along the surface by droop·45° (× the share of gravity
-                                  // along the surface), the bend growing toward the tip; 2 lays a vertical
-                                  // wall's tips level, 4 hangs them down; 0..4
+                                  // gravity's direction along the surface by droop·17.5° (× the share of gravity
+                                  // along the surface), the bend growing toward the tip; 4 hangs a vertical
+                                  // wall's tips down, 20° short of its plane (shells cannot show more); 0..4
     std::array<double, 3> gravity{0, -1, 0}; // droop direction (object space here; world space in FurOptions)
     double comb_strength = 1.0;   // lean of the tip per unit comb vector, as a fraction of the strand length
     int lod_levels = 1;           // LOD levels the layer heights must be safe for (N, N/2, N/4, ...); 1..8
