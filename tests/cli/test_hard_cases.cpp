@@ -228,6 +228,36 @@ const char* k_valence2_obj = "v -0.5 -0.5 -0.5\nv 0.5 -0.5 -0.5\nv 0.5 0.5 -0.5\
                              "v 0.55 0.55 0\n"
                              "f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 4 8 7 9 3\nf 2 3 9 7 6\nf 1 5 8 4\n";
 
+// A hexagon with a triangle folded back onto its corner at vertex 2 (OBJ numbering): the triangle has the
+// hexagon's edges 1-2 and 2-3 and the diagonal 1-3. A fan from the hexagon's first corner draws 1-3 again
+// (three faces on it: a non-manifold edge the source does not have, as `convert` once made on an asset of
+// quads, pentagons and hexagons); ear clipping must choose other diagonals. The hexagon is non-convex (a
+// notch at vertex 5).
+const char* k_folded_hexagon_obj = "v 0 0 0\nv 1 0 0\nv 2 0 1\nv 1 0 2\nv 0.6 0 1\nv 0 0 2\n"
+                                   "f 1 2 3 4 5 6\nf 3 2 1\n";
+
+// The inside of a printed cabinet (thingi10k-style): walls as one long quad each, 3 shelves of 2 triangles
+// whose corners all meet a wall (T-junctions): every shelf corner clamps, and shells refine the shelves.
+Primitive cabinet() {
+    Primitive p;
+    auto quad = [&](std::array<float, 3> a, std::array<float, 3> b, std::array<float, 3> c, std::array<float, 3> e) {
+        const uint32_t base = uint32_t(p.vertex_count());
+        for (const auto& q : {a, b, c, e}) p.positions.insert(p.positions.end(), q.begin(), q.end());
+        p.indices.insert(p.indices.end(), {base, base + 1, base + 2, base, base + 2, base + 3});
+    };
+    const float w = 1, d = 0.35f, h = 0.3f, t = 0.018f, top = 3 * (h + t);
+    quad({0, 0, 0}, {0, top, 0}, {0, top, d}, {0, 0, d});
+    quad({w, 0, d}, {w, top, d}, {w, top, 0}, {w, 0, 0});
+    quad({0, 0, 0}, {w, 0, 0}, {w, top, 0}, {0, top, 0});
+    for (int k = 0; k < 3; ++k) {
+        const float y = float(k) * (h + t) + t;
+        quad({0, y, d}, {w, y, d}, {w, y, 0}, {0, y, 0});
+        quad({0, y - t, 0}, {w, y - t, 0}, {w, y - t, d}, {0, y - t, d});
+        quad({0, y - t, d}, {w, y - t, d}, {w, y, d}, {0, y, d});
+    }
+    return p;
+}
+
 // ---------------------------------------------------------------------------------------------------------
 // The cases
 // ---------------------------------------------------------------------------------------------------------
@@ -331,6 +361,19 @@ std::vector<HardCase> hard_cases() {
                      EXPECT_EQ(j["valence2_interior_vertices"], 3);
                      EXPECT_EQ(j["closed"], true);
                  }});
+    c.push_back({"FoldedNonConvexHexagon",
+                 [](const fs::path& dir) {
+                     test::write_text(dir / "folded_hexagon.obj", k_folded_hexagon_obj);
+                     return dir / "folded_hexagon.obj";
+                 },
+                 2, true, false, [](const json& j) {
+                     EXPECT_EQ(j["non_manifold_edges"], 0);
+                     EXPECT_EQ(j["valence2_interior_vertices"], 1);
+                 }});
+    c.push_back({"CoarseCabinet", glb("cabinet", cabinet), 1, true, false, [](const json& j) {
+                     EXPECT_EQ(j["triangles"], 24);
+                     EXPECT_EQ(j["non_manifold_edges"], 0);
+                 }});
     c.push_back({"Valence2Polygons",
                  [](const fs::path& dir) {
                      test::write_text(dir / "valence2.obj", k_valence2_obj);
@@ -432,11 +475,12 @@ void run_shells(const HardCase& c, const fs::path& in, const fs::path& dir) {
     ASSERT_EQ(s.meshes.size(), 1u);
     const auto& prims = s.meshes[0].primitives;
     if (prims.size() == 1) {
-        // Only a surface without any extrusion direction (the pillow's two faces cancel) may get no shells, and
-        // the summary says so.
+        // Only a surface without any extrusion direction (the pillow's two faces cancel) or one folded onto
+        // itself (the triangle lying on the hexagon: fur anywhere near it crosses it) may get no shells, and the
+        // summary says so.
         EXPECT_NE(r.err.find("0 triangles added"), std::string::npos) << r.err;
         EXPECT_NE(r.err.find("bald"), std::string::npos) << r.err;
-        EXPECT_EQ(c.name, "Valence2Pillow");
+        EXPECT_TRUE(c.name == "Valence2Pillow" || c.name == "FoldedNonConvexHexagon") << c.name;
         return;
     }
     ASSERT_EQ(prims.size(), 5u); // the base and 4 shells (viewer layout)
