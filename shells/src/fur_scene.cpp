@@ -384,161 +384,283 @@ Status grow_frame(ShellFrame& frame, const Primitive& p, const std::vector<uint3
                                has_comb ? comb.data() : nullptr, o);
 }
 
-} // namespace
+// Shells of LOD level k: N, N/2, N/4, ... (at least 1).
+int layers_of(int N, int k) { return std::max(1, N >> k); }
 
-Status add_fur_shells(Scene& scene, const FurOptions& opt, FurReport* report) {
-    const auto started = std::chrono::steady_clock::now();
-    FurReport local;
-    FurReport& rep = report ? *report : local;
-    rep = FurReport{};
-    auto bad = [](const std::string& m) { return Status::error(StatusCode::invalid_argument, m); };
+// Everything a shell vertex is made of, gathered once per output vertex from the base and its frame: each
+// shell is then one streaming pass over these arrays (no indirection through the base vertex per shell).
+struct ShellSource {
+    size_t m = 0;  // output vertices per shell
+    Primitive proto; // the attributes every shell copies (normals, UVs, skin, morph deltas)
+    std::vector<float> len, dir, root, lean, sag, albedo;
+};
 
-    // --- options (the frame function checks ShellOptions; run it on nothing to fail before any change)
-    {
-        ShellFrame probe;
-        if (Status s = compute_shell_frame(probe, nullptr, 0, nullptr, 0, nullptr, nullptr, opt.shells); !s.ok()) return s;
+ShellSource shell_source(const Grown& g, const Primitive& base) {
+    ShellSource r;
+    const size_t m = g.sv.src.size();
+    r.m = m;
+    copy_attributes(r.proto, base, g.sv.src, g.sv.uv0);
+    r.proto.uv1 = g.sv.uv1;
+    r.len.resize(m), r.dir.resize(3 * m), r.root.resize(3 * m), r.lean.resize(3 * m), r.sag.resize(3 * m), r.albedo.resize(3 * m);
+// Everything a shell vertex is made of, gathered once per output vertex: each shell is then one
+// streaming pass over these arrays (no indirection through the base vertex per shell).
+parallel(m, 4096, [&](size_t i) {
+    const uint32_t v = g.sv.src[i];
+    r.len[i] = g.frame.length[v];
+    for (size_t k = 0; k < 3; ++k) {
+        const size_t j = 3 * size_t(v) + k;
+        r.root[3 * i + k] = base.positions[j];
+        r.dir[3 * i + k] = g.frame.direction[j];
+        r.lean[3 * i + k] = g.frame.lean[j];
+        r.sag[3 * i + k] = g.frame.sag[j];
+        r.albedo[3 * i + k] = g.albedo[j];
     }
-    const ShellOptions& so = opt.shells;
-    if (!std::isfinite(opt.tile_size) || opt.tile_size < 0) return bad("tile size must be a finite number >= 0");
-    if (!(opt.root_shade >= 0 && opt.root_shade <= 1)) return bad("root shade must be in 0..1");
-    const bool has_mask = !opt.mask.pixels.empty();
-    if (has_mask) {
-        const ImageF& m = opt.mask;
-        if (m.width <= 0 || m.height <= 0 || m.channels <= 0 || m.pixels.size() != size_t(m.width) * size_t(m.height) * size_t(m.channels))
-            return bad("the mask image is malformed");
-        if (opt.mask_channel < 0 || opt.mask_channel >= m.channels)
-            return bad("the mask has " + std::to_string(m.channels) + " channel(s); channel " + std::to_string(opt.mask_channel) +
-                       " does not exist");
-    }
-    const bool has_comb = !opt.comb.pixels.empty();
-    if (has_comb && (opt.comb.channels < 2 || opt.comb.pixels.size() != size_t(opt.comb.width) * size_t(opt.comb.height) * size_t(opt.comb.channels)))
-        return bad("the comb map needs at least 2 channels (r = along u, g = up the image)");
+});
+    return r;
+}
 
-    // --- which meshes: those of the nodes the scene draws, each placed by its first such node
-    const std::vector<Mat4> world = scene.world_matrices();
-    std::vector<int> mesh_node(scene.meshes.size(), -1);
-    for (int i : scene.drawn_nodes()) {
-        const int m = scene.nodes[size_t(i)].mesh;
-        if (m >= 0 && m < int(scene.meshes.size()) && mesh_node[size_t(m)] < 0) mesh_node[size_t(m)] = i;
-    }
-
-    // --- work list and input checks (before anything is added to the scene)
-    std::vector<std::pair<size_t, size_t>> work;
-    for (size_t mi = 0; mi < scene.meshes.size(); ++mi) {
-        if (mesh_node[mi] < 0) continue;
-        const Mesh& mesh = scene.meshes[mi];
-        for (size_t pi = 0; pi < mesh.primitives.size(); ++pi) {
-            const Primitive& p = mesh.primitives[pi];
-            if (p.mode != PrimitiveMode::triangles || p.vertex_count() == 0 || p.triangle_count() == 0) continue;
-            if ((has_mask || has_comb) && p.uv0.size() != 2 * p.vertex_count())
-                return bad("mesh " + std::to_string(mi) + (mesh.name.empty() ? "" : " ('" + mesh.name + "')") + " primitive " +
-                           std::to_string(pi) + " has no TEXCOORD_0; " + (has_mask ? "a fur mask" : "a comb map") +
-                           " is sampled at the UVs");
-            work.emplace_back(mi, pi);
+// Positions and colours of shell `layer` of `layers`.
+void fill_shell(const ShellSource& r, const FurOptions& opt, int layer, int layers, float* positions, float* colors) {
+    const double s = shell_height_fraction(layer, layers, opt.shells.spacing_power);
+    const float shade = float(opt.root_shade + (1.0 - opt.root_shade) * s);
+    for (size_t i = 0; i < r.m; ++i) {
+        const double h = r.len[i];
+        // Same expression as shell_positions: copies of a position land on the same float.
+        const auto o = detail::strand_offset(&r.dir[3 * i], &r.lean[3 * i], &r.sag[3 * i], s);
+        for (size_t k = 0; k < 3; ++k) {
+            const size_t j = 3 * i + k;
+            positions[j] = float(double(r.root[j]) + h * o[k]);
+            colors[4 * i + k] = r.albedo[j] * shade;
         }
+        colors[4 * i + 3] = 1.0f;
     }
-    if (work.empty()) return Status::error(StatusCode::invalid_input, "no triangles to grow fur on");
-    if (Status st = check_triangle_limit(scene, work, opt); !st.ok()) return st;
-    const size_t all_base = base_triangles(scene, work);
+}
 
-    // The strand textures depend on the options alone: drawn and encoded (or found in the cache) on another
-    // core while the frames are computed, as are the base-colour textures (below). Waited for on every way
-    // out.
-    std::shared_ptr<const std::vector<uint8_t>> density_png, fin_png;
-    TextureCache cache; // before the task group: its tasks write into it until they are waited for
-    tbb::task_group texture_task;
-    struct Join {
-        tbb::task_group& g;
-        ~Join() { g.wait(); }
-    } join_textures{texture_task};
-    texture_task.run([&] {
-        density_png = detail::strand_texture_png(opt.strands, false);
-        if (opt.fins) fin_png = detail::strand_texture_png(opt.strands, true);
+// The viewer layout of one level: one primitive per shell, each with its own MASK material. One task per
+// shell, copies of the shared attributes included: the copying is most of the bytes, so it must not run on
+// one thread.
+std::vector<Primitive> viewer_shells(const ShellSource& r, const Grown& g, const FurOptions& opt, int n_k, const std::vector<int>& materials) {
+    std::vector<Primitive> shells(static_cast<size_t>(n_k));
+    parallel(size_t(n_k), 1, [&](size_t i) {
+        Primitive& out = shells[i];
+        out = r.proto;
+        out.positions.resize(3 * r.m);
+        out.colors.resize(4 * r.m);
+        fill_shell(r, opt, int(i) + 1, n_k, out.positions.data(), out.colors.data());
+        out.indices = g.sv.indices;
+        out.material = materials[i];
     });
+    return shells;
+}
 
-    // --- grow: the frame and the vertex set per base primitive
-    std::vector<Grown> grown(work.size());
-    std::vector<Placement> placement(scene.meshes.size());
-    for (size_t mi = 0; mi < scene.meshes.size(); ++mi)
-        if (mesh_node[mi] >= 0) placement[mi] = placement_of(scene, world, mesh_node[mi], so.gravity);
-    for (const auto& [mi, pi] : work) cache.prefetch(scene, scene.meshes[mi].primitives[pi], texture_task);
-    for (size_t wi = 0; wi < work.size(); ++wi) {
-        Grown& g = grown[wi];
-        g.mesh = work[wi].first;
-        g.prim = work[wi].second;
-        const Primitive& p = scene.meshes[g.mesh].primitives[g.prim];
-        const Placement& pl = placement[g.mesh];
-        const size_t n = p.vertex_count();
-        if (!p.face_sizes.empty()) {
-            Primitive t;
-            t.indices = p.indices;
-            t.face_sizes = p.face_sizes;
-            triangulate(t);
-            g.tris = std::move(t.indices);
-        } else {
-            g.tris = p.indices;
-        }
-        for (uint32_t i : g.tris)
-            if (i >= n) return Status::error(StatusCode::invalid_input, "mesh " + std::to_string(g.mesh) + ": index out of range");
-        // Shells are offsets of the base positions: one NaN or infinite corner puts NaN into the shells and their
-        // strand UVs (found by fuzz_shells). load_scene refuses such positions unless allow_non_finite is set.
-        for (uint32_t i : g.tris)
-            if (!std::isfinite(p.positions[3 * size_t(i)]) || !std::isfinite(p.positions[3 * size_t(i) + 1]) ||
-                !std::isfinite(p.positions[3 * size_t(i) + 2]))
-                return Status::error(StatusCode::invalid_input, "mesh " + std::to_string(g.mesh) + " primitive " +
-                                                                    std::to_string(g.prim) + ": a triangle corner has a non-finite position");
-        ShellOptions o = so;
-        o.length = so.length / pl.scale;
-        o.gravity = pl.gravity;
-        Status s = grow_frame(g.frame, p, g.tris, opt, o);
-        if (s.ok() && opt.refine_starved) {
-            // Coarse faces whose corners are all clamped: bisected until fur grows inside them (the base
-            // primitive is then replaced by its refinement, committed with the shells).
-            Primitive q = p;
-            size_t split = 0;
-            s = detail::refine_starved_faces(q, g.tris, g.frame, o.length,
-                                             [&](const Primitive& r, const std::vector<uint32_t>& t, ShellFrame& f) { return grow_frame(f, r, t, opt, o); },
-                                             refine_budget(g.tris.size() / 3, all_base, opt), split);
-            if (s.ok() && split > 0) {
-                q.indices = g.tris;
-                q.face_sizes.clear();
-                g.refined = std::move(q);
-                rep.refined_faces += split;
-            }
-        }
-        if (!s.ok()) return Status::error(s.code, "mesh " + std::to_string(g.mesh) + " primitive " + std::to_string(g.prim) + ": " + s.message);
-        // Model only what is there: a triangle whose three corners are bald would sit on the skin.
-        const size_t T = g.tris.size() / 3;
-        std::vector<uint8_t> keep(T, 0);
-        for (size_t f = 0; f < T; ++f)
-            keep[f] = g.frame.length[g.tris[3 * f]] > 0 || g.frame.length[g.tris[3 * f + 1]] > 0 || g.frame.length[g.tris[3 * f + 2]] > 0;
-        g.dropped = T - size_t(std::count(keep.begin(), keep.end(), uint8_t(1)));
-        const double tile_world = opt.tile_size > 0 ? opt.tile_size : 4.0 * std::max(so.length, 1e-12);
-        g.sv = shell_vertices(base_of(scene, g), g.tris, keep, tile_world / pl.scale);
-        if (opt.keep_frames) rep.frames.push_back(FurFrame{g.mesh, g.prim, o.length, g.tris, g.frame});
-        rep.primitives += 1;
-        rep.base_triangles += T;
-        rep.welded_vertices += g.frame.welded_vertices;
-        rep.clamped_vertices += g.frame.clamped_vertices;
-        rep.clamped_by_ray += g.frame.clamped_by_ray;
-        rep.clamped_by_fold += g.frame.clamped_by_fold;
-        rep.clamped_by_even_cap += g.frame.clamped_by_even_cap;
-        rep.bald_vertices += g.frame.bald_vertices;
+// The engine layout of one level: all shells in one primitive (every array sized once, each shell fills its
+// own slice), with _FUR_LAYER, _FUR_LENGTH and _FUR_DIRECTION for a shader.
+Primitive engine_shells(const ShellSource& r, const Grown& g, const FurOptions& opt, int n_k, int material) {
+    Primitive all;
+    all.material = material;
+    const size_t copies = size_t(n_k);
+    auto sized = [&](std::vector<float>& v, const std::vector<float>& per_shell) { v.resize(copies * per_shell.size()); };
+    all.positions.resize(copies * 3 * r.m);
+    all.colors.resize(copies * 4 * r.m);
+    all.indices.resize(copies * g.sv.indices.size());
+    sized(all.normals, r.proto.normals);
+    sized(all.uv0, r.proto.uv0);
+    sized(all.uv1, r.proto.uv1);
+    sized(all.weights, r.proto.weights);
+    all.joints.resize(copies * r.proto.joints.size());
+    all.targets.resize(r.proto.targets.size());
+    for (size_t t = 0; t < r.proto.targets.size(); ++t) {
+        sized(all.targets[t].position_deltas, r.proto.targets[t].position_deltas);
+        sized(all.targets[t].normal_deltas, r.proto.targets[t].normal_deltas);
     }
+    CustomAttribute layer{"_FUR_LAYER", 1, {}}, length{"_FUR_LENGTH", 1, {}}, direction{"_FUR_DIRECTION", 3, {}};
+    layer.values.resize(copies * r.m);
+    length.values.resize(copies * r.m);
+    direction.values.resize(copies * 3 * r.m);
+    parallel(copies, 1, [&](size_t i) {
+        auto put = [&](std::vector<float>& v, const std::vector<float>& per_shell) {
+            std::copy(per_shell.begin(), per_shell.end(), v.begin() + std::ptrdiff_t(i * per_shell.size()));
+        };
+        fill_shell(r, opt, int(i) + 1, n_k, all.positions.data() + i * 3 * r.m, all.colors.data() + i * 4 * r.m);
+        const uint32_t offset = uint32_t(i * r.m);
+        uint32_t* idx = all.indices.data() + i * g.sv.indices.size();
+        for (size_t x = 0; x < g.sv.indices.size(); ++x) idx[x] = offset + g.sv.indices[x];
+        put(all.normals, r.proto.normals);
+        put(all.uv0, r.proto.uv0);
+        put(all.uv1, r.proto.uv1);
+        put(all.weights, r.proto.weights);
+        std::copy(r.proto.joints.begin(), r.proto.joints.end(), all.joints.begin() + std::ptrdiff_t(i * r.proto.joints.size()));
+        for (size_t t = 0; t < r.proto.targets.size(); ++t) {
+            put(all.targets[t].position_deltas, r.proto.targets[t].position_deltas);
+            put(all.targets[t].normal_deltas, r.proto.targets[t].normal_deltas);
+        }
+        std::fill_n(layer.values.begin() + std::ptrdiff_t(i * r.m), r.m, float(shell_height_fraction(int(i) + 1, n_k, opt.shells.spacing_power)));
+        put(length.values, r.len);
+        put(direction.values, r.dir);
+    });
+    all.custom = {std::move(layer), std::move(length), std::move(direction)};
+    return all;
+}
 
-    texture_task.wait();
-    for (Grown& g : grown) g.albedo = vertex_albedo(scene, base_of(scene, g), cache);
+// Fins: a quad standing on every manifold edge of the welded mesh, from the base to the tips.
+std::optional<Primitive> fins_of(const Grown& g, const Primitive& base, const FurOptions& opt, double scale, int material, size_t& quads) {
+    const size_t n = base.vertex_count();
+    std::vector<uint32_t> remap(n);
+    weld_positions(remap.data(), base.positions.data(), n);
+    std::map<std::pair<uint32_t, uint32_t>, std::vector<std::pair<size_t, int>>> edges; // welded edge -> (face, corner)
+    const size_t T = g.tris.size() / 3;
+    for (size_t f = 0; f < T; ++f)
+        for (int c = 0; c < 3; ++c) {
+            uint32_t a = remap[g.tris[3 * f + c]], b = remap[g.tris[3 * f + (c + 1) % 3]];
+            if (a == b) continue;
+            edges[{std::min(a, b), std::max(a, b)}].push_back({f, c});
+        }
+    Primitive fins;
+    fins.material = material;
+    std::vector<uint32_t> src;
+    std::vector<float> fin_uv, fin_normal;
+    std::vector<uint8_t> is_tip;
+    auto face_normal = [&](size_t f) {
+        const float* p0 = &base.positions[3 * size_t(g.tris[3 * f])];
+        const float* p1 = &base.positions[3 * size_t(g.tris[3 * f + 1])];
+        const float* p2 = &base.positions[3 * size_t(g.tris[3 * f + 2])];
+        double e1[3] = {double(p1[0]) - p0[0], double(p1[1]) - p0[1], double(p1[2]) - p0[2]};
+        double e2[3] = {double(p2[0]) - p0[0], double(p2[1]) - p0[1], double(p2[2]) - p0[2]};
+        std::array<double, 3> c{e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]};
+        double l = std::sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]);
+        if (l > 0) c = {c[0] / l, c[1] / l, c[2] / l};
+        return c;
+    };
+    const double fin_span = 2.0 * std::max(opt.shells.length / scale, 1e-12); // object units per texture width
+    for (const auto& [key, uses] : edges) {
+        if (uses.size() != 2) continue;
+        const auto [f, c] = uses[0];
+        uint32_t a = g.tris[3 * f + size_t(c)], b = g.tris[3 * f + size_t((c + 1) % 3)];
+        if (!(g.frame.length[a] > 0 || g.frame.length[b] > 0)) continue;
+        double el = 0;
+        for (int k = 0; k < 3; ++k) el += std::pow(double(base.positions[3 * b + k]) - base.positions[3 * a + k], 2);
+        el = std::sqrt(el);
+        // A per-edge offset along the texture, from the edge's welded ids, so neighbouring fins differ.
+        const double u0 = double((uint64_t(key.first) * 2654435761ULL + key.second * 40503ULL) % 1024ULL) / 1024.0;
+        const double u1 = u0 + el / fin_span;
+        auto n0 = face_normal(f), n1 = face_normal(uses[1].first);
+        std::array<double, 3> fnrm{n0[0] + n1[0], n0[1] + n1[1], n0[2] + n1[2]};
+        double fl = std::sqrt(fnrm[0] * fnrm[0] + fnrm[1] * fnrm[1] + fnrm[2] * fnrm[2]);
+        if (fl > 0) fnrm = {fnrm[0] / fl, fnrm[1] / fl, fnrm[2] / fl};
+        const uint32_t first = uint32_t(src.size());
+        const uint32_t corners[4] = {a, b, b, a};
+        const double us[4] = {u0, u1, u1, u0}, vs[4] = {1, 1, 0, 0};
+        for (int q = 0; q < 4; ++q) {
+            src.push_back(corners[q]);
+            is_tip.push_back(q >= 2);
+            fin_uv.push_back(tile_coord(us[q])); // edge / fin span overflowed a float too (fuzz_shells)
+            fin_uv.push_back(float(vs[q]));
+            for (int k = 0; k < 3; ++k) fin_normal.push_back(float(fnrm[size_t(k)]));
+        }
+        // Both windings are drawn (double-sided material); this one faces the first face's side.
+        fins.indices.insert(fins.indices.end(), {first, first + 1, first + 2, first, first + 2, first + 3});
+        ++quads;
+    }
+    if (src.empty()) return std::nullopt;
+    copy_attributes(fins, base, src, fin_uv);
+    fins.uv0 = fin_uv;
+    const size_t fm = src.size();
+    fins.positions.resize(3 * fm);
+    fins.colors.resize(4 * fm);
+    for (size_t i = 0; i < fm; ++i) {
+        const uint32_t v = src[i];
+        const double h = is_tip[i] ? g.frame.length[v] : 0.0;
+        const auto tip = detail::strand_offset(&g.frame.direction[3 * v], &g.frame.lean[3 * v], &g.frame.sag[3 * v], 1.0);
+        for (int k = 0; k < 3; ++k) {
+            const size_t j = 3 * size_t(v) + size_t(k);
+            fins.positions[3 * i + k] = float(double(base.positions[j]) + h * tip[size_t(k)]);
+            fins.colors[4 * i + k] = g.albedo[3 * v + k] * float(is_tip[i] ? 1.0 : opt.root_shade);
+        }
+        fins.colors[4 * i + 3] = 1.0f;
+    }
+    fins.custom.push_back(CustomAttribute{"_FUR_FIN_NORMAL", 3, fin_normal});
+    return fins;
+}
 
-    // --- textures and materials (appended: existing indices stay valid)
-    const int density_tex = add_texture(scene, "fur_strands", *density_png, 10497);
-    int fin_material = -1;
+// The frame and shell vertex set of one base primitive (refined where clamps starve its faces), after the
+// checks that must pass before the scene changes.
+Status grow_base(Grown& g, const Scene& scene, const Placement& pl, const FurOptions& opt, size_t all_base, FurReport& rep) {
+    const Primitive& p = scene.meshes[g.mesh].primitives[g.prim];
+    const size_t n = p.vertex_count();
+    if (!p.face_sizes.empty()) {
+        Primitive t;
+        t.indices = p.indices;
+        t.face_sizes = p.face_sizes;
+        triangulate(t);
+        g.tris = std::move(t.indices);
+    } else {
+        g.tris = p.indices;
+    }
+    for (uint32_t i : g.tris)
+        if (i >= n) return Status::error(StatusCode::invalid_input, "mesh " + std::to_string(g.mesh) + ": index out of range");
+    // Shells are offsets of the base positions: one NaN or infinite corner puts NaN into the shells and their
+    // strand UVs (found by fuzz_shells). load_scene refuses such positions unless allow_non_finite is set.
+    for (uint32_t i : g.tris)
+        if (!std::isfinite(p.positions[3 * size_t(i)]) || !std::isfinite(p.positions[3 * size_t(i) + 1]) ||
+            !std::isfinite(p.positions[3 * size_t(i) + 2]))
+            return Status::error(StatusCode::invalid_input, "mesh " + std::to_string(g.mesh) + " primitive " +
+                                                                std::to_string(g.prim) + ": a triangle corner has a non-finite position");
+    ShellOptions o = opt.shells;
+    o.length = opt.shells.length / pl.scale;
+    o.gravity = pl.gravity;
+    Status s = grow_frame(g.frame, p, g.tris, opt, o);
+    if (s.ok() && opt.refine_starved) {
+        // Coarse faces whose corners are all clamped: bisected until fur grows inside them (the base
+        // primitive is then replaced by its refinement, committed with the shells).
+        Primitive q = p;
+        size_t split = 0;
+        s = detail::refine_starved_faces(q, g.tris, g.frame, o.length,
+                                         [&](const Primitive& r, const std::vector<uint32_t>& t, ShellFrame& f) { return grow_frame(f, r, t, opt, o); },
+                                         refine_budget(g.tris.size() / 3, all_base, opt), split);
+        if (s.ok() && split > 0) {
+            q.indices = g.tris;
+            q.face_sizes.clear();
+            g.refined = std::move(q);
+            rep.refined_faces += split;
+        }
+    }
+    if (!s.ok()) return Status::error(s.code, "mesh " + std::to_string(g.mesh) + " primitive " + std::to_string(g.prim) + ": " + s.message);
+    // Model only what is there: a triangle whose three corners are bald would sit on the skin.
+    const size_t T = g.tris.size() / 3;
+    std::vector<uint8_t> keep(T, 0);
+    for (size_t f = 0; f < T; ++f)
+        keep[f] = g.frame.length[g.tris[3 * f]] > 0 || g.frame.length[g.tris[3 * f + 1]] > 0 || g.frame.length[g.tris[3 * f + 2]] > 0;
+    g.dropped = T - size_t(std::count(keep.begin(), keep.end(), uint8_t(1)));
+    const double tile_world = opt.tile_size > 0 ? opt.tile_size : 4.0 * std::max(opt.shells.length, 1e-12);
+    g.sv = shell_vertices(base_of(scene, g), g.tris, keep, tile_world / pl.scale);
+    if (opt.keep_frames) rep.frames.push_back(FurFrame{g.mesh, g.prim, o.length, g.tris, g.frame});
+    rep.primitives += 1;
+    rep.base_triangles += T;
+    rep.welded_vertices += g.frame.welded_vertices;
+    rep.clamped_vertices += g.frame.clamped_vertices;
+    rep.clamped_by_ray += g.frame.clamped_by_ray;
+    rep.clamped_by_fold += g.frame.clamped_by_fold;
+    rep.clamped_by_even_cap += g.frame.clamped_by_even_cap;
+    rep.bald_vertices += g.frame.bald_vertices;
+    return Status::success();
+}
+
+// The materials: one per shell and level (viewer layout) or one for all (engine), and the fins'.
+struct ShellMaterials {
+    std::vector<std::vector<int>> shell; // [level][shell i - 1], viewer layout
+    int engine = -1, fins = -1;
+};
+
+ShellMaterials add_fur_materials(Scene& scene, const FurOptions& opt, const std::vector<uint8_t>& density_png,
+                                 const std::vector<uint8_t>* fin_png) {
+    const ShellOptions& so = opt.shells;
+    ShellMaterials mat;
+    const int density_tex = add_texture(scene, "fur_strands", density_png, 10497);
     if (opt.fins) {
         const int fin_tex = add_texture(scene, "fur_fins", *fin_png, 33071);
-        fin_material = add_material(scene, "fur_fins", fin_tex, 0, 0.5f, true);
+        mat.fins = add_material(scene, "fur_fins", fin_tex, 0, 0.5f, true);
     }
-    const int N = so.layers;
-    const int levels = so.lod_levels;
-    auto layers_of = [&](int k) { return std::max(1, N >> k); };
+    const int N = so.layers, levels = so.lod_levels;
     // Shell i of a level with n shells sits at s(i/n) and stands for the slab of strands between its
     // neighbours. Its cutoff shows the strands' cross-section at the middle of the lowest full-resolution
     // layer of that slab: s((i − 1/2)/N) with all N shells (so the top shell still shows the tips), and with
@@ -548,218 +670,51 @@ Status add_fur_shells(Scene& scene, const FurOptions& opt, FurReport* report) {
         double t = double(i - 1) / double(n) + 0.5 / double(N);
         return float(std::clamp(std::pow(t, so.spacing_power), 1.0 / 255.0, 1.0));
     };
-    std::vector<std::vector<int>> shell_material{size_t(levels)};
-    int engine_material = -1;
+    mat.shell.resize(size_t(levels));
     if (opt.layout == ShellLayout::viewer) {
         for (int k = 0; k < levels; ++k)
-            for (int i = 1; i <= layers_of(k); ++i)
-                shell_material[size_t(k)].push_back(add_material(
+            for (int i = 1; i <= layers_of(N, k); ++i)
+                mat.shell[size_t(k)].push_back(add_material(
                     scene, "fur_shell_" + (levels > 1 ? "lod" + std::to_string(k) + "_" : std::string()) + std::to_string(i), density_tex, 1,
-                    cutoff_of(i, layers_of(k)), false));
+                    cutoff_of(i, layers_of(N, k)), false));
     } else {
-        engine_material = add_material(scene, "fur_shells_engine", density_tex, 1, 0.5f, false);
+        mat.engine = add_material(scene, "fur_shells_engine", density_tex, 1, 0.5f, false);
     }
+    return mat;
+}
 
-    // --- build the primitives of every level
-    const auto setup_done = std::chrono::steady_clock::now();
-    rep.setup_seconds = std::chrono::duration<double>(setup_done - started).count();
-    const size_t original_meshes = scene.meshes.size();
-    std::vector<std::vector<Primitive>> added(size_t(levels) * original_meshes); // [level][mesh]
-    for (const Grown& g : grown) {
-        const Primitive& base = base_of(scene, g);
-        const size_t m = g.sv.src.size();
-        if (m == 0) continue;
-        Primitive proto;
-        copy_attributes(proto, base, g.sv.src, g.sv.uv0);
-        proto.uv1 = g.sv.uv1;
-        // Everything a shell vertex is made of, gathered once per output vertex: each shell is then one
-        // streaming pass over these arrays (no indirection through the base vertex per shell).
-        std::vector<float> len(m), dir(3 * m), root(3 * m), lean(3 * m), sag(3 * m), albedo(3 * m);
-        parallel(m, 4096, [&](size_t i) {
-            const uint32_t v = g.sv.src[i];
-            len[i] = g.frame.length[v];
-            for (size_t k = 0; k < 3; ++k) {
-                const size_t j = 3 * size_t(v) + k;
-                root[3 * i + k] = base.positions[j];
-                dir[3 * i + k] = g.frame.direction[j];
-                lean[3 * i + k] = g.frame.lean[j];
-                sag[3 * i + k] = g.frame.sag[j];
-                albedo[3 * i + k] = g.albedo[j];
+// The shells (every level) and fins of one grown base, appended to added[level][mesh].
+void emit_grown(const Grown& g, const Primitive& base, const FurOptions& opt, const ShellMaterials& mat, double scale,
+                size_t original_meshes, std::vector<std::vector<Primitive>>& added, FurReport& rep) {
+    if (g.sv.src.empty()) return;
+    const ShellSource r = shell_source(g, base);
+    const int levels = opt.shells.lod_levels;
+    for (int k = 0; k < levels; ++k) {
+        const int n_k = layers_of(opt.shells.layers, k);
+        std::vector<Primitive>& dst = added[size_t(k) * original_meshes + g.mesh];
+        if (opt.layout == ShellLayout::viewer) {
+            for (auto& sh : viewer_shells(r, g, opt, n_k, mat.shell[size_t(k)])) {
+                rep.shell_triangles += sh.indices.size() / 3;
+                dst.push_back(std::move(sh));
             }
-        });
-        auto make_shell = [&](int layer, int layers, float* positions, float* colors) {
-            const double s = shell_height_fraction(layer, layers, so.spacing_power);
-            const float shade = float(opt.root_shade + (1.0 - opt.root_shade) * s);
-            for (size_t i = 0; i < m; ++i) {
-                const double h = len[i];
-                // Same expression as shell_positions: copies of a position land on the same float.
-                const auto o = detail::strand_offset(&dir[3 * i], &lean[3 * i], &sag[3 * i], s);
-                for (size_t k = 0; k < 3; ++k) {
-                    const size_t j = 3 * i + k;
-                    positions[j] = float(double(root[j]) + h * o[k]);
-                    colors[4 * i + k] = albedo[j] * shade;
-                }
-                colors[4 * i + 3] = 1.0f;
-            }
-        };
+        } else {
+            dst.push_back(engine_shells(r, g, opt, n_k, mat.engine));
+            rep.shell_triangles += dst.back().indices.size() / 3;
+        }
+        rep.dropped_triangles += g.dropped * size_t(n_k);
+    }
+    if (!opt.fins) return;
+    if (std::optional<Primitive> fins = fins_of(g, base, opt, scale, mat.fins, rep.fin_quads))
         for (int k = 0; k < levels; ++k) {
-            const int n_k = layers_of(k);
-            std::vector<Primitive>& dst = added[size_t(k) * original_meshes + g.mesh];
-            if (opt.layout == ShellLayout::viewer) {
-                // One task per shell, copies of the shared attributes included: the copying is most of the
-                // bytes, so it must not run on one thread.
-                std::vector<Primitive> shells(static_cast<size_t>(n_k));
-                parallel(size_t(n_k), 1, [&](size_t i) {
-                    Primitive& out = shells[i];
-                    out = proto;
-                    out.positions.resize(3 * m);
-                    out.colors.resize(4 * m);
-                    make_shell(int(i) + 1, n_k, out.positions.data(), out.colors.data());
-                    out.indices = g.sv.indices;
-                    out.material = shell_material[size_t(k)][i];
-                });
-                for (auto& sh : shells) {
-                    rep.shell_triangles += sh.indices.size() / 3;
-                    dst.push_back(std::move(sh));
-                }
-            } else {
-                // All shells in one primitive: every array sized once, each shell fills its own slice.
-                Primitive all;
-                all.material = engine_material;
-                const size_t copies = size_t(n_k);
-                auto sized = [&](std::vector<float>& v, const std::vector<float>& per_shell) { v.resize(copies * per_shell.size()); };
-                all.positions.resize(copies * 3 * m);
-                all.colors.resize(copies * 4 * m);
-                all.indices.resize(copies * g.sv.indices.size());
-                sized(all.normals, proto.normals);
-                sized(all.uv0, proto.uv0);
-                sized(all.uv1, proto.uv1);
-                sized(all.weights, proto.weights);
-                all.joints.resize(copies * proto.joints.size());
-                all.targets.resize(proto.targets.size());
-                for (size_t t = 0; t < proto.targets.size(); ++t) {
-                    sized(all.targets[t].position_deltas, proto.targets[t].position_deltas);
-                    sized(all.targets[t].normal_deltas, proto.targets[t].normal_deltas);
-                }
-                CustomAttribute layer{"_FUR_LAYER", 1, {}}, length{"_FUR_LENGTH", 1, {}}, direction{"_FUR_DIRECTION", 3, {}};
-                layer.values.resize(copies * m);
-                length.values.resize(copies * m);
-                direction.values.resize(copies * 3 * m);
-                parallel(copies, 1, [&](size_t i) {
-                    auto put = [&](std::vector<float>& v, const std::vector<float>& per_shell) {
-                        std::copy(per_shell.begin(), per_shell.end(), v.begin() + std::ptrdiff_t(i * per_shell.size()));
-                    };
-                    make_shell(int(i) + 1, n_k, all.positions.data() + i * 3 * m, all.colors.data() + i * 4 * m);
-                    const uint32_t offset = uint32_t(i * m);
-                    uint32_t* idx = all.indices.data() + i * g.sv.indices.size();
-                    for (size_t x = 0; x < g.sv.indices.size(); ++x) idx[x] = offset + g.sv.indices[x];
-                    put(all.normals, proto.normals);
-                    put(all.uv0, proto.uv0);
-                    put(all.uv1, proto.uv1);
-                    put(all.weights, proto.weights);
-                    std::copy(proto.joints.begin(), proto.joints.end(), all.joints.begin() + std::ptrdiff_t(i * proto.joints.size()));
-                    for (size_t t = 0; t < proto.targets.size(); ++t) {
-                        put(all.targets[t].position_deltas, proto.targets[t].position_deltas);
-                        put(all.targets[t].normal_deltas, proto.targets[t].normal_deltas);
-                    }
-                    std::fill_n(layer.values.begin() + std::ptrdiff_t(i * m), m, float(shell_height_fraction(int(i) + 1, n_k, so.spacing_power)));
-                    put(length.values, len);
-                    put(direction.values, dir);
-                });
-                all.custom = {std::move(layer), std::move(length), std::move(direction)};
-                rep.shell_triangles += all.indices.size() / 3;
-                dst.push_back(std::move(all));
-            }
-            rep.dropped_triangles += g.dropped * size_t(n_k);
+            added[size_t(k) * original_meshes + g.mesh].push_back(*fins);
+            rep.shell_triangles += fins->indices.size() / 3;
         }
+}
 
-        // Fins: a quad standing on every manifold edge of the welded mesh, from the base to the tips.
-        if (opt.fins) {
-            const size_t n = base.vertex_count();
-            std::vector<uint32_t> remap(n);
-            weld_positions(remap.data(), base.positions.data(), n);
-            std::map<std::pair<uint32_t, uint32_t>, std::vector<std::pair<size_t, int>>> edges; // welded edge -> (face, corner)
-            const size_t T = g.tris.size() / 3;
-            for (size_t f = 0; f < T; ++f)
-                for (int c = 0; c < 3; ++c) {
-                    uint32_t a = remap[g.tris[3 * f + c]], b = remap[g.tris[3 * f + (c + 1) % 3]];
-                    if (a == b) continue;
-                    edges[{std::min(a, b), std::max(a, b)}].push_back({f, c});
-                }
-            Primitive fins;
-            fins.material = fin_material;
-            std::vector<uint32_t> src;
-            std::vector<float> fin_uv, fin_normal;
-            std::vector<uint8_t> is_tip;
-            auto face_normal = [&](size_t f) {
-                const float* p0 = &base.positions[3 * size_t(g.tris[3 * f])];
-                const float* p1 = &base.positions[3 * size_t(g.tris[3 * f + 1])];
-                const float* p2 = &base.positions[3 * size_t(g.tris[3 * f + 2])];
-                double e1[3] = {double(p1[0]) - p0[0], double(p1[1]) - p0[1], double(p1[2]) - p0[2]};
-                double e2[3] = {double(p2[0]) - p0[0], double(p2[1]) - p0[1], double(p2[2]) - p0[2]};
-                std::array<double, 3> c{e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]};
-                double l = std::sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]);
-                if (l > 0) c = {c[0] / l, c[1] / l, c[2] / l};
-                return c;
-            };
-            const double fin_span = 2.0 * std::max(so.length / placement[g.mesh].scale, 1e-12); // object units per texture width
-            for (const auto& [key, uses] : edges) {
-                if (uses.size() != 2) continue;
-                const auto [f, c] = uses[0];
-                uint32_t a = g.tris[3 * f + size_t(c)], b = g.tris[3 * f + size_t((c + 1) % 3)];
-                if (!(g.frame.length[a] > 0 || g.frame.length[b] > 0)) continue;
-                double el = 0;
-                for (int k = 0; k < 3; ++k) el += std::pow(double(base.positions[3 * b + k]) - base.positions[3 * a + k], 2);
-                el = std::sqrt(el);
-                // A per-edge offset along the texture, from the edge's welded ids, so neighbouring fins differ.
-                const double u0 = double((uint64_t(key.first) * 2654435761ULL + key.second * 40503ULL) % 1024ULL) / 1024.0;
-                const double u1 = u0 + el / fin_span;
-                auto n0 = face_normal(f), n1 = face_normal(uses[1].first);
-                std::array<double, 3> fnrm{n0[0] + n1[0], n0[1] + n1[1], n0[2] + n1[2]};
-                double fl = std::sqrt(fnrm[0] * fnrm[0] + fnrm[1] * fnrm[1] + fnrm[2] * fnrm[2]);
-                if (fl > 0) fnrm = {fnrm[0] / fl, fnrm[1] / fl, fnrm[2] / fl};
-                const uint32_t first = uint32_t(src.size());
-                const uint32_t corners[4] = {a, b, b, a};
-                const double us[4] = {u0, u1, u1, u0}, vs[4] = {1, 1, 0, 0};
-                for (int q = 0; q < 4; ++q) {
-                    src.push_back(corners[q]);
-                    is_tip.push_back(q >= 2);
-                    fin_uv.push_back(tile_coord(us[q])); // edge / fin span overflowed a float too (fuzz_shells)
-                    fin_uv.push_back(float(vs[q]));
-                    for (int k = 0; k < 3; ++k) fin_normal.push_back(float(fnrm[size_t(k)]));
-                }
-                // Both windings are drawn (double-sided material); this one faces the first face's side.
-                fins.indices.insert(fins.indices.end(), {first, first + 1, first + 2, first, first + 2, first + 3});
-                ++rep.fin_quads;
-            }
-            if (!src.empty()) {
-                copy_attributes(fins, base, src, fin_uv);
-                fins.uv0 = fin_uv;
-                const size_t fm = src.size();
-                fins.positions.resize(3 * fm);
-                fins.colors.resize(4 * fm);
-                for (size_t i = 0; i < fm; ++i) {
-                    const uint32_t v = src[i];
-                    const double h = is_tip[i] ? g.frame.length[v] : 0.0;
-                    const auto tip = detail::strand_offset(&g.frame.direction[3 * v], &g.frame.lean[3 * v], &g.frame.sag[3 * v], 1.0);
-                    for (int k = 0; k < 3; ++k) {
-                        const size_t j = 3 * size_t(v) + size_t(k);
-                        fins.positions[3 * i + k] = float(double(base.positions[j]) + h * tip[size_t(k)]);
-                        fins.colors[4 * i + k] = g.albedo[3 * v + k] * float(is_tip[i] ? 1.0 : opt.root_shade);
-                    }
-                    fins.colors[4 * i + 3] = 1.0f;
-                }
-                fins.custom.push_back(CustomAttribute{"_FUR_FIN_NORMAL", 3, fin_normal});
-                for (int k = 0; k < levels; ++k) {
-                    added[size_t(k) * original_meshes + g.mesh].push_back(fins);
-                    rep.shell_triangles += fins.indices.size() / 3;
-                }
-            }
-        }
-    }
-
-    // --- attach: refined bases in place of their originals; level 0 into the meshes themselves; level k >= 1
-    // into copies on nodes outside the scene
+// Refined bases in place of their originals; level 0 into the meshes themselves; level k >= 1 into copies on
+// nodes outside the scene.
+void attach(Scene& scene, std::vector<Grown>& grown, std::vector<std::vector<Primitive>>& added, const std::vector<int>& mesh_node,
+            const std::vector<Mat4>& world, int levels, size_t original_meshes, FurReport& rep) {
     for (Grown& g : grown)
         if (g.refined) {
             scene.meshes[g.mesh].primitives[g.prim] = std::move(*g.refined);
@@ -798,6 +753,113 @@ Status add_fur_shells(Scene& scene, const FurOptions& opt, FurReport* report) {
             rep.lod_nodes.push_back(int(scene.nodes.size()) - 1);
         }
     }
+}
+
+// The meshes the scene draws, each placed by its first such node (-1: not drawn).
+std::vector<int> drawn_mesh_nodes(const Scene& scene) {
+    std::vector<int> mesh_node(scene.meshes.size(), -1);
+    for (int i : scene.drawn_nodes()) {
+        const int m = scene.nodes[size_t(i)].mesh;
+        if (m >= 0 && m < int(scene.meshes.size()) && mesh_node[size_t(m)] < 0) mesh_node[size_t(m)] = i;
+    }
+    return mesh_node;
+}
+
+// The base primitives to grow fur on (triangles of drawn meshes), checked before anything is added.
+Status collect_work(std::vector<std::pair<size_t, size_t>>& work, const Scene& scene, const std::vector<int>& mesh_node,
+                    const FurOptions& opt) {
+    const bool has_mask = !opt.mask.pixels.empty(), has_comb = !opt.comb.pixels.empty();
+    for (size_t mi = 0; mi < scene.meshes.size(); ++mi) {
+        if (mesh_node[mi] < 0) continue;
+        const Mesh& mesh = scene.meshes[mi];
+        for (size_t pi = 0; pi < mesh.primitives.size(); ++pi) {
+            const Primitive& p = mesh.primitives[pi];
+            if (p.mode != PrimitiveMode::triangles || p.vertex_count() == 0 || p.triangle_count() == 0) continue;
+            if ((has_mask || has_comb) && p.uv0.size() != 2 * p.vertex_count())
+                return Status::error(StatusCode::invalid_argument,
+                                     "mesh " + std::to_string(mi) + (mesh.name.empty() ? "" : " ('" + mesh.name + "')") + " primitive " +
+                                         std::to_string(pi) + " has no TEXCOORD_0; " + (has_mask ? "a fur mask" : "a comb map") +
+                                         " is sampled at the UVs");
+            work.emplace_back(mi, pi);
+        }
+    }
+    if (work.empty()) return Status::error(StatusCode::invalid_input, "no triangles to grow fur on");
+    return check_triangle_limit(scene, work, opt);
+}
+
+} // namespace
+
+Status validate(const FurOptions& opt) {
+    auto bad = [](const std::string& m) { return Status::error(StatusCode::invalid_argument, m); };
+    if (Status s = validate(opt.shells); !s.ok()) return s;
+    if (!std::isfinite(opt.tile_size) || opt.tile_size < 0) return bad("tile size must be a finite number >= 0");
+    if (!(opt.root_shade >= 0 && opt.root_shade <= 1)) return bad("root shade must be in 0..1");
+    if (!opt.mask.pixels.empty()) {
+        const ImageF& m = opt.mask;
+        if (m.width <= 0 || m.height <= 0 || m.channels <= 0 || m.pixels.size() != size_t(m.width) * size_t(m.height) * size_t(m.channels))
+            return bad("the mask image is malformed");
+        if (opt.mask_channel < 0 || opt.mask_channel >= m.channels)
+            return bad("the mask has " + std::to_string(m.channels) + " channel(s); channel " + std::to_string(opt.mask_channel) +
+                       " does not exist");
+    }
+    const ImageF& c = opt.comb;
+    if (!c.pixels.empty() && (c.channels < 2 || c.pixels.size() != size_t(c.width) * size_t(c.height) * size_t(c.channels)))
+        return bad("the comb map needs at least 2 channels (r = along u, g = up the image)");
+    return Status::success();
+}
+
+Status add_fur_shells(Scene& scene, const FurOptions& opt, FurReport* report) {
+    const auto started = std::chrono::steady_clock::now();
+    FurReport local;
+    FurReport& rep = report ? *report : local;
+    rep = FurReport{};
+    // --- options and input, checked before anything is added to the scene
+    if (Status s = validate(opt); !s.ok()) return s;
+    const std::vector<Mat4> world = scene.world_matrices();
+    const std::vector<int> mesh_node = drawn_mesh_nodes(scene);
+    std::vector<std::pair<size_t, size_t>> work;
+    if (Status s = collect_work(work, scene, mesh_node, opt); !s.ok()) return s;
+    const size_t all_base = base_triangles(scene, work);
+
+    // The strand textures depend on the options alone: drawn and encoded (or found in the cache) on another
+    // core while the frames are computed, as are the base-colour textures (below). Waited for on every way
+    // out.
+    std::shared_ptr<const std::vector<uint8_t>> density_png, fin_png;
+    TextureCache cache; // before the task group: its tasks write into it until they are waited for
+    tbb::task_group texture_task;
+    struct Join {
+        tbb::task_group& g;
+        ~Join() { g.wait(); }
+    } join_textures{texture_task};
+    texture_task.run([&] {
+        density_png = detail::strand_texture_png(opt.strands, false);
+        if (opt.fins) fin_png = detail::strand_texture_png(opt.strands, true);
+    });
+
+    // --- grow: the frame and the vertex set per base primitive
+    std::vector<Grown> grown(work.size());
+    std::vector<Placement> placement(scene.meshes.size());
+    for (size_t mi = 0; mi < scene.meshes.size(); ++mi)
+        if (mesh_node[mi] >= 0) placement[mi] = placement_of(scene, world, mesh_node[mi], opt.shells.gravity);
+    for (const auto& [mi, pi] : work) cache.prefetch(scene, scene.meshes[mi].primitives[pi], texture_task);
+    for (size_t wi = 0; wi < work.size(); ++wi) {
+        Grown& g = grown[wi];
+        g.mesh = work[wi].first;
+        g.prim = work[wi].second;
+        if (Status s = grow_base(g, scene, placement[g.mesh], opt, all_base, rep); !s.ok()) return s;
+    }
+    texture_task.wait();
+    for (Grown& g : grown) g.albedo = vertex_albedo(scene, base_of(scene, g), cache);
+    // --- textures and materials (appended: existing indices stay valid)
+    const ShellMaterials mat = add_fur_materials(scene, opt, *density_png, fin_png.get());
+
+    // --- emit the primitives of every level, then attach them
+    const auto setup_done = std::chrono::steady_clock::now();
+    rep.setup_seconds = std::chrono::duration<double>(setup_done - started).count();
+    const size_t original_meshes = scene.meshes.size();
+    std::vector<std::vector<Primitive>> added(size_t(opt.shells.lod_levels) * original_meshes); // [level][mesh]
+    for (const Grown& g : grown) emit_grown(g, base_of(scene, g), opt, mat, placement[g.mesh].scale, original_meshes, added, rep);
+    attach(scene, grown, added, mesh_node, world, opt.shells.lod_levels, original_meshes, rep);
     rep.emit_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - setup_done).count();
     return Status::success();
 }

@@ -77,21 +77,6 @@ void parallel(size_t n, size_t grain, F&& f) {
     });
 }
 
-Status check_options(const ShellOptions& o) {
-    auto bad = [](const std::string& m) { return Status::error(StatusCode::invalid_argument, m); };
-    if (o.layers < 1 || o.layers > 256) return bad("layers must be in 1..256, got " + std::to_string(o.layers));
-    if (!std::isfinite(o.length) || o.length < 0) return bad("length must be a finite number >= 0");
-    if (!(o.spacing_power >= 0.1 && o.spacing_power <= 10)) return bad("spacing power must be in 0.1..10");
-    if (!(o.droop >= 0 && o.droop <= 4)) return bad("droop must be in 0..4");
-    if (!(o.comb_strength >= 0 && o.comb_strength <= 10)) return bad("comb strength must be in 0..10");
-    for (double g : o.gravity)
-        if (!std::isfinite(g)) return bad("gravity must be finite");
-    if (o.lod_levels < 1 || o.lod_levels > 8) return bad("LOD levels must be in 1..8");
-    if (!(o.max_even_thickness >= 1 && o.max_even_thickness <= 100)) return bad("max even thickness must be in 1..100");
-    if (!(o.safe_fraction > 0 && o.safe_fraction <= 1)) return bad("safe fraction must be in (0, 1]");
-    if (!(o.min_area_ratio >= 0 && o.min_area_ratio < 1)) return bad("min area ratio must be in [0, 1)");
-    return Status::success();
-}
 
 // Smallest k in (0, 1] with a + b·k + c·k² = 0 where the quadratic falls below 0 (it starts at a > 0);
 // 1 if it stays >= 0 on [0, 1].
@@ -125,10 +110,26 @@ double shell_height_fraction(int layer, int layers, double spacing_power) {
     return spacing_power == 1.0 ? t : std::pow(t, spacing_power);
 }
 
+Status validate(const ShellOptions& o) {
+    auto bad = [](const std::string& m) { return Status::error(StatusCode::invalid_argument, m); };
+    if (o.layers < 1 || o.layers > 256) return bad("layers must be in 1..256, got " + std::to_string(o.layers));
+    if (!std::isfinite(o.length) || o.length < 0) return bad("length must be a finite number >= 0");
+    if (!(o.spacing_power >= 0.1 && o.spacing_power <= 10)) return bad("spacing power must be in 0.1..10");
+    if (!(o.droop >= 0 && o.droop <= 4)) return bad("droop must be in 0..4");
+    if (!(o.comb_strength >= 0 && o.comb_strength <= 10)) return bad("comb strength must be in 0..10");
+    for (double g : o.gravity)
+        if (!std::isfinite(g)) return bad("gravity must be finite");
+    if (o.lod_levels < 1 || o.lod_levels > 8) return bad("LOD levels must be in 1..8");
+    if (!(o.max_even_thickness >= 1 && o.max_even_thickness <= 100)) return bad("max even thickness must be in 1..100");
+    if (!(o.safe_fraction > 0 && o.safe_fraction <= 1)) return bad("safe fraction must be in (0, 1]");
+    if (!(o.min_area_ratio >= 0 && o.min_area_ratio < 1)) return bad("min area ratio must be in [0, 1)");
+    return Status::success();
+}
+
 Status compute_shell_frame(ShellFrame& out, const float* positions, size_t vertex_count, const uint32_t* indices,
                            size_t index_count, const float* mask, const float* comb, const ShellOptions& o) {
     out = ShellFrame{};
-    if (Status s = check_options(o); !s.ok()) return s;
+    if (Status s = validate(o); !s.ok()) return s;
     if (index_count % 3 != 0) return Status::error(StatusCode::invalid_argument, "index count is not a multiple of 3");
     if (vertex_count > 0 && !positions) return Status::error(StatusCode::invalid_argument, "no positions");
     for (size_t i = 0; i < index_count; ++i)

@@ -77,6 +77,10 @@ enum ShellClamp : uint8_t {
     clamp_no_normal = 8, // no valid incident face: no direction, no fur
 };
 
+// Checks every option against its documented range (invalid_argument, naming the option), as
+// compute_shell_frame does first.
+Status validate(const ShellOptions& options);
+
 // Triangles as 3 indices each. mask (optional): one value in [0,1] per vertex, copies of one position are
 // reconciled by taking their maximum (a seam never shortens the furrier side). comb (optional): one
 // object-space xyz lean per vertex (its part along the surface is used), copies averaged. Errors: sizes,
@@ -195,5 +199,9 @@ struct FurReport {
 // TEXCOORD_0 to sample it at, a mask channel the image lacks; (invalid_input): no triangle to grow fur on, a
 // triangle corner with a NaN or infinite position.
 Status add_fur_shells(Scene& scene, const FurOptions& options, FurReport* report = nullptr);
+
+// Checks the options add_fur_shells checks first: ShellOptions, the tile size, root shade, mask and comb
+// images (invalid_argument).
+Status validate(const FurOptions& options);
 
 } // namespace furrow
