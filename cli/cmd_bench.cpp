@@ -1,7 +1,8 @@
 // `furrow bench [<tool>]`: benchmarks that report time next to an error measure and against a baseline
 // measured in the same run (so the ratios survive a slower or faster machine). One file per tool:
-// cli/bench_<tool>.cpp. Without a tool, every benchmark runs in turn on its default inputs (the bundled models
-// and ../shared/corpus when present), with one JSON document and the SVG plots of all of them on request.
+// cli/bench/bench_<tool>.cpp (the furrow_bench library). Without a tool, every benchmark runs in turn on its default
+// inputs (the bundled models and ../shared/corpus when present), with one JSON document and the SVG plots of all of
+// them on request.
 #include "bench_common.h"
 
 #include <algorithm>

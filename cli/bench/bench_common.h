@@ -90,7 +90,7 @@ nlohmann::json bench_shells_default(const BenchRun& r, const GlobalFlags& g);
 nlohmann::json bench_tessellate_default(const BenchRun& r, const GlobalFlags& g);
 nlohmann::json bench_stamp_default(const BenchRun& r, const GlobalFlags& g);
 
-// One registration per benchmark (cli/bench_<tool>.cpp), called by register_bench.
+// One registration per benchmark (cli/bench/bench_<tool>.cpp), called by register_bench.
 void register_bench_io(CLI::App& bench, GlobalFlags& g);
 void register_bench_tessellate(CLI::App& bench, GlobalFlags& g);
 void register_bench_render(CLI::App& bench, GlobalFlags& g);

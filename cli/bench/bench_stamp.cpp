@@ -144,15 +144,10 @@ double brute_force_down(const std::vector<float>& P, const std::vector<uint32_t>
     return std::isnan(best) ? best : oy - best;
 }
 
-} // namespace
-
-static nlohmann::json run_bench_stamp(const Args& a, const GlobalFlags& g, bool tables) {
-    nlohmann::json J;
+// ---- 1. Imprint accuracy: the analytic oracle, speed versus error ------------------------------------------------
+// Prints the table, adds results["oracle"] and returns the points of the plot.
+std::vector<PlotPoint> bench_imprint_accuracy(const Args& a, bool text, nlohmann::json& J) {
     const int repeat = a.repeat;
-    const bool text = tables;
-
-    // ---- 1. Analytic oracle: speed versus error --------------------------------------------------------------
-    info(g, "bench stamp: analytic oracle");
     std::vector<OracleRow> rows;
     const std::vector<double> texels = a.quick ? std::vector<double>{0.02, 0.01} : std::vector<double>{0.04, 0.02, 0.01, 0.005};
     const std::vector<double> errors = a.quick ? std::vector<double>{0.002} : std::vector<double>{0.004, 0.001, 0.00025};
@@ -164,7 +159,8 @@ static nlohmann::json run_bench_stamp(const Args& a, const GlobalFlags& g, bool 
     }
     if (text) {
         std::printf("furrow bench stamp — 1. analytic oracle on a 3 x 3 m flat ground of 6 x 6 cells: a sphere r 0.35 m pressed 0.12 m\n"
-                    "(surface y = -(p - r + sqrt(r^2 - rho^2)), sampled within 0.5 m), a box 0.6 x 0.8 m turned 30 deg pressed 0.08 m (flat\n"
+                    "(surface y = -(p - r + sqrt(r^2 - rho^2)), sampled within 0.5 m), a box 0.6 x 0.8 m turned 30 deg "
+                    "pressed 0.08 m (flat\n"
                     "floor and surround within 0.8 m; triangles whose centroid is within 2.5 texels of a wall left out: the wall itself\n"
                     "is a one-texel ramp). Deviation = |y_mesh - y_analytic| at corners, edge midpoints and centroids (mm). Baseline: a\n"
                     "uniform grid at the texel size, displaced as is. Median of %d runs.\n",
@@ -187,9 +183,13 @@ static nlohmann::json run_bench_stamp(const Args& a, const GlobalFlags& g, bool 
     for (const auto& r : rows)
         J["oracle"].push_back({{"shape", r.shape}, {"method", r.method}, {"texel", r.texel}, {"max_error", r.max_error},
                                {"triangles", r.triangles}, {"seconds", r.seconds}, {"max_dev", r.worst}, {"mean_dev", r.mean}});
+    return points;
+}
 
-    // ---- 2. Contact rays ---------------------------------------------------------------------------------------
-    info(g, "bench stamp: contact rays");
+// ---- 2. Contact rays: the tree against brute force, on ground.glb (and the corpus terrain when present) ---------
+// Prints the table, adds results["rays"].
+void bench_contact_rays(const Args& a, const GlobalFlags& g, bool text, nlohmann::json& J) {
+    const int repeat = a.repeat;
     std::vector<std::pair<std::string, std::string>> grounds = {{"ground.glb", bundled_models_dir().string() + "/ground.glb"}};
     {
         const std::string terrain = corpus_dir().string() + "/terrain/terrain.glb";
@@ -212,7 +212,8 @@ static nlohmann::json run_bench_stamp(const Args& a, const GlobalFlags& g, bool 
         std::vector<double> pts(3 * n), out(n);
         for (size_t k = 0; k < n; ++k) {
             const double u = U(rng) * fr.texel * (fr.width - 1), v = U(rng) * fr.texel * (fr.height - 1);
-            for (int d = 0; d < 3; ++d) pts[3 * k + size_t(d)] = fr.origin[size_t(d)] + u * fr.axis_u[size_t(d)] + v * fr.axis_v[size_t(d)] + 50 * fr.up[size_t(d)];
+            for (int d = 0; d < 3; ++d)
+                pts[3 * k + size_t(d)] = fr.origin[size_t(d)] + u * fr.axis_u[size_t(d)] + v * fr.axis_v[size_t(d)] + 50 * fr.up[size_t(d)];
         }
         const double tree_s = median_seconds(repeat, [&] { f.cast_down(out.data(), pts.data(), n); });
         const size_t nb = 300;
@@ -225,8 +226,10 @@ static nlohmann::json run_bench_stamp(const Args& a, const GlobalFlags& g, bool 
             if (std::isnan(outb[k]) != std::isnan(out[k]) || (!std::isnan(out[k]) && std::abs(outb[k] - out[k]) > 1e-4))
                 throw InputError("bench stamp", "ray cast mismatch against brute force on " + name);
         const double rate = double(n) / tree_s, brate = double(nb) / brute_s;
-        rays.add({name, std::to_string(I.size() / 3), fmt(build * 1e3, 1), std::to_string(n), fmt_sci(rate), fmt_sci(brate), fmt(rate / brate, 0)});
-        J["rays"].push_back({{"ground", name}, {"triangles", I.size() / 3}, {"build_s", build}, {"rays_per_s", rate}, {"brute_rays_per_s", brate}});
+        rays.add({name, std::to_string(I.size() / 3), fmt(build * 1e3, 1), std::to_string(n), fmt_sci(rate), fmt_sci(brate),
+                  fmt(rate / brate, 0)});
+        J["rays"].push_back({{"ground", name}, {"triangles", I.size() / 3}, {"build_s", build}, {"rays_per_s", rate},
+                             {"brute_rays_per_s", brate}});
     }
     if (text) {
         std::printf("\n2. contact queries: rays cast down from above random points (CGAL AABB tree, %s threads); baseline: the same rays\n"
@@ -234,15 +237,42 @@ static nlohmann::json run_bench_stamp(const Args& a, const GlobalFlags& g, bool 
                     g.threads ? std::to_string(g.threads).c_str() : "all");
         rays.print();
     }
+}
 
-    // ---- 3. Stamps per second ----------------------------------------------------------------------------------
-    info(g, "bench stamp: stamps");
-    Scene ground = load_or_throw(bundled_models_dir().string() + "/ground.glb");
+// What stages 3 to 5 share: the triangles of the bundled ground.glb and the demo's colliders (colliders.json).
+struct DemoGround {
+    std::vector<float> P;
+    std::vector<uint32_t> I;
     ColliderSet demo;
-    require_ok(load_colliders(demo, bundled_models_dir().string() + "/colliders.json"), "colliders.json");
-    std::vector<float> GP;
-    std::vector<uint32_t> GI;
-    scene_triangles(GP, GI, ground);
+};
+
+DemoGround load_demo_ground() {
+    DemoGround d;
+    Scene ground = load_or_throw(bundled_models_dir().string() + "/ground.glb");
+    require_ok(load_colliders(d.demo, bundled_models_dir().string() + "/colliders.json"), "colliders.json");
+    scene_triangles(d.P, d.I, ground);
+    return d;
+}
+
+// ground.glb uniformly tessellated at `rate` (bilinear: the fixed mesh a game displaces).
+TessellateOutput tessellate_ground(const DemoGround& d, int rate) {
+    TessellateInput tin;
+    tin.positions = d.P.data();
+    tin.vertex_count = d.P.size() / 3;
+    tin.indices = d.I.data();
+    tin.index_count = d.I.size();
+    TessellateOptions to;
+    to.surface.scheme = SubdivisionScheme::bilinear;
+    to.rates.uniform = rate;
+    TessellateOutput out;
+    require_ok(tessellate(out, tin, to), "ground.glb");
+    return out;
+}
+
+// ---- 3. Stamp throughput: stamps per second against a plain min() blit --------------------------------------------
+// Prints the table, adds results["stamps"].
+void bench_stamp_throughput(const Args& a, const DemoGround& d, bool text, nlohmann::json& J) {
+    const int repeat = a.repeat;
     SnowOptions so;
     so.texel = 0.02;
     Table st({"shape", "size", "stamps", "stamps/s", "texels/stamp", "Mtexels/s", "fill Mtexels/s", "stamp/fill"});
@@ -261,19 +291,22 @@ static nlohmann::json run_bench_stamp(const Args& a, const GlobalFlags& g, bool 
         Collider c;
         c.shape = ColliderShape::capsule, c.radius = 0.12, c.length = 1.0;
         kinds.push_back({"capsule", "r 0.12 l 1", c});
-        kinds.push_back({"image (footprint)", "0.12 x 0.30", demo.colliders[0]});
+        kinds.push_back({"image (footprint)", "0.12 x 0.30", d.demo.colliders[0]});
     }
     const size_t nstamps = a.quick ? 200 : 2000;
     for (auto& k : kinds) {
         SnowField f;
-        require_ok(f.create(GP.data(), GP.size() / 3, GI.data(), GI.size(), so), "ground.glb");
+        require_ok(f.create(d.P.data(), d.P.size() / 3, d.I.data(), d.I.size(), so), "ground.glb");
         std::mt19937 rng(9);
         std::uniform_real_distribution<double> U(-9, 9), H(0, 360);
         std::vector<ColliderPose> poses(nstamps);
         std::vector<double> pts(3 * nstamps), h(nstamps);
         for (size_t i = 0; i < nstamps; ++i) pts[3 * i] = U(rng), pts[3 * i + 1] = 10, pts[3 * i + 2] = U(rng);
         f.cast_down(h.data(), pts.data(), nstamps);
-        const double sink = k.c.shape == ColliderShape::image ? 0.0 : (k.c.shape == ColliderShape::sphere ? 0.35 - 0.1 : (k.c.shape == ColliderShape::box ? 0.2 - 0.06 : 0.12 - 0.05));
+        const double sink = k.c.shape == ColliderShape::image    ? 0.0
+                            : k.c.shape == ColliderShape::sphere ? 0.35 - 0.1
+                            : k.c.shape == ColliderShape::box    ? 0.2 - 0.06
+                                                                 : 0.12 - 0.05;
         for (size_t i = 0; i < nstamps; ++i) poses[i] = {{pts[3 * i], h[i] + sink, pts[3 * i + 2]}, H(rng), 0};
         StampStats total;
         const double secs = median_seconds(repeat, [&] {
@@ -288,7 +321,10 @@ static nlohmann::json run_bench_stamp(const Args& a, const GlobalFlags& g, bool 
             f = std::move(fresh);
         });
         // Baseline: writing min() into the footprint's bounding square, as a brush blit without any shape.
-        const double R = k.c.shape == ColliderShape::sphere ? 0.35 : k.c.shape == ColliderShape::box ? 0.43 : k.c.shape == ColliderShape::capsule ? 0.62 : 0.17;
+        const double R = k.c.shape == ColliderShape::sphere    ? 0.35
+                         : k.c.shape == ColliderShape::box     ? 0.43
+                         : k.c.shape == ColliderShape::capsule ? 0.62
+                                                               : 0.17;
         const int side = int(2 * R / so.texel) + 1;
         std::vector<float> canvas(size_t(1024) * 1024, 0.0f);
         const double fill_s = median_seconds(repeat, [&] {
@@ -306,26 +342,21 @@ static nlohmann::json run_bench_stamp(const Args& a, const GlobalFlags& g, bool 
         const double rate = double(nstamps) / secs;
         st.add({k.name, k.size, std::to_string(nstamps), fmt_sci(rate), fmt(tex, 0), fmt(rate * tex / 1e6, 1),
                 fmt(double(nstamps) * tex / fill_s / 1e6, 1), fmt(secs / fill_s, 1)});
-        J["stamps"].push_back({{"shape", k.name}, {"stamps_per_s", rate}, {"texels_per_stamp", tex}, {"fill_seconds", fill_s}, {"seconds", secs}});
+        J["stamps"].push_back({{"shape", k.name}, {"stamps_per_s", rate}, {"texels_per_stamp", tex}, {"fill_seconds", fill_s},
+                               {"seconds", secs}});
     }
     if (text) {
         std::printf("\n3. stamps: one collider sample (contact ray + rasterised lower surface + atomic min) on ground.glb at 2 cm texels,\n"
                     "random places and headings; baseline: a min() blit over the same bounding square (texels/stamp), no shape.\n");
         st.print();
     }
+}
 
-    // ---- 4. A frame: 256 colliders stamped + rim + re-displacement -----------------------------------------------
-    info(g, "bench stamp: frame");
-    TessellateInput tin;
-    tin.positions = GP.data();
-    tin.vertex_count = GP.size() / 3;
-    tin.indices = GI.data();
-    tin.index_count = GI.size();
-    TessellateOptions to;
-    to.surface.scheme = SubdivisionScheme::bilinear;
-    to.rates.uniform = a.quick ? 2 : 6;
-    TessellateOutput tess;
-    require_ok(tessellate(tess, tin, to), "ground.glb");
+// ---- 4. A frame: 256 walkers stamped + rim + re-displacement, against re-displacing the whole ground --------------
+// Prints the table, adds results["frame"].
+void bench_walker_frame(const Args& a, const DemoGround& d, bool text, nlohmann::json& J) {
+    const int repeat = a.repeat;
+    const TessellateOutput tess = tessellate_ground(d, a.quick ? 2 : 6);
     Table fr({"frame", "ground tris", "colliders", "dirty rects", "points moved", "stamp ms", "rim+update ms", "redisplace ms", "frame ms",
               "full redisplace ms", "frame/full"});
     for (bool rim : {false, true}) {
@@ -333,9 +364,10 @@ static nlohmann::json run_bench_stamp(const Args& a, const GlobalFlags& g, bool 
         fo.texel = 0.02;
         if (rim) fo.rim_width = 0.06;
         SnowField f;
-        require_ok(f.create(GP.data(), GP.size() / 3, GI.data(), GI.size(), fo), "ground.glb");
+        require_ok(f.create(d.P.data(), d.P.size() / 3, d.I.data(), d.I.size(), fo), "ground.glb");
         DisplacedGround dg;
-        require_ok(dg.prepare(tess.positions.data(), tess.positions.size() / 3, tess.indices.data(), tess.indices.size(), f.frame()), "ground");
+        require_ok(dg.prepare(tess.positions.data(), tess.positions.size() / 3, tess.indices.data(), tess.indices.size(), f.frame()),
+                   "ground");
         std::vector<float> pos(tess.positions.size()), nor(tess.positions.size());
         f.update();
         const double full_s = median_seconds(repeat, [&] { dg.displace_all(f.heightmap(), pos.data(), nor.data()); });
@@ -348,7 +380,7 @@ static nlohmann::json run_bench_stamp(const Args& a, const GlobalFlags& g, bool 
         for (size_t i = 0; i < nc; ++i) pts[3 * i] = U(rng), pts[3 * i + 1] = 10, pts[3 * i + 2] = U(rng);
         Collider ball;
         ball.shape = ColliderShape::sphere, ball.radius = 0.1;
-        const Collider& foot = demo.colliders[0];
+        const Collider& foot = d.demo.colliders[0];
         double stamp_ms = 0, update_ms = 0, redisp_ms = 0, frame_ms = 0;
         size_t moved = 0, rects = 0;
         const int frames = a.quick ? 2 : 5;
@@ -392,41 +424,62 @@ static nlohmann::json run_bench_stamp(const Args& a, const GlobalFlags& g, bool 
                     a.quick ? 2 : 5);
         fr.print();
     }
+}
 
-    // ---- 5. Displacement + normals -----------------------------------------------------------------------------
-    info(g, "bench stamp: displacement");
-    {
-        SnowField f;
-        require_ok(f.create(GP.data(), GP.size() / 3, GI.data(), GI.size(), so), "ground.glb");
-        require_ok(f.add_colliders(demo), "colliders");
-        f.update();
-        Table dt({"mesh", "vertices", "welded", "prepare ms", "displace+normals ms", "Mvertices/s", "mesh-lib normals ms", "ratio"});
-        for (int rate : a.quick ? std::vector<int>{2} : std::vector<int>{4, 8}) {
-            to.rates.uniform = rate;
-            TessellateOutput big;
-            require_ok(tessellate(big, tin, to), "ground.glb");
-            const size_t V = big.positions.size() / 3;
-            DisplacedGround dg;
-            const double prep = median_seconds(1, [&] {
-                require_ok(dg.prepare(big.positions.data(), V, big.indices.data(), big.indices.size(), f.frame()), "ground");
-            });
-            std::vector<float> pos(big.positions.size()), nor(big.positions.size()), ref(big.positions.size());
-            const double disp = median_seconds(repeat, [&] { dg.displace_all(f.heightmap(), pos.data(), nor.data()); });
-            const double lib = median_seconds(repeat, [&] {
-                compute_vertex_normals(ref.data(), pos.data(), V, big.indices.data(), big.indices.size());
-                do_not_optimize(ref.data());
-            });
-            dt.add({"ground.glb x" + std::to_string(rate), std::to_string(V), std::to_string(dg.welded_count()), fmt(prep * 1e3, 1),
-                    fmt(disp * 1e3, 2), fmt(double(V) / disp / 1e6, 2), fmt(lib * 1e3, 2), fmt(disp / lib, 2)});
-            J["displace"].push_back({{"vertices", V}, {"prepare_s", prep}, {"displace_s", disp}, {"mesh_normals_s", lib}});
-        }
-        if (text) {
-            std::printf("\n5. displacement + welded normals (DisplacedGround::displace_all) of ground.glb uniformly tessellated, by the demo\n"
-                        "heightmap; baseline: furrow::compute_vertex_normals alone on the same mesh (normals only, no displacement).\n");
-            dt.print();
-        }
+// ---- 5. Displacement + normals, against the mesh library's normals ------------------------------------------------
+// Prints the table, adds results["displace"].
+void bench_displacement(const Args& a, const DemoGround& d, bool text, nlohmann::json& J) {
+    const int repeat = a.repeat;
+    SnowOptions so;
+    so.texel = 0.02;
+    SnowField f;
+    require_ok(f.create(d.P.data(), d.P.size() / 3, d.I.data(), d.I.size(), so), "ground.glb");
+    require_ok(f.add_colliders(d.demo), "colliders");
+    f.update();
+    Table dt({"mesh", "vertices", "welded", "prepare ms", "displace+normals ms", "Mvertices/s", "mesh-lib normals ms", "ratio"});
+    for (int rate : a.quick ? std::vector<int>{2} : std::vector<int>{4, 8}) {
+        const TessellateOutput big = tessellate_ground(d, rate);
+        const size_t V = big.positions.size() / 3;
+        DisplacedGround dg;
+        const double prep = median_seconds(1, [&] {
+            require_ok(dg.prepare(big.positions.data(), V, big.indices.data(), big.indices.size(), f.frame()), "ground");
+        });
+        std::vector<float> pos(big.positions.size()), nor(big.positions.size()), ref(big.positions.size());
+        const double disp = median_seconds(repeat, [&] { dg.displace_all(f.heightmap(), pos.data(), nor.data()); });
+        const double lib = median_seconds(repeat, [&] {
+            compute_vertex_normals(ref.data(), pos.data(), V, big.indices.data(), big.indices.size());
+            do_not_optimize(ref.data());
+        });
+        dt.add({"ground.glb x" + std::to_string(rate), std::to_string(V), std::to_string(dg.welded_count()), fmt(prep * 1e3, 1),
+                fmt(disp * 1e3, 2), fmt(double(V) / disp / 1e6, 2), fmt(lib * 1e3, 2), fmt(disp / lib, 2)});
+        J["displace"].push_back({{"vertices", V}, {"prepare_s", prep}, {"displace_s", disp}, {"mesh_normals_s", lib}});
     }
-    return {{"bench", "stamp"}, {"repeat", repeat}, {"results", J}, {"plot", plot_json("max deviation (mm)", points)}};
+    if (text) {
+        std::printf("\n5. displacement + welded normals (DisplacedGround::displace_all) of ground.glb uniformly tessellated, "
+                    "by the demo\nheightmap; baseline: furrow::compute_vertex_normals alone on the same mesh (normals only, no "
+                    "displacement).\n");
+        dt.print();
+    }
+}
+
+} // namespace
+
+// The benchmark as the list of its stages, in the order of their tables; each stage prints its table (when
+// `tables`) and adds its rows to the results.
+static nlohmann::json run_bench_stamp(const Args& a, const GlobalFlags& g, bool tables) {
+    nlohmann::json J;
+    info(g, "bench stamp: analytic oracle");
+    const std::vector<PlotPoint> points = bench_imprint_accuracy(a, tables, J);
+    info(g, "bench stamp: contact rays");
+    bench_contact_rays(a, g, tables, J);
+    info(g, "bench stamp: stamps");
+    const DemoGround ground = load_demo_ground();
+    bench_stamp_throughput(a, ground, tables, J);
+    info(g, "bench stamp: frame");
+    bench_walker_frame(a, ground, tables, J);
+    info(g, "bench stamp: displacement");
+    bench_displacement(a, ground, tables, J);
+    return {{"bench", "stamp"}, {"repeat", a.repeat}, {"results", J}, {"plot", plot_json("max deviation (mm)", points)}};
 }
 
 nlohmann::json bench_stamp_default(const BenchRun& r, const GlobalFlags& g) {
