@@ -2,7 +2,8 @@
 // bookshelf sits where the shelf meets a wall) interpolates their zero length over its whole area, though fur
 // could grow in its middle. Such faces are refined before any shell is emitted, in rounds:
 //   1. mark: a triangle is *starved* when its corners grow less than 0.8 of the fur asked there, or *uneven*
-//      when their lengths differ by more than half of it (the clamp varies strongly across the face), and its
+//      when the fractions of it they keep differ by more than half (the clamp varies strongly across the
+//      face; a fur mask's own variation does not count), and its
 //      longest edge is longer than twice the fur (finer than the fur buys nothing: the clamp's own reach);
 //   2. split: the longest edge of every marked triangle is bisected in every triangle that has it (longest-
 //      edge bisection: M.-C. Rivara, "Mesh refinement processes based on the generalized bisection of
@@ -102,13 +103,18 @@ std::vector<int> mark(const Primitive& p, const std::vector<uint32_t>& tris, con
     std::vector<int> split(T, -1);
     for (size_t t = 0; t < T; ++t) {
         const uint32_t* c = &tris[3 * t];
+        // What the clamps left of the fur asked at each corner (a mask's own variation is not a clamp: a
+        // triangle across a mask edge is neither starved nor uneven). Bald corners (mask 0) do not count.
         double asked = 0, lo = INFINITY, hi = 0;
         for (int k = 0; k < 3; ++k) {
-            asked = std::max(asked, double(frame.requested[c[k]]));
-            lo = std::min(lo, double(frame.length[c[k]]));
-            hi = std::max(hi, double(frame.length[c[k]]));
+            const double want = frame.requested[c[k]];
+            if (!(want > 0)) continue;
+            asked = std::max(asked, want);
+            const double kept = std::min(1.0, double(frame.length[c[k]]) / want);
+            lo = std::min(lo, kept);
+            hi = std::max(hi, kept);
         }
-        const bool uneven = hi - lo > 0.5 * asked, starved = hi < 0.8 * asked;
+        const bool uneven = hi - lo > 0.5, starved = hi < 0.8;
         // A starved triangle is a probe: below a probe that found no room (blocked), it is left alone. An
         // uneven one holds a transition, refined until it is as narrow as the fur.
         if (!(asked > 0) || !(uneven || (starved && !blocked[t]))) continue;

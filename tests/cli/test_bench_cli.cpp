@@ -103,10 +103,11 @@ TEST(bench_cli, ShellsAndRenderPlotPoints) {
     EXPECT_EQ(j["plot"]["points"][0]["error"].get<double>(), j["rows"][0]["max_relative_error"].get<double>());
     // Shell faces at their height where not clamped (measured at the faces' centroids: mean 0.00125, worst
     // 0.225 on the creature, where the distance to the nearest base point is not the height over the face
-    // beneath; 0.312 since faces starved at the legs' concave creases are refined: their small faces beside
-    // the crease have the crease's other side nearer than their own base face).
+    // beneath). It was 0.312-0.425 while the fur mask's own edges made faces "uneven" and refined them (the
+    // creature grew from 16k to 75k base triangles, and its setup from 60 ms to 3.6 s).
     EXPECT_LT(j["rows"][0]["mean_relative_error"].get<double>(), 0.005);
-    EXPECT_LT(j["rows"][0]["max_relative_error"].get<double>(), 0.35);
+    EXPECT_LT(j["rows"][0]["max_relative_error"].get<double>(), 0.25);
+    EXPECT_EQ(j["rows"][0]["base_triangles"].get<int>(), 16128);
 
     r = run_furrow({"bench", "render", creature, "--layers", "0", "--repeat", "1", "--json"});
     ASSERT_EQ(r.exit_code, 0) << r.err;
