@@ -50,7 +50,7 @@ void register_bench(CLI::App& app, GlobalFlags& g) {
     CLI::App* bench = app.add_subcommand("bench", "Benchmarks: time against an error measure and an in-run baseline "
                                                   "(no tool: all of them)");
     bench->require_subcommand(0, 1);
-    bench->add_flag("--quick", a->run.quick, "Fewer inputs and settings (bundled models only; a few minutes)");
+    bench->add_flag("--quick", a->run.quick, "Fewer inputs and settings (bundled models only; under a minute)");
     bench->add_option("--repeat", a->run.repeat, "Runs per measurement; the median is reported (default: each benchmark's own)")
         ->check(CLI::Range(1, 1000));
     bench->add_option("--only", a->only, "Run only these benchmarks (io render shells tessellate stamp)")->delimiter(',');
