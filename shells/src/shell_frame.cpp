@@ -126,24 +126,23 @@ Status validate(const ShellOptions& o) {
     return Status::success();
 }
 
-Status compute_shell_frame(ShellFrame& out, const float* positions, size_t vertex_count, const uint32_t* indices,
-                           size_t index_count, const float* mask, const float* comb, const ShellOptions& o) {
-    out = ShellFrame{};
-    if (Status s = validate(o); !s.ok()) return s;
-    if (index_count % 3 != 0) return Status::error(StatusCode::invalid_argument, "index count is not a multiple of 3");
-    if (vertex_count > 0 && !positions) return Status::error(StatusCode::invalid_argument, "no positions");
-    for (size_t i = 0; i < index_count; ++i)
-        if (indices[i] >= vertex_count)
-            return Status::error(StatusCode::invalid_argument, "index " + std::to_string(indices[i]) + " out of range");
-    const size_t n = vertex_count;
-    out.direction.assign(3 * n, 0.0f);
-    out.length.assign(n, 0.0f);
-    out.requested.assign(n, 0.0f);
-    out.lean.assign(3 * n, 0.0f);
-    out.sag.assign(3 * n, 0.0f);
-    out.flags.assign(n, 0);
-    if (n == 0) return Status::success();
+namespace {
 
+// The welded surface the frame is computed on: positions welded exactly (ids in order of first appearance),
+// the valid faces with their unit normals and corner angles (a degenerate face, by the kernel's rule, has
+// none), and vertex -> faces in ascending face order (a fixed summation order).
+struct WeldedSurface {
+    std::vector<uint32_t> wid; // vertex -> welded id
+    size_t W = 0, T = 0;       // welded vertices, valid faces
+    std::vector<V3> P;
+    std::vector<std::array<uint32_t, 3>> tri;
+    std::vector<V3> fn;
+    std::vector<std::array<double, 3>> angle;
+    std::vector<uint32_t> start, vf; // CSR: faces of welded vertex w are vf[start[w] .. start[w + 1])
+    int corner(size_t f, uint32_t v) const { return tri[f][0] == v ? 0 : tri[f][1] == v ? 1 : 2; }
+};
+
+WeldedSurface welded_surface(const float* positions, size_t n, const uint32_t* indices, size_t index_count) {
     // --- weld by exact position; welded ids in order of first appearance
     std::vector<uint32_t> remap(n);
     weld_positions(remap.data(), positions, n);
@@ -151,7 +150,6 @@ Status compute_shell_frame(ShellFrame& out, const float* positions, size_t verte
     const std::vector<uint32_t>& wid = welded.of_vertex;
     const std::vector<uint32_t>& rep = welded.first; // welded id -> first vertex
     const size_t W = rep.size();
-    out.welded_vertices = W;
     std::vector<V3> P(W);
     std::vector<uint8_t> finite(W, 1);
     for (size_t w = 0; w < W; ++w) {
@@ -190,16 +188,42 @@ Status compute_shell_frame(ShellFrame& out, const float* positions, size_t verte
         for (size_t f = 0; f < T; ++f)
             for (uint32_t v : tri[f]) vf[fill[v]++] = uint32_t(f);
     }
-    auto corner = [&](size_t f, uint32_t v) { return tri[f][0] == v ? 0 : tri[f][1] == v ? 1 : 2; };
+    WeldedSurface s;
+    s.wid = wid;
+    s.W = W, s.T = T;
+    s.P = std::move(P), s.tri = std::move(tri), s.fn = std::move(fn), s.angle = std::move(angle);
+    s.start = std::move(start), s.vf = std::move(vf);
+    return s;
+}
 
-    // --- mask (max over copies) and comb (mean over copies)
-    std::vector<double> m(W, mask ? 0.0 : 1.0);
+// The frame per welded vertex as it is grown and clamped.
+struct Growth {
+    std::vector<double> m;  // mask (max over copies), 1 without one
+    std::vector<V3> combw;  // comb (mean over copies); empty without one
+    std::vector<V3> D, lean, sag;
+    std::vector<double> H, even_factor;
+    std::vector<uint8_t> flags;
+    // Where a strand of unit length reaches at height fraction s (comb lean and droop bend included).
+    V3 chord(size_t w, double s) const {
+        const double d[3] = {D[w].x, D[w].y, D[w].z}, l[3] = {lean[w].x, lean[w].y, lean[w].z}, g3[3] = {sag[w].x, sag[w].y, sag[w].z};
+        const auto c = detail::strand_offset(d, l, g3, s);
+        return V3{c[0], c[1], c[2]};
+    }
+};
+
+// The mask (max over the copies of a position: a seam never shortens the furrier side) and the comb (mean
+// over the copies) per welded vertex.
+void reconcile_mask_and_comb(Growth& gr, const WeldedSurface& s, size_t n, const float* mask, const float* comb) {
+    const std::vector<uint32_t>& wid = s.wid;
+    const size_t W = s.W;
+    std::vector<double>& m = gr.m;
+    std::vector<V3>& combw = gr.combw;
+    m.assign(W, mask ? 0.0 : 1.0);
     if (mask)
         for (size_t v = 0; v < n; ++v) {
             double x = std::isfinite(mask[v]) ? std::clamp(double(mask[v]), 0.0, 1.0) : 0.0;
             m[wid[v]] = std::max(m[wid[v]], x);
         }
-    std::vector<V3> combw;
     if (comb) {
         combw.assign(W, V3{});
         std::vector<uint32_t> copies(W, 0);
@@ -211,26 +235,42 @@ Status compute_shell_frame(ShellFrame& out, const float* positions, size_t verte
         }
         for (size_t w = 0; w < W; ++w) combw[w] = (1.0 / std::max<uint32_t>(copies[w], 1)) * combw[w];
     }
+}
 
-    // --- direction, even-thickness factor, initial length, lean and sag per welded vertex
+// Direction (angle-weighted pseudo-normal), even-thickness factor, initial length, lean and sag per welded
+// vertex, before any clamp.
+void initial_growth(Growth& gr, const WeldedSurface& s, const ShellOptions& o) {
+    const size_t W = s.W;
+    const auto& start = s.start;
+    const auto& vf = s.vf;
+    const auto& angle = s.angle;
+    const auto& fn = s.fn;
+    const auto& m = gr.m;
+    const auto& combw = gr.combw;
+    auto& D = gr.D;
+    auto& lean = gr.lean;
+    auto& sag = gr.sag;
+    auto& H = gr.H;
+    auto& even_factor = gr.even_factor;
+    auto& flags = gr.flags;
     V3 g{o.gravity[0], o.gravity[1], o.gravity[2]};
     if (norm(g) > 0) g = (1.0 / norm(g)) * g;
-    std::vector<V3> D(W), lean(W), sag(W);
-    std::vector<double> H(W, 0.0), even_factor(W, 1.0);
-    std::vector<uint8_t> flags(W, 0);
+    D.assign(W, V3{}), lean.assign(W, V3{}), sag.assign(W, V3{});
+    H.assign(W, 0.0), even_factor.assign(W, 1.0);
+    flags.assign(W, 0);
     const double cos_floor = 1.0 / o.max_even_thickness;
     parallel(W, 1024, [&](size_t w) {
-        V3 s{};
+        V3 sum{};
         for (uint32_t i = start[w]; i < start[w + 1]; ++i) {
             size_t f = vf[i];
-            s = s + angle[f][corner(f, uint32_t(w))] * fn[f];
+            sum = sum + angle[f][s.corner(f, uint32_t(w))] * fn[f];
         }
-        double len = norm(s);
+        double len = norm(sum);
         if (!(len > 0) || !std::isfinite(len)) {
             flags[w] |= clamp_no_normal;
             return;
         }
-        V3 d = (1.0 / len) * s;
+        V3 d = (1.0 / len) * sum;
         D[w] = d;
         // Even thickness (Solidify's): the angle-weighted mean of 1/cos between d and the incident faces'
         // normals, so that the faces' planes move by the requested length: at creases and corners, concave
@@ -240,7 +280,7 @@ Status compute_shell_frame(ShellFrame& out, const float* positions, size_t verte
         double inv_cos = 0, weight = 0;
         for (uint32_t i = start[w]; i < start[w + 1]; ++i) {
             const size_t f = vf[i];
-            const double a = angle[f][corner(f, uint32_t(w))], c = std::abs(dot(d, fn[f]));
+            const double a = angle[f][s.corner(f, uint32_t(w))], c = std::abs(dot(d, fn[f]));
             inv_cos += a * (c > cos_floor ? 1.0 / c : o.max_even_thickness);
             weight += a;
         }
@@ -262,7 +302,7 @@ Status compute_shell_frame(ShellFrame& out, const float* positions, size_t verte
                 }
             return v;
         };
-        if (comb) lean[w] = o.comb_strength * along_surface(combw[w]);
+        if (!combw.empty()) lean[w] = o.comb_strength * along_surface(combw[w]);
         // Droop: the tip's bend angle θ_tip = droop/4 · 70° × (how much gravity lies along the surface), toward
         // gravity's surface direction (detail::bend_integrals): droop 4 hangs a wall's tips 20° short of
         // straight down. A stack of shells cannot show a strand bent past its surface's tangent plane (the
@@ -270,101 +310,102 @@ Status compute_shell_frame(ShellFrame& out, const float* positions, size_t verte
         // the bend stays short of 90°.
         if (o.droop > 0) sag[w] = (o.droop / 4 * kMaxDroopRadians) * along_surface(g);
     });
+}
 
-    // Where a strand of unit length reaches at height fraction s (comb lean and droop bend included).
-    auto chord = [&](size_t w, double s) {
-        const double d[3] = {D[w].x, D[w].y, D[w].z}, l[3] = {lean[w].x, lean[w].y, lean[w].z}, g3[3] = {sag[w].x, sag[w].y, sag[w].z};
-        const auto c = detail::strand_offset(d, l, g3, s);
-        return V3{c[0], c[1], c[2]};
-    };
-
-    // One hierarchy over the welded triangles, built once, serves every clamp query and the final
-    // intersection test: building one per query kind cost as much as the queries on small meshes.
-    std::vector<double> base_pts(3 * W);
-    for (size_t w = 0; w < W; ++w) base_pts[3 * w] = P[w].x, base_pts[3 * w + 1] = P[w].y, base_pts[3 * w + 2] = P[w].z;
-    std::unique_ptr<detail::SurfaceIndex> index;
-    if (T > 0) index = std::make_unique<detail::SurfaceIndex>(base_pts, tri);
-
-    // --- feature clamp: rays along the direction, and along the bent tip when comb/droop bend it
-    if (o.feature_clamp && T > 0) {
-        std::vector<uint32_t> qv;
-        std::vector<double> qd;
-        std::vector<double> qneed; // length of the path per unit H along this ray
-        for (size_t w = 0; w < W; ++w) {
-            if (!(H[w] > 0)) continue;
+// Feature clamp: rays along the direction, and along the bent tip when comb or droop bend it (free space in
+// front), the medial axis (two walls at an inner corner), and the bend limit (a bent tip never nearer to
+// the mesh than a straight strand at the same height).
+void feature_clamp(Growth& gr, const WeldedSurface& s, const detail::SurfaceIndex& index, const ShellOptions& o) {
+    const size_t W = s.W;
+    const auto& start = s.start;
+    const auto& vf = s.vf;
+    const auto& D = gr.D;
+    auto& lean = gr.lean;
+    auto& sag = gr.sag;
+    auto& H = gr.H;
+    auto& flags = gr.flags;
+    std::vector<uint32_t> qv;
+    std::vector<double> qd;
+    std::vector<double> qneed; // length of the path per unit H along this ray
+    for (size_t w = 0; w < W; ++w) {
+        if (!(H[w] > 0)) continue;
+        qv.push_back(uint32_t(w));
+        qd.insert(qd.end(), {D[w].x, D[w].y, D[w].z});
+        qneed.push_back(1.0);
+        V3 tip = gr.chord(w, 1.0);
+        if (norm(lean[w]) + norm(sag[w]) > 1e-9) {
+            double tl = norm(tip);
             qv.push_back(uint32_t(w));
-            qd.insert(qd.end(), {D[w].x, D[w].y, D[w].z});
-            qneed.push_back(1.0);
-            V3 tip = chord(w, 1.0);
-            if (norm(lean[w]) + norm(sag[w]) > 1e-9) {
-                double tl = norm(tip);
-                qv.push_back(uint32_t(w));
-                qd.insert(qd.end(), {tip.x / tl, tip.y / tl, tip.z / tl});
-                qneed.push_back(tl);
-            }
+            qd.insert(qd.end(), {tip.x / tl, tip.y / tl, tip.z / tl});
+            qneed.push_back(tl);
         }
-        std::vector<double> dist(qv.size());
-        detail::free_distances(dist.data(), *index, qv.data(), qd.data(), qv.size());
-        for (size_t q = 0; q < qv.size(); ++q) {
-            uint32_t w = qv[q];
-            double allowed = o.safe_fraction * dist[q] / qneed[q];
-            if (allowed < H[w]) {
-                H[w] = allowed;
-                flags[w] |= clamp_ray;
-            }
-        }
-        // The ray only sees what lies straight ahead. Two walls meeting at an inner corner never cross the
-        // other's ray, yet their fur meets on the bisector: keep each offset point nearer to its own
-        // vertex's faces than to anything else (the medial axis), with the same safety fraction (x2: the
-        // medial axis is already half of the free distance between two facing surfaces).
-        qv.clear();
-        qd.clear();
-        std::vector<double> ql;
-        for (size_t w = 0; w < W; ++w) {
-            if (!(H[w] > 0)) continue;
-            qv.push_back(uint32_t(w));
-            qd.insert(qd.end(), {D[w].x, D[w].y, D[w].z});
-            ql.push_back(H[w] / (2.0 * o.safe_fraction));
-        }
-        // 2 % slack: on a curved surface the offset point's nearest point drifts off the 1-ring a little.
-        std::vector<double> owned(qv.size());
-        detail::owned_lengths(owned.data(), *index, start.data(), vf.data(), qv.data(), qd.data(), ql.data(), 0.98, qv.size());
-        for (size_t q = 0; q < qv.size(); ++q) {
-            uint32_t w = qv[q];
-            double allowed = 2.0 * o.safe_fraction * owned[q];
-            if (allowed < H[w] * (1 - 1e-12)) {
-                H[w] = allowed;
-                flags[w] |= clamp_ray;
-            }
-        }
-        // A sideways bend (comb, droop) must not carry a tip toward another part of the surface (a wall's
-        // drooping fur into the floor's, a plate's rim into the next plate's): a bent tip may never be nearer
-        // to the mesh than a straight strand's point at the same height (its part along D) would be; over a
-        // flat or convex surface it keeps or gains clearance. Where it would, the bend (not the length) is
-        // scaled down.
-        qv.clear();
-        std::vector<double> straight, bent;
-        for (size_t w = 0; w < W; ++w) {
-            if (!(H[w] > 0) || norm(lean[w]) + norm(sag[w]) <= 1e-9) continue;
-            qv.push_back(uint32_t(w));
-            const V3 b = H[w] * chord(w, 1.0), a = dot(b, D[w]) * D[w];
-            straight.insert(straight.end(), {a.x, a.y, a.z});
-            bent.insert(bent.end(), {b.x, b.y, b.z});
-        }
-        std::vector<double> sigma(qv.size());
-        detail::bend_limits(sigma.data(), *index, start.data(), vf.data(), qv.data(), straight.data(), bent.data(), 0.995, qv.size());
-        for (size_t q = 0; q < qv.size(); ++q)
-            if (sigma[q] < 1.0) {
-                const uint32_t w = qv[q];
-                lean[w] = (0.9 * sigma[q]) * lean[w];
-                sag[w] = (0.9 * sigma[q]) * sag[w];
-                flags[w] |= clamp_ray;
-            }
     }
+    std::vector<double> dist(qv.size());
+    detail::free_distances(dist.data(), index, qv.data(), qd.data(), qv.size());
+    for (size_t q = 0; q < qv.size(); ++q) {
+        uint32_t w = qv[q];
+        double allowed = o.safe_fraction * dist[q] / qneed[q];
+        if (allowed < H[w]) {
+            H[w] = allowed;
+            flags[w] |= clamp_ray;
+        }
+    }
+    // The ray only sees what lies straight ahead. Two walls meeting at an inner corner never cross the
+    // other's ray, yet their fur meets on the bisector: keep each offset point nearer to its own
+    // vertex's faces than to anything else (the medial axis), with the same safety fraction (x2: the
+    // medial axis is already half of the free distance between two facing surfaces).
+    qv.clear();
+    qd.clear();
+    std::vector<double> ql;
+    for (size_t w = 0; w < W; ++w) {
+        if (!(H[w] > 0)) continue;
+        qv.push_back(uint32_t(w));
+        qd.insert(qd.end(), {D[w].x, D[w].y, D[w].z});
+        ql.push_back(H[w] / (2.0 * o.safe_fraction));
+    }
+    // 2 % slack: on a curved surface the offset point's nearest point drifts off the 1-ring a little.
+    std::vector<double> owned(qv.size());
+    detail::owned_lengths(owned.data(), index, start.data(), vf.data(), qv.data(), qd.data(), ql.data(), 0.98, qv.size());
+    for (size_t q = 0; q < qv.size(); ++q) {
+        uint32_t w = qv[q];
+        double allowed = 2.0 * o.safe_fraction * owned[q];
+        if (allowed < H[w] * (1 - 1e-12)) {
+            H[w] = allowed;
+            flags[w] |= clamp_ray;
+        }
+    }
+    // A sideways bend (comb, droop) must not carry a tip toward another part of the surface (a wall's
+    // drooping fur into the floor's, a plate's rim into the next plate's): a bent tip may never be nearer
+    // to the mesh than a straight strand's point at the same height (its part along D) would be; over a
+    // flat or convex surface it keeps or gains clearance. Where it would, the bend (not the length) is
+    // scaled down.
+    qv.clear();
+    std::vector<double> straight, bent;
+    for (size_t w = 0; w < W; ++w) {
+        if (!(H[w] > 0) || norm(lean[w]) + norm(sag[w]) <= 1e-9) continue;
+        qv.push_back(uint32_t(w));
+        const V3 b = H[w] * gr.chord(w, 1.0), a = dot(b, D[w]) * D[w];
+        straight.insert(straight.end(), {a.x, a.y, a.z});
+        bent.insert(bent.end(), {b.x, b.y, b.z});
+    }
+    std::vector<double> sigma(qv.size());
+    detail::bend_limits(sigma.data(), index, start.data(), vf.data(), qv.data(), straight.data(), bent.data(), 0.995, qv.size());
+    for (size_t q = 0; q < qv.size(); ++q)
+        if (sigma[q] < 1.0) {
+            const uint32_t w = qv[q];
+            lean[w] = (0.9 * sigma[q]) * lean[w];
+            sag[w] = (0.9 * sigma[q]) * sag[w];
+            flags[w] |= clamp_ray;
+        }
+}
 
-    // --- fold clamp (Jacobi iterations of per-triangle limits)
-    if (T > 0) {
-        std::vector<double> ts; // layer fractions t = i/N_k of every LOD level the shells will be made for
+// Fold clamp (Jacobi iterations of per-triangle limits): at concave edges and corners the offsets of
+// neighbouring vertices converge and an offset triangle turns over, or the sweep of its shells stops being
+// one-to-one; the largest common scale of its corners' offsets that avoids it limits them.
+class FoldClamp {
+public:
+    FoldClamp(Growth& gr, const WeldedSurface& s, const ShellOptions& o) : gr(gr), s(s), o(o), limit(s.T, 1.0), listed(s.T, 0) {
+        // ts: layer fractions t = i/N_k of every LOD level the shells will be made for
         const bool curved = o.droop > 0;
         if (curved) {
             std::set<std::pair<int, int>> seen; // reduced fractions, so that 1/2 and 2/4 count once
@@ -379,126 +420,167 @@ Status compute_shell_frame(ShellFrame& out, const float* positions, size_t verte
         } else {
             ts.push_back(1.0); // straight paths: scaling the tip offset by k sweeps every layer
         }
-        auto path = [&](size_t w, double t) {
-            return H[w] * chord(w, o.spacing_power == 1.0 ? t : std::pow(t, o.spacing_power));
-        };
-        // Direction in which the layer at t moves as t grows (d path / dt): the sweep from shell to shell,
-        // along the strand's tangent (D turned toward ĝ by θ_tip·s²) plus the lean.
-        auto velocity = [&](size_t w, double t) {
-            const double s = o.spacing_power == 1.0 ? t : std::pow(t, o.spacing_power);
-            const double ds = o.spacing_power == 1.0 ? 1.0 : o.spacing_power * std::pow(t, o.spacing_power - 1);
-            const double theta = norm(sag[w]), th = theta * s * s;
-            const V3 tangent = theta > 0 ? std::cos(th) * D[w] + (std::sin(th) / theta) * sag[w] : D[w];
-            return (H[w] * ds) * (tangent + lean[w]);
-        };
-        std::vector<double> limit(T, 1.0);
-        std::vector<uint8_t> listed(T, 0); // fold_pass's scratch: all 0 between passes
-        const double r = o.min_area_ratio;
-        // `seed`: only triangles around these vertices can have changed (null: all of them). Each pass
-        // evaluates only the listed triangles (ascending): after the first pass they are the few around the
-        // vertices it shortened, and a pass over all T triangles and W vertices would cost more than they do.
-        auto fold_pass = [&](const std::vector<uint8_t>* seed) {
-            std::vector<uint32_t> faces, verts;
-            auto add_faces_of = [&](size_t w) {
-                for (uint32_t i = start[w]; i < start[w + 1]; ++i)
-                    if (!listed[vf[i]]) listed[vf[i]] = 1, faces.push_back(vf[i]);
-            };
-            if (!seed) {
-                faces.resize(T);
-                std::iota(faces.begin(), faces.end(), 0u);
-            } else {
-                for (size_t w = 0; w < W; ++w)
-                    if ((*seed)[w]) add_faces_of(w);
-                for (uint32_t f : faces) listed[f] = 0;
-                std::sort(faces.begin(), faces.end());
-            }
-            std::vector<double> scale;
-            for (int iteration = 0; iteration < 200 && !faces.empty(); ++iteration) {
-                parallel(faces.size(), 256, [&](size_t q) {
-                    const uint32_t f = faces[q];
-                    limit[f] = 1.0;
-                    const auto& t = tri[f];
-                    if (!(H[t[0]] > 0 || H[t[1]] > 0 || H[t[2]] > 0)) return;
-                    const V3 e1 = P[t[1]] - P[t[0]], e2 = P[t[2]] - P[t[0]];
-                    const V3 n0 = fn[f];
-                    const double a = dot(cross(e1, e2), n0);
-                    for (double tt : ts) {
-                        V3 u0 = path(t[0], tt), u1 = path(t[1], tt), u2 = path(t[2], tt);
-                        V3 d1 = u1 - u0, d2 = u2 - u0;
-                        const V3 nb = cross(e1, d2) + cross(d1, e2), nc = cross(d1, d2);
-                        double k = first_root_in_unit(a - r * a, dot(nb, n0), dot(nc, n0));
-                        // Shells of one triangle must not cross each other either: the sweep from layer to layer
-                        // is one-to-one while every corner keeps moving to the front side of the scaled triangle
-                        // (the Jacobian of (barycentrics, t) -> point is linear in the barycentrics).
-                        for (uint32_t j : t) {
-                            const V3 v = velocity(j, tt);
-                            const double a0 = dot(cross(e1, e2), v);
-                            if (a0 > 0) k = std::min(k, first_root_in_unit(a0 - kSweepRatio * a0, dot(nb, v), dot(nc, v)));
-                        }
-                        // A factor just under 1 is rounding: accept it rather than iterate forever.
-                        if (k < 1.0 - 1e-9) limit[f] = std::min(limit[f], k * 0.999);
-                    }
-                });
-                // The corners of limited triangles scale by the smallest limit around them (an unlisted
-                // triangle's limit is 1).
-                verts.clear();
-                for (uint32_t f : faces)
-                    if (limit[f] < 1.0)
-                        for (uint32_t w : tri[f]) verts.push_back(w);
-                if (verts.empty()) break;
-                std::sort(verts.begin(), verts.end());
-                verts.erase(std::unique(verts.begin(), verts.end()), verts.end());
-                scale.assign(verts.size(), 1.0);
-                parallel(verts.size(), 1024, [&](size_t q) {
-                    const uint32_t w = verts[q];
-                    for (uint32_t i = start[w]; i < start[w + 1]; ++i) scale[q] = std::min(scale[q], limit[vf[i]]);
-                });
-                for (uint32_t f : faces) limit[f] = 1.0;
-                // After many passes a stubborn configuration is resolved the blunt way: no fur there.
-                const bool last_resort = iteration >= 100;
-                faces.clear();
-                for (size_t q = 0; q < verts.size(); ++q) {
-                    const uint32_t w = verts[q];
-                    H[w] = last_resort ? 0.0 : H[w] * scale[q];
-                    flags[w] |= clamp_fold;
-                    add_faces_of(w);
-                }
-                for (uint32_t f : faces) listed[f] = 0;
-                std::sort(faces.begin(), faces.end());
-            }
-        };
-        fold_pass(nullptr);
+    }
+    // Where the layer at t sits (relative to the base point), and the direction in which it moves as t grows.
+    V3 path(size_t w, double t) const;
+    V3 velocity(size_t w, double t) const;
+    // One clamp pass. `seed`: only triangles around these vertices can have changed (null: all of them).
+    // Each pass evaluates only the listed triangles (ascending): after the first pass they are the few around
+    // the vertices it shortened, and a pass over all T triangles and W vertices would cost more than they do.
+    void pass(const std::vector<uint8_t>* seed);
 
-        // Verification: the local limits above do not see two distant parts of one shell meeting (both sides
-        // of a thin ear, fur across a crevice). Intersect the outermost shell with itself and with the base
-        // (exact predicates); shorten the fur at every vertex of an offending shell triangle and repeat.
-        std::vector<double> top(3 * W);
-        detail::CrossingTest crossing(*index);
-        std::vector<double> last_h(H);
-        std::vector<uint8_t> changed;
-        for (int round = 0; round < 8; ++round) {
-            std::vector<uint8_t> moving(W);
-            for (size_t w = 0; w < W; ++w) {
-                const V3 q = P[w] + path(w, 1.0);
-                top[3 * w] = q.x, top[3 * w + 1] = q.y, top[3 * w + 2] = q.z;
-                moving[w] = H[w] > 0;
-            }
-            std::vector<uint8_t> hit(W, 0);
-            if (crossing.run(hit.data(), top, moving, round ? &changed : nullptr) == 0) break;
-            for (size_t w = 0; w < W; ++w)
-                if (hit[w] && H[w] > 0) {
-                    H[w] = round < 6 ? 0.5 * H[w] : 0.0;
-                    flags[w] |= clamp_fold;
-                }
-            changed.assign(W, 0);
-            for (size_t w = 0; w < W; ++w) changed[w] = H[w] != last_h[w];
-            fold_pass(&changed);
-            for (size_t w = 0; w < W; ++w) changed[w] = H[w] != last_h[w];
-            last_h = H;
-        }
+private:
+    Growth& gr;
+    const WeldedSurface& s;
+    const ShellOptions& o;
+    std::vector<double> ts, limit;
+    std::vector<uint8_t> listed; // pass's scratch: all 0 between passes
+};
+
+V3 FoldClamp::path(size_t w, double t) const {
+    return gr.H[w] * gr.chord(w, o.spacing_power == 1.0 ? t : std::pow(t, o.spacing_power));
+}
+// Direction in which the layer at t moves as t grows (d path / dt): the sweep from shell to shell,
+// along the strand's tangent (D turned toward ĝ by θ_tip·s²) plus the lean.
+V3 FoldClamp::velocity(size_t w, double t) const {
+    const auto& D = gr.D;
+    const auto& lean = gr.lean;
+    const auto& sag = gr.sag;
+    const auto& H = gr.H;
+    const double s = o.spacing_power == 1.0 ? t : std::pow(t, o.spacing_power);
+    const double ds = o.spacing_power == 1.0 ? 1.0 : o.spacing_power * std::pow(t, o.spacing_power - 1);
+    const double theta = norm(sag[w]), th = theta * s * s;
+    const V3 tangent = theta > 0 ? std::cos(th) * D[w] + (std::sin(th) / theta) * sag[w] : D[w];
+    return (H[w] * ds) * (tangent + lean[w]);
     }
 
-    // --- copy back to every split copy
+void FoldClamp::pass(const std::vector<uint8_t>* seed) {
+    const size_t T = s.T, W = s.W;
+    const auto& start = s.start;
+    const auto& vf = s.vf;
+    const auto& tri = s.tri;
+    const auto& P = s.P;
+    const auto& fn = s.fn;
+    auto& H = gr.H;
+    auto& flags = gr.flags;
+    const double r = o.min_area_ratio;
+    auto path = [this](size_t w, double t) { return this->path(w, t); };
+    auto velocity = [this](size_t w, double t) { return this->velocity(w, t); };
+    std::vector<uint32_t> faces, verts;
+    auto add_faces_of = [&](size_t w) {
+        for (uint32_t i = start[w]; i < start[w + 1]; ++i)
+            if (!listed[vf[i]]) listed[vf[i]] = 1, faces.push_back(vf[i]);
+    };
+    if (!seed) {
+        faces.resize(T);
+        std::iota(faces.begin(), faces.end(), 0u);
+    } else {
+        for (size_t w = 0; w < W; ++w)
+            if ((*seed)[w]) add_faces_of(w);
+        for (uint32_t f : faces) listed[f] = 0;
+        std::sort(faces.begin(), faces.end());
+    }
+    std::vector<double> scale;
+    for (int iteration = 0; iteration < 200 && !faces.empty(); ++iteration) {
+        parallel(faces.size(), 256, [&](size_t q) {
+            const uint32_t f = faces[q];
+            limit[f] = 1.0;
+            const auto& t = tri[f];
+            if (!(H[t[0]] > 0 || H[t[1]] > 0 || H[t[2]] > 0)) return;
+            const V3 e1 = P[t[1]] - P[t[0]], e2 = P[t[2]] - P[t[0]];
+            const V3 n0 = fn[f];
+            const double a = dot(cross(e1, e2), n0);
+            for (double tt : ts) {
+                V3 u0 = path(t[0], tt), u1 = path(t[1], tt), u2 = path(t[2], tt);
+                V3 d1 = u1 - u0, d2 = u2 - u0;
+                const V3 nb = cross(e1, d2) + cross(d1, e2), nc = cross(d1, d2);
+                double k = first_root_in_unit(a - r * a, dot(nb, n0), dot(nc, n0));
+                // Shells of one triangle must not cross each other either: the sweep from layer to layer
+                // is one-to-one while every corner keeps moving to the front side of the scaled triangle
+                // (the Jacobian of (barycentrics, t) -> point is linear in the barycentrics).
+                for (uint32_t j : t) {
+                    const V3 v = velocity(j, tt);
+                    const double a0 = dot(cross(e1, e2), v);
+                    if (a0 > 0) k = std::min(k, first_root_in_unit(a0 - kSweepRatio * a0, dot(nb, v), dot(nc, v)));
+                }
+                // A factor just under 1 is rounding: accept it rather than iterate forever.
+                if (k < 1.0 - 1e-9) limit[f] = std::min(limit[f], k * 0.999);
+            }
+        });
+        // The corners of limited triangles scale by the smallest limit around them (an unlisted
+        // triangle's limit is 1).
+        verts.clear();
+        for (uint32_t f : faces)
+            if (limit[f] < 1.0)
+                for (uint32_t w : tri[f]) verts.push_back(w);
+        if (verts.empty()) break;
+        std::sort(verts.begin(), verts.end());
+        verts.erase(std::unique(verts.begin(), verts.end()), verts.end());
+        scale.assign(verts.size(), 1.0);
+        parallel(verts.size(), 1024, [&](size_t q) {
+            const uint32_t w = verts[q];
+            for (uint32_t i = start[w]; i < start[w + 1]; ++i) scale[q] = std::min(scale[q], limit[vf[i]]);
+        });
+        for (uint32_t f : faces) limit[f] = 1.0;
+        // After many passes a stubborn configuration is resolved the blunt way: no fur there.
+        const bool last_resort = iteration >= 100;
+        faces.clear();
+        for (size_t q = 0; q < verts.size(); ++q) {
+            const uint32_t w = verts[q];
+            H[w] = last_resort ? 0.0 : H[w] * scale[q];
+            flags[w] |= clamp_fold;
+            add_faces_of(w);
+        }
+        for (uint32_t f : faces) listed[f] = 0;
+        std::sort(faces.begin(), faces.end());
+    }
+}
+
+// Verification: the local limits of the fold clamp do not see two distant parts of one shell meeting (both
+// sides of a thin ear, fur across a crevice). The outermost shell is intersected with itself and with the base
+// (exact predicates); the fur at every vertex of an offending shell triangle is shortened, and the fold clamp
+// runs again around what changed, for up to 8 rounds.
+void verify_crossings(Growth& gr, const WeldedSurface& s, const detail::SurfaceIndex& index, FoldClamp& fold) {
+    const size_t W = s.W;
+    const auto& P = s.P;
+    auto& H = gr.H;
+    auto& flags = gr.flags;
+    std::vector<double> top(3 * W);
+    detail::CrossingTest crossing(index);
+    std::vector<double> last_h(H);
+    std::vector<uint8_t> changed;
+    for (int round = 0; round < 8; ++round) {
+        std::vector<uint8_t> moving(W);
+        for (size_t w = 0; w < W; ++w) {
+            const V3 q = P[w] + fold.path(w, 1.0);
+            top[3 * w] = q.x, top[3 * w + 1] = q.y, top[3 * w + 2] = q.z;
+            moving[w] = H[w] > 0;
+        }
+        std::vector<uint8_t> hit(W, 0);
+        if (crossing.run(hit.data(), top, moving, round ? &changed : nullptr) == 0) break;
+        for (size_t w = 0; w < W; ++w)
+            if (hit[w] && H[w] > 0) {
+                H[w] = round < 6 ? 0.5 * H[w] : 0.0;
+                flags[w] |= clamp_fold;
+            }
+        changed.assign(W, 0);
+        for (size_t w = 0; w < W; ++w) changed[w] = H[w] != last_h[w];
+        fold.pass(&changed);
+        for (size_t w = 0; w < W; ++w) changed[w] = H[w] != last_h[w];
+        last_h = H;
+    }
+}
+
+// The welded frame copied back to every split copy of a position, with the clamp counts.
+void copy_back(ShellFrame& out, const WeldedSurface& s, Growth& gr, const ShellOptions& o, size_t n) {
+    const size_t W = s.W;
+    const auto& wid = s.wid;
+    const auto& D = gr.D;
+    const auto& lean = gr.lean;
+    const auto& sag = gr.sag;
+    const auto& m = gr.m;
+    auto& H = gr.H;
+    auto& flags = gr.flags;
     for (size_t w = 0; w < W; ++w) {
         if (!(H[w] > 0) || !std::isfinite(H[w])) H[w] = 0;
         if (flags[w] & (clamp_ray | clamp_fold | clamp_even_cap)) {
@@ -518,6 +600,46 @@ Status compute_shell_frame(ShellFrame& out, const float* positions, size_t verte
         out.requested[v] = float(o.length * m[w]);
         out.flags[v] = flags[w];
     }
+}
+
+} // namespace
+
+Status compute_shell_frame(ShellFrame& out, const float* positions, size_t vertex_count, const uint32_t* indices,
+                           size_t index_count, const float* mask, const float* comb, const ShellOptions& o) {
+    out = ShellFrame{};
+    if (Status s = validate(o); !s.ok()) return s;
+    if (index_count % 3 != 0) return Status::error(StatusCode::invalid_argument, "index count is not a multiple of 3");
+    if (vertex_count > 0 && !positions) return Status::error(StatusCode::invalid_argument, "no positions");
+    for (size_t i = 0; i < index_count; ++i)
+        if (indices[i] >= vertex_count)
+            return Status::error(StatusCode::invalid_argument, "index " + std::to_string(indices[i]) + " out of range");
+    const size_t n = vertex_count;
+    out.direction.assign(3 * n, 0.0f);
+    out.length.assign(n, 0.0f);
+    out.requested.assign(n, 0.0f);
+    out.lean.assign(3 * n, 0.0f);
+    out.sag.assign(3 * n, 0.0f);
+    out.flags.assign(n, 0);
+    if (n == 0) return Status::success();
+
+
+    const WeldedSurface s = welded_surface(positions, n, indices, index_count);
+    out.welded_vertices = s.W;
+    Growth gr;
+    reconcile_mask_and_comb(gr, s, n, mask, comb);
+    initial_growth(gr, s, o);
+    if (s.T > 0) {
+        // One hierarchy over the welded triangles, built once, serves every clamp query and the final
+        // intersection test: building one per query kind cost as much as the queries on small meshes.
+        std::vector<double> base_pts(3 * s.W);
+        for (size_t w = 0; w < s.W; ++w) base_pts[3 * w] = s.P[w].x, base_pts[3 * w + 1] = s.P[w].y, base_pts[3 * w + 2] = s.P[w].z;
+        const detail::SurfaceIndex index(base_pts, s.tri);
+        if (o.feature_clamp) feature_clamp(gr, s, index, o);
+        FoldClamp fold(gr, s, o);
+        fold.pass(nullptr);
+        verify_crossings(gr, s, index, fold);
+    }
+    copy_back(out, s, gr, o, n);
     return Status::success();
 }
 
