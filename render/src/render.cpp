@@ -430,9 +430,8 @@ double ms_since(std::chrono::steady_clock::time_point t0) {
 
 } // namespace
 
-Status render_scene(RenderResult& out, const Scene& scene, const RenderOptions& o) {
-    auto t0 = std::chrono::steady_clock::now();
-    out = RenderResult{};
+// The options' documented ranges (invalid_argument).
+Status validate(const RenderOptions& o) {
     if (o.width < 1 || o.height < 1 || o.width > 16384 || o.height > 16384)
         return Status::error(StatusCode::invalid_argument, "image size " + std::to_string(o.width) + "x" +
                                                                std::to_string(o.height) + " is outside 1..16384");
@@ -447,20 +446,20 @@ Status render_scene(RenderResult& out, const Scene& scene, const RenderOptions& 
     bool camera_finite = std::isfinite(cam.ortho_height) && std::isfinite(cam.near_plane) && finite3(cam.up) &&
                          length(cam.up) > 0 && (!cam.eye || finite3(*cam.eye)) && (!cam.target || finite3(*cam.target));
     if (!camera_finite) return Status::error(StatusCode::invalid_argument, "camera values must be finite, up non-zero");
-    Vec3 light{o.light_direction[0], o.light_direction[1], o.light_direction[2]};
+    const Vec3 light{o.light_direction[0], o.light_direction[1], o.light_direction[2]};
     if (!finite3(light) || length(light) == 0)
         return Status::error(StatusCode::invalid_argument, "light direction must be finite and non-zero");
     if (o.mode == RenderMode::attribute && o.attribute.empty())
         return Status::error(StatusCode::invalid_argument, "attribute mode needs an attribute name");
+    return Status::success();
+}
 
-    // Reachable nodes, depth first from the roots (parentless nodes when the scene lists no roots).
+namespace {
+
+// Pass 1: world-space vertices of every triangle primitive the scene draws (nodes depth first), with the
+// triangle count in out.
+Status collect_instances(std::vector<Instance>& instances, RenderResult& out, const Scene& scene, const std::vector<Mat4>& world) {
     const std::vector<int> order = scene.drawn_nodes();
-    std::vector<Mat4> world = scene.world_matrices();
-    if (world.size() != scene.nodes.size())
-        return Status::error(StatusCode::invalid_input, "world matrices do not match the node count");
-
-    // Pass 1: world-space vertices of every triangle primitive.
-    std::vector<Instance> instances;
     for (int n : order) {
         const Node& node = scene.nodes[size_t(n)];
         if (node.mesh < 0) continue;
@@ -486,16 +485,13 @@ Status render_scene(RenderResult& out, const Scene& scene, const RenderOptions& 
     }
     if (instances.empty())
         return Status::error(StatusCode::invalid_input, "nothing to render: the scene has no triangles");
-    Vec3 lo{HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi{-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
-    for (const Instance& inst : instances)
-        for (int c = 0; c < 3; ++c) {
-            lo[size_t(c)] = std::min(lo[size_t(c)], inst.lo[size_t(c)]);
-            hi[size_t(c)] = std::max(hi[size_t(c)], inst.hi[size_t(c)]);
-        }
-    if (!(lo[0] <= hi[0]))
-        return Status::error(StatusCode::invalid_input, "nothing to render: no vertex position is finite");
+    if (instances.empty())
+        return Status::error(StatusCode::invalid_input, "nothing to render: the scene has no triangles");
+    return Status::success();
+}
 
-    // The attribute's range over everything drawn.
+// The attribute's range over everything drawn (attribute mode): into out.attribute_min/max.
+Status attribute_range(RenderResult& out, const std::vector<Instance>& instances, const RenderOptions& o) {
     float amin = HUGE_VALF, amax = -HUGE_VALF;
     if (o.mode == RenderMode::attribute) {
         bool any = false;
@@ -521,86 +517,95 @@ Status render_scene(RenderResult& out, const Scene& scene, const RenderOptions& 
         out.attribute_min = amin;
         out.attribute_max = amax;
     }
+    return Status::success();
+}
 
-    bool legend = o.mode == RenderMode::attribute && o.legend && o.width >= 64 && o.height >= 48;
-    View view;
-    int reserve = legend ? legend_width(o.height, amin, amax) : 0;
-    if (Status s = make_view(view, cam, lo, hi, o.width, o.height, reserve, out.warnings); !s.ok()) return s;
-
-    // Pass 2: clip space plus the attributes the pixel stage needs, one Draw per instance.
+// Shared by every draw of a frame: textures decoded once, warnings said once.
+struct DrawContext {
+    const Scene& scene;
+    const RenderOptions& o;
+    const View& view;
+    float amin, amax;
     std::map<int, std::unique_ptr<DecodedTexture>> textures;
     std::set<int> warned_images;
-    std::vector<Draw> draws(instances.size());
-    std::vector<double> sort_depth(instances.size());
     bool missing_attribute_warned = false;
-    Mat4 vp = view.view_proj;
-    for (size_t d = 0; d < instances.size(); ++d) {
-        Instance& inst = instances[d];
-        const Primitive& p = *inst.prim;
-        Draw& draw = draws[d];
-        Material m = p.material >= 0 ? scene.materials[size_t(p.material)] : Material{};
-        draw.base_color = m.base_color;
-        draw.emissive = m.emissive;
-        draw.alpha_mode = m.alpha_mode;
-        draw.alpha_cutoff = m.alpha_cutoff;
-        draw.double_sided = m.double_sided;
-        draw.flip_winding = inst.flip;
-        const std::vector<float>* uv = o.mode == RenderMode::uv ? &p.uv0 : nullptr;
-        if (m.base_color_texture.texture >= 0 && o.mode != RenderMode::uv) {
-            if (size_t(m.base_color_texture.texture) >= scene.textures.size())
-                return Status::error(StatusCode::invalid_input,
-                                     "material " + std::to_string(p.material) + ": texture out of range");
-            uv = m.base_color_texture.texcoord == 0 ? &p.uv0 : m.base_color_texture.texcoord == 1 ? &p.uv1 : nullptr;
-            if (uv && !uv->empty())
-                draw.texture = get_texture(textures, scene, m.base_color_texture.texture, o.mipmaps, warned_images, out.warnings);
-            else
-                out.warnings.push_back(where(inst.mesh, inst.prim_index) + ": the base colour texture's TEXCOORD_" +
-                                       std::to_string(m.base_color_texture.texcoord) + " is missing; texture ignored");
-        }
-        const CustomAttribute* attr = o.mode == RenderMode::attribute ? find_attribute(p, o.attribute) : nullptr;
-        if (o.mode == RenderMode::attribute && !attr && !missing_attribute_warned) {
-            out.warnings.push_back("some primitives lack '" + o.attribute + "'; they are drawn grey");
-            missing_attribute_warned = true;
-        }
-        Vec3 centre = scale(add(inst.lo, inst.hi), 0.5);
-        sort_depth[d] = finite3(centre) ? dot(sub(centre, view.eye), view.forward) : 0;
+};
 
-        const auto& R = view.view_rotation;
-        bool view_normals = o.mode != RenderMode::normals;
-        size_t count = inst.position.size() / 3;
-        draw.verts.resize(count);
-        draw.tris = std::move(inst.tris);
-        float arange = amax > amin ? amax - amin : 1.0f;
-        tbb::parallel_for(tbb::blocked_range<size_t>(0, count, 4096), [&](const tbb::blocked_range<size_t>& r) {
-            for (size_t i = r.begin(); i != r.end(); ++i) {
-                size_t s = inst.source.empty() ? i : inst.source[i];
-                const double* w = &inst.position[3 * i];
-                Vert& v = draw.verts[i];
-                v.x = float(vp[0] * w[0] + vp[4] * w[1] + vp[8] * w[2] + vp[12]);
-                v.y = float(vp[1] * w[0] + vp[5] * w[1] + vp[9] * w[2] + vp[13]);
-                v.z = float(vp[2] * w[0] + vp[6] * w[1] + vp[10] * w[2] + vp[14]);
-                v.w = float(vp[3] * w[0] + vp[7] * w[1] + vp[11] * w[2] + vp[15]);
-                const float* n = &inst.normal[3 * i];
-                for (int c = 0; c < 3; ++c)
-                    v.n[c] = view_normals ? float(R[size_t(c) * 3] * n[0] + R[size_t(c) * 3 + 1] * n[1] +
-                                                  R[size_t(c) * 3 + 2] * n[2])
-                                          : n[c];
-                bool has_uv = uv && !uv->empty();
-                v.uv[0] = has_uv ? (*uv)[2 * s] : 0.0f;
-                v.uv[1] = has_uv ? (*uv)[2 * s + 1] : 0.0f;
-                for (int c = 0; c < 4; ++c) v.c[c] = p.colors.empty() ? 1.0f : p.colors[4 * s + size_t(c)];
-                v.s = -1;
-                if (attr) {
-                    float a = attr->values[s * size_t(attr->components)];
-                    v.s = std::isfinite(a) ? std::clamp((a - amin) / arange, 0.0f, 1.0f) : -1.0f;
-                    if (amax == amin && std::isfinite(a)) v.s = 0.5f;
-                }
-            }
-        });
+// Pass 2 for one instance: clip space plus the attributes the pixel stage needs, and its depth for sorting.
+Status make_draw(Draw& draw, double& sort_depth, Instance& inst, DrawContext& ctx, RenderResult& out) {
+    const Scene& scene = ctx.scene;
+    const RenderOptions& o = ctx.o;
+    const View& view = ctx.view;
+    const float amin = ctx.amin, amax = ctx.amax;
+    auto& textures = ctx.textures;
+    auto& warned_images = ctx.warned_images;
+    bool& missing_attribute_warned = ctx.missing_attribute_warned;
+    const Mat4& vp = view.view_proj;
+    const Primitive& p = *inst.prim;
+    Material m = p.material >= 0 ? scene.materials[size_t(p.material)] : Material{};
+    draw.base_color = m.base_color;
+    draw.emissive = m.emissive;
+    draw.alpha_mode = m.alpha_mode;
+    draw.alpha_cutoff = m.alpha_cutoff;
+    draw.double_sided = m.double_sided;
+    draw.flip_winding = inst.flip;
+    const std::vector<float>* uv = o.mode == RenderMode::uv ? &p.uv0 : nullptr;
+    if (m.base_color_texture.texture >= 0 && o.mode != RenderMode::uv) {
+        if (size_t(m.base_color_texture.texture) >= scene.textures.size())
+            return Status::error(StatusCode::invalid_input,
+                                 "material " + std::to_string(p.material) + ": texture out of range");
+        uv = m.base_color_texture.texcoord == 0 ? &p.uv0 : m.base_color_texture.texcoord == 1 ? &p.uv1 : nullptr;
+        if (uv && !uv->empty())
+            draw.texture = get_texture(textures, scene, m.base_color_texture.texture, o.mipmaps, warned_images, out.warnings);
+        else
+            out.warnings.push_back(where(inst.mesh, inst.prim_index) + ": the base colour texture's TEXCOORD_" +
+                                   std::to_string(m.base_color_texture.texcoord) + " is missing; texture ignored");
     }
-    out.timing.vertices = ms_since(t0);
+    const CustomAttribute* attr = o.mode == RenderMode::attribute ? find_attribute(p, o.attribute) : nullptr;
+    if (o.mode == RenderMode::attribute && !attr && !missing_attribute_warned) {
+        out.warnings.push_back("some primitives lack '" + o.attribute + "'; they are drawn grey");
+        missing_attribute_warned = true;
+    }
+    Vec3 centre = scale(add(inst.lo, inst.hi), 0.5);
+    sort_depth = finite3(centre) ? dot(sub(centre, view.eye), view.forward) : 0;
 
-    // Opaque and MASK first in scene order, then BLEND back to front (glTF's "sorted" transparency).
+    const auto& R = view.view_rotation;
+    bool view_normals = o.mode != RenderMode::normals;
+    size_t count = inst.position.size() / 3;
+    draw.verts.resize(count);
+    draw.tris = std::move(inst.tris);
+    float arange = amax > amin ? amax - amin : 1.0f;
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, count, 4096), [&](const tbb::blocked_range<size_t>& r) {
+        for (size_t i = r.begin(); i != r.end(); ++i) {
+            size_t s = inst.source.empty() ? i : inst.source[i];
+            const double* w = &inst.position[3 * i];
+            Vert& v = draw.verts[i];
+            v.x = float(vp[0] * w[0] + vp[4] * w[1] + vp[8] * w[2] + vp[12]);
+            v.y = float(vp[1] * w[0] + vp[5] * w[1] + vp[9] * w[2] + vp[13]);
+            v.z = float(vp[2] * w[0] + vp[6] * w[1] + vp[10] * w[2] + vp[14]);
+            v.w = float(vp[3] * w[0] + vp[7] * w[1] + vp[11] * w[2] + vp[15]);
+            const float* n = &inst.normal[3 * i];
+            for (int c = 0; c < 3; ++c)
+                v.n[c] = view_normals ? float(R[size_t(c) * 3] * n[0] + R[size_t(c) * 3 + 1] * n[1] +
+                                              R[size_t(c) * 3 + 2] * n[2])
+                                      : n[c];
+            bool has_uv = uv && !uv->empty();
+            v.uv[0] = has_uv ? (*uv)[2 * s] : 0.0f;
+            v.uv[1] = has_uv ? (*uv)[2 * s + 1] : 0.0f;
+            for (int c = 0; c < 4; ++c) v.c[c] = p.colors.empty() ? 1.0f : p.colors[4 * s + size_t(c)];
+            v.s = -1;
+            if (attr) {
+                float a = attr->values[s * size_t(attr->components)];
+                v.s = std::isfinite(a) ? std::clamp((a - amin) / arange, 0.0f, 1.0f) : -1.0f;
+                if (amax == amin && std::isfinite(a)) v.s = 0.5f;
+            }
+        }
+    });
+    return Status::success();
+}
+
+// Opaque and MASK first in scene order, then BLEND back to front (glTF's "sorted" transparency).
+std::vector<Draw> draw_order(std::vector<Draw>& draws, const std::vector<double>& sort_depth) {
     std::vector<size_t> draw_order(draws.size());
     for (size_t i = 0; i < draws.size(); ++i) draw_order[i] = i;
     std::stable_sort(draw_order.begin(), draw_order.end(), [&](size_t a, size_t b) {
@@ -611,6 +616,46 @@ Status render_scene(RenderResult& out, const Scene& scene, const RenderOptions& 
     std::vector<Draw> sorted;
     sorted.reserve(draws.size());
     for (size_t i : draw_order) sorted.push_back(std::move(draws[i]));
+    return sorted;
+}
+
+} // namespace
+
+Status render_scene(RenderResult& out, const Scene& scene, const RenderOptions& o) {
+    auto t0 = std::chrono::steady_clock::now();
+    out = RenderResult{};
+    if (Status s = validate(o); !s.ok()) return s;
+    const RenderCamera& cam = o.camera;
+    const std::vector<Mat4> world = scene.world_matrices();
+    if (world.size() != scene.nodes.size())
+        return Status::error(StatusCode::invalid_input, "world matrices do not match the node count");
+    std::vector<Instance> instances;
+    if (Status s = collect_instances(instances, out, scene, world); !s.ok()) return s;
+    Vec3 lo{HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi{-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
+    for (const Instance& inst : instances)
+        for (int c = 0; c < 3; ++c) {
+            lo[size_t(c)] = std::min(lo[size_t(c)], inst.lo[size_t(c)]);
+            hi[size_t(c)] = std::max(hi[size_t(c)], inst.hi[size_t(c)]);
+        }
+    if (!(lo[0] <= hi[0]))
+        return Status::error(StatusCode::invalid_input, "nothing to render: no vertex position is finite");
+
+    if (Status s = attribute_range(out, instances, o); !s.ok()) return s;
+    const float amin = out.attribute_min, amax = out.attribute_max;
+
+    bool legend = o.mode == RenderMode::attribute && o.legend && o.width >= 64 && o.height >= 48;
+    View view;
+    int reserve = legend ? legend_width(o.height, amin, amax) : 0;
+    if (Status s = make_view(view, cam, lo, hi, o.width, o.height, reserve, out.warnings); !s.ok()) return s;
+
+    // Pass 2: one Draw per instance.
+    DrawContext ctx{scene, o, view, amin, amax, {}, {}, false};
+    std::vector<Draw> draws(instances.size());
+    std::vector<double> sort_depth(instances.size());
+    for (size_t d = 0; d < instances.size(); ++d)
+        if (Status s = make_draw(draws[d], sort_depth[d], instances[d], ctx, out); !s.ok()) return s;
+    out.timing.vertices = ms_since(t0);
+    std::vector<Draw> sorted = draw_order(draws, sort_depth);
 
     Frame frame;
     frame.width = o.width;
@@ -621,7 +666,7 @@ Status render_scene(RenderResult& out, const Scene& scene, const RenderOptions& 
     frame.orthographic = cam.orthographic;
     frame.near_plane = view.near_plane;
     frame.far_plane = view.far_plane;
-    Vec3 l = normalize(light);
+    const Vec3 l = normalize(Vec3{o.light_direction[0], o.light_direction[1], o.light_direction[2]});
     frame.light = {float(l[0]), float(l[1]), float(l[2])};
     frame.ambient = o.ambient;
     frame.background = o.background;
@@ -646,5 +691,4 @@ Status render_scene(RenderResult& out, const Scene& scene, const RenderOptions& 
     out.timing.total = ms_since(t0);
     return Status::success();
 }
-
 } // namespace furrow

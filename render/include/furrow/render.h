@@ -105,6 +105,9 @@ struct RenderResult {
 // A texture whose image has no bytes or cannot be decoded is replaced by white, with a warning.
 Status render_scene(RenderResult& out, const Scene& scene, const RenderOptions& options = {});
 
+// Checks the options against their documented ranges (invalid_argument), as render_scene does first.
+Status validate(const RenderOptions& options);
+
 // ---------------------------------------------------------------------------------------------------------
 // Image metrics for tests and tools. A size mismatch gives NaN (fails every comparison, so it is loud).
 // ---------------------------------------------------------------------------------------------------------
