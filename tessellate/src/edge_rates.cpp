@@ -132,6 +132,245 @@ struct SideProbe {
     double length_pixels = 0; // projected length along the limit curve (owner side only)
 };
 
+const float* point_pos(const PreparedMesh& m, uint32_t p) { return &m.welded_data[size_t(m.point_welded[p]) * size_t(m.W)]; }
+
+std::array<double, 3> world(const Mat4& M, const float* p) {
+    double d[3] = {p[0], p[1], p[2]};
+    return M.point(d);
+}
+
+// The criteria measured on the control mesh alone: uniform rate, distance, focus points, per-vertex rates
+// and the edge hook.
+void control_mesh_criteria(std::vector<double>& out, const PreparedMesh& m, const RateOptions& r,
+                           const std::vector<Mat4>& inst) {
+    const size_t E = m.edges.size();
+    const double max_rate = r.max_rate;
+
+    if (r.uniform > 0)
+        for (auto& x : out) x = std::max(x, double(r.uniform));
+
+    if (r.distance) {
+        std::vector<double> factor(m.point_welded.size(), 0.0);
+        for (size_t p = 0; p < factor.size(); ++p)
+            for (const auto& M : inst) {
+                double d = distance3(world(M, point_pos(m, uint32_t(p))), r.camera->eye);
+                double f = std::clamp(1.0 - (d - r.near) / (r.far - r.near), 0.01, 1.0) * max_rate;
+                factor[p] = std::max(factor[p], f);
+            }
+        for (size_t e = 0; e < E; ++e) out[e] = std::max(out[e], 0.5 * (factor[m.edges[e][0]] + factor[m.edges[e][1]]));
+    }
+
+    for (const auto& fp : r.focus) {
+        const double rate = fp.rate > 0 ? double(fp.rate) : max_rate;
+        for (size_t e = 0; e < E; ++e)
+            for (const auto& M : inst) {
+                double d = segment_distance(fp.centre, world(M, point_pos(m, m.edges[e][0])), world(M, point_pos(m, m.edges[e][1])));
+                out[e] = std::max(out[e], std::clamp(2.0 - d / fp.radius, 0.0, 1.0) * rate);
+            }
+    }
+
+    if (r.vertex_rates)
+        for (size_t e = 0; e < E; ++e) {
+            const uint32_t c = m.side_corner[m.edge_owner[e]];
+            double v = std::max(r.vertex_rates[m.corner_input[c]], r.vertex_rates[m.corner_input[m.next_corner(c)]]);
+            if (std::isfinite(v)) out[e] = std::max(out[e], v);
+        }
+
+    if (r.edge_rate) {
+        std::vector<double> hook(E, 0.0);
+        tbb::parallel_for(tbb::blocked_range<size_t>(0, E, 1024), [&](const tbb::blocked_range<size_t>& range) {
+            for (size_t e = range.begin(); e != range.end(); ++e)
+                hook[e] = r.edge_rate(point_pos(m, m.edges[e][0]), point_pos(m, m.edges[e][1]));
+        });
+        for (size_t e = 0; e < E; ++e)
+            if (std::isfinite(hook[e])) out[e] = std::max(out[e], hook[e]);
+    }
+}
+
+// What the probes of all faces share: the view, and their results per side.
+struct Probes {
+    const PreparedMesh& m;
+    const RateOptions& r;
+    const std::vector<Mat4>& inst;
+    bool probe_curvature;
+    double focal;
+    std::array<double, 3> eye;
+    double min_distance;
+    std::vector<SideProbe> side;
+};
+
+Probes make_probes(const PreparedMesh& m, const RateOptions& r, const std::vector<Mat4>& inst, bool probe_curvature) {
+    const double focal = r.camera ? focal_pixels(*r.camera) : 1.0;
+    const std::array<double, 3> eye = r.camera ? r.camera->eye : std::array<double, 3>{0, 0, 0};
+    double diag = distance3(m.bbox_min, m.bbox_max);
+    double scale = 1.0; // largest instance scale, for the near clamp
+    for (const auto& M : inst)
+        for (int c = 0; c < 3; ++c)
+            scale = std::max(scale, std::sqrt(M.m[size_t(4 * c)] * M.m[size_t(4 * c)] + M.m[size_t(4 * c + 1)] * M.m[size_t(4 * c + 1)] +
+                                              M.m[size_t(4 * c + 2)] * M.m[size_t(4 * c + 2)]));
+    // An eye on the surface would ask for infinite rates; the cap takes them anyway, this keeps them finite.
+    const double min_distance = std::max(1e-4 * diag * scale, 1e-12);
+    return Probes{m, r, inst, probe_curvature, focal, eye, min_distance, std::vector<SideProbe>(m.side_corner.size())};
+}
+
+// One face's probe: its limit surface (its control polygon for a face tessellated linearly), evaluated with
+// the calling thread's buffers.
+struct FaceProbe {
+    Probes& pr;
+    const PreparedMesh& m;
+    const uint32_t c0;
+    const int n;
+    const osd::Bfr::Parameterization param;
+    Surface& surface;
+    std::vector<float>& patch;
+    const bool smooth;
+
+    FaceProbe(Probes& pr, size_t f, Surface& surface, std::vector<float>& patch)
+        : pr(pr), m(pr.m), c0(m.face_offset[f]), n(int(m.face_size(f))), param(m.parameterization(f)), surface(surface),
+          patch(patch), smooth(m.smooth(f) && m.factory && m.factory_of(f).InitVertexSurface(m.face_refiner[f], &surface)) {
+        if (smooth) {
+            patch.resize(size_t(surface.GetNumPatchPoints()) * 3);
+            surface.PreparePatchPoints(m.refiner_data.data(), Surface::PointDescriptor(3, m.W), patch.data(), 3);
+        }
+    }
+    void eval(const float uv[2], float* P) const;
+    void edge_lengths();
+    void curvature(std::vector<float>& coords, std::vector<CurvatureSample>& samples);
+};
+
+void FaceProbe::eval(const float uv[2], float* P) const {
+    if (smooth) {
+        surface.Evaluate(uv, patch.data(), 3, P);
+    } else {
+        float w[64];
+        std::vector<float> wv;
+        float* wp = w;
+        if (n > 64) {
+            wv.resize(size_t(n));
+            wp = wv.data();
+        }
+        linear_weights(param, uv, wp);
+        P[0] = P[1] = P[2] = 0;
+        for (int k = 0; k < n; ++k) {
+            const float* q = &m.welded_data[size_t(m.corner_welded[c0 + uint32_t(k)]) * size_t(m.W)];
+            for (int j = 0; j < 3; ++j) P[j] += wp[k] * q[j];
+        }
+    }
+}
+
+// Projected length of the owned edges.
+void FaceProbe::edge_lengths() {
+    for (int k = 0; k < n; ++k) {
+        const uint32_t s = m.corner_side[c0 + uint32_t(k)];
+        if (m.edge_owner[m.corner_edge[c0 + uint32_t(k)]] != s) continue;
+        constexpr int segments = 4;
+        float P[segments + 1][3];
+        for (int j = 0; j <= segments; ++j) {
+            float uv[2];
+            param.GetEdgeCoord(k, float(j) / segments, uv);
+            eval(uv, P[j]);
+        }
+        double best = 0;
+        for (const auto& M : pr.inst) {
+            double len = 0;
+            for (int j = 0; j < segments; ++j) {
+                double a[3] = {P[j][0], P[j][1], P[j][2]}, b[3] = {P[j + 1][0], P[j + 1][1], P[j + 1][2]};
+                auto wa = M.point(a), wb = M.point(b);
+                std::array<double, 3> mid{0.5 * (wa[0] + wb[0]), 0.5 * (wa[1] + wb[1]), 0.5 * (wa[2] + wb[2])};
+                len += distance3(wa, wb) * pr.focal / std::max(distance3(mid, pr.eye), pr.min_distance);
+            }
+            best = std::max(best, len);
+        }
+        pr.side[s].length_pixels = best;
+    }
+}
+
+// Second derivatives at the points of a rate-3 probe, turned into the needs of the face's sides.
+void FaceProbe::curvature(std::vector<float>& coords, std::vector<CurvatureSample>& samples) {
+    osd::Bfr::Tessellation probe(param, 3);
+    coords.resize(size_t(probe.GetNumCoords()) * 2);
+    probe.GetCoords(coords.data());
+    samples.clear();
+    for (int i = 0; i < probe.GetNumCoords(); ++i) {
+        float uv[2];
+        pull_inside(param, &coords[size_t(i) * 2], uv);
+        float P[3], Du[3], Dv[3], Duu[3], Duv[3], Dvv[3];
+        surface.Evaluate(uv, patch.data(), 3, P, Du, Dv, Duu, Duv, Dvv);
+        const int tile = param.HasSubFaces() ? param.GetSubFace(uv) : 0;
+        for (const auto& M : pr.inst) {
+            double p[3] = {P[0], P[1], P[2]};
+            auto w = [&](const float* v) {
+                double d[3] = {v[0], v[1], v[2]};
+                return M.vector(d);
+            };
+            const double dist = std::max(distance3(M.point(p), pr.eye), pr.min_distance);
+            samples.push_back({tile, w(Duu), w(Duv), w(Dvv), pr.focal / dist});
+        }
+    }
+    auto need = [&](int edge, double world, double pixels) {
+        SideProbe& sp = pr.side[m.corner_side[c0 + uint32_t((edge + n) % n)]];
+        sp.need_world = std::max(sp.need_world, world);
+        sp.need_pixels = std::max(sp.need_pixels, pixels);
+    };
+    if (param.GetType() == osd::Bfr::Parameterization::TRI) {
+        double world = 0, pixels = 0;
+        for (const auto& sm : samples) {
+            const double a = triangle_need(sm);
+            world = std::max(world, a);
+            pixels = std::max(pixels, a * sm.pixel_scale);
+        }
+        for (int k = 0; k < 3; ++k) need(k, world, pixels);
+    } else {
+        const int tiles = param.HasSubFaces() ? n : 1;
+        for (int tile = 0; tile < tiles; ++tile) {
+            const auto world = quad_need(samples, tile, false), pixels = quad_need(samples, tile, true);
+            if (param.HasSubFaces()) {
+                need(tile, world[0], pixels[0]);
+                need(tile - 1, world[1], pixels[1]);
+            } else {
+                need(0, world[0], pixels[0]);
+                need(2, world[0], pixels[0]);
+                need(1, world[1], pixels[1]);
+                need(3, world[1], pixels[1]);
+            }
+        }
+    }
+}
+
+void probe_faces(Probes& pr) {
+    const PreparedMesh& m = pr.m;
+    const size_t F = m.face_count();
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, F, 64), [&](const tbb::blocked_range<size_t>& range) {
+        Surface surface;
+        std::vector<float> patch, coords;
+        std::vector<CurvatureSample> samples;
+        for (size_t f = range.begin(); f != range.end(); ++f) {
+            FaceProbe face(pr, f, surface, patch);
+            if (pr.r.pixel_error > 0) face.edge_lengths();
+            if (!pr.probe_curvature || !face.smooth) continue;
+            face.curvature(coords, samples);
+        }
+    });
+}
+
+// Each edge takes the most demanding of its sides.
+void probed_criteria(std::vector<double>& out, const Probes& pr) {
+    const PreparedMesh& m = pr.m;
+    const RateOptions& r = pr.r;
+    const std::vector<SideProbe>& side = pr.side;
+    const size_t E = m.edges.size();
+    for (size_t e = 0; e < E; ++e) {
+        double need_world = 0, need_pixels = 0;
+        for (uint32_t s = m.edge_side_begin[e]; s < m.edge_side_begin[e + 1]; ++s) {
+            need_world = std::max(need_world, side[s].need_world);
+            need_pixels = std::max(need_pixels, side[s].need_pixels);
+        }
+        if (r.pixel_error > 0) out[e] = std::max(out[e], side[m.edge_owner[e]].length_pixels / r.pixel_error);
+        if (r.max_error > 0) out[e] = std::max(out[e], std::sqrt(need_world / r.max_error));
+        if (r.screen_error > 0) out[e] = std::max(out[e], std::sqrt(need_pixels / r.screen_error));
+    }
+}
+
 } // namespace
 
 std::vector<Mat4> instance_matrices(const RateOptions& r) {
@@ -178,191 +417,18 @@ Status validate_rates(const RateOptions& r) {
 }
 
 Status wanted_rates(std::vector<double>& out, const PreparedMesh& m, const RateOptions& r) {
-    const size_t E = m.edges.size();
-    out.assign(E, 0.0);
+    out.assign(m.edges.size(), 0.0);
     const std::vector<Mat4> inst = instance_matrices(r);
-    auto point_pos = [&](uint32_t p) { return &m.welded_data[size_t(m.point_welded[p]) * size_t(m.W)]; };
-    auto world = [&](const Mat4& M, const float* p) {
-        double d[3] = {p[0], p[1], p[2]};
-        return M.point(d);
-    };
-    const double max_rate = r.max_rate;
-
-    if (r.uniform > 0)
-        for (auto& x : out) x = std::max(x, double(r.uniform));
-
-    if (r.distance) {
-        std::vector<double> factor(m.point_welded.size(), 0.0);
-        for (size_t p = 0; p < factor.size(); ++p)
-            for (const auto& M : inst) {
-                double d = distance3(world(M, point_pos(uint32_t(p))), r.camera->eye);
-                double f = std::clamp(1.0 - (d - r.near) / (r.far - r.near), 0.01, 1.0) * max_rate;
-                factor[p] = std::max(factor[p], f);
-            }
-        for (size_t e = 0; e < E; ++e) out[e] = std::max(out[e], 0.5 * (factor[m.edges[e][0]] + factor[m.edges[e][1]]));
-    }
-
-    for (const auto& fp : r.focus) {
-        const double rate = fp.rate > 0 ? double(fp.rate) : max_rate;
-        for (size_t e = 0; e < E; ++e)
-            for (const auto& M : inst) {
-                double d = segment_distance(fp.centre, world(M, point_pos(m.edges[e][0])), world(M, point_pos(m.edges[e][1])));
-                out[e] = std::max(out[e], std::clamp(2.0 - d / fp.radius, 0.0, 1.0) * rate);
-            }
-    }
-
-    if (r.vertex_rates)
-        for (size_t e = 0; e < E; ++e) {
-            const uint32_t c = m.side_corner[m.edge_owner[e]];
-            double v = std::max(r.vertex_rates[m.corner_input[c]], r.vertex_rates[m.corner_input[m.next_corner(c)]]);
-            if (std::isfinite(v)) out[e] = std::max(out[e], v);
-        }
-
-    if (r.edge_rate) {
-        std::vector<double> hook(E, 0.0);
-        tbb::parallel_for(tbb::blocked_range<size_t>(0, E, 1024), [&](const tbb::blocked_range<size_t>& range) {
-            for (size_t e = range.begin(); e != range.end(); ++e) hook[e] = r.edge_rate(point_pos(m.edges[e][0]), point_pos(m.edges[e][1]));
-        });
-        for (size_t e = 0; e < E; ++e)
-            if (std::isfinite(hook[e])) out[e] = std::max(out[e], hook[e]);
-    }
+    control_mesh_criteria(out, m, r, inst);
 
     const bool probe_curvature = r.max_error > 0 || r.screen_error > 0;
     if (!(probe_curvature || r.pixel_error > 0)) return Status::success();
 
     // ---- probes of the limit surface, one face at a time, results per side
-    const double focal = r.camera ? focal_pixels(*r.camera) : 1.0;
-    const std::array<double, 3> eye = r.camera ? r.camera->eye : std::array<double, 3>{0, 0, 0};
-    double diag = distance3(m.bbox_min, m.bbox_max);
-    double scale = 1.0; // largest instance scale, for the near clamp
-    for (const auto& M : inst)
-        for (int c = 0; c < 3; ++c)
-            scale = std::max(scale, std::sqrt(M.m[size_t(4 * c)] * M.m[size_t(4 * c)] + M.m[size_t(4 * c + 1)] * M.m[size_t(4 * c + 1)] +
-                                              M.m[size_t(4 * c + 2)] * M.m[size_t(4 * c + 2)]));
-    // An eye on the surface would ask for infinite rates; the cap takes them anyway, this keeps them finite.
-    const double min_distance = std::max(1e-4 * diag * scale, 1e-12);
-    std::vector<SideProbe> side(m.side_corner.size());
-    const size_t F = m.face_count();
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, F, 64), [&](const tbb::blocked_range<size_t>& range) {
-        Surface surface;
-        std::vector<float> patch, coords;
-        std::vector<CurvatureSample> samples;
-        for (size_t f = range.begin(); f != range.end(); ++f) {
-            const uint32_t c0 = m.face_offset[f];
-            const int n = int(m.face_size(f));
-            const auto param = m.parameterization(f);
-            const bool smooth = m.smooth(f) && m.factory && m.factory_of(f).InitVertexSurface(m.face_refiner[f], &surface);
-            if (smooth) {
-                patch.resize(size_t(surface.GetNumPatchPoints()) * 3);
-                surface.PreparePatchPoints(m.refiner_data.data(), Surface::PointDescriptor(3, m.W), patch.data(), 3);
-            }
-            auto eval = [&](const float uv[2], float* P) {
-                if (smooth) {
-                    surface.Evaluate(uv, patch.data(), 3, P);
-                } else {
-                    float w[64];
-                    std::vector<float> wv;
-                    float* wp = w;
-                    if (n > 64) {
-                        wv.resize(size_t(n));
-                        wp = wv.data();
-                    }
-                    linear_weights(param, uv, wp);
-                    P[0] = P[1] = P[2] = 0;
-                    for (int k = 0; k < n; ++k) {
-                        const float* q = &m.welded_data[size_t(m.corner_welded[c0 + uint32_t(k)]) * size_t(m.W)];
-                        for (int j = 0; j < 3; ++j) P[j] += wp[k] * q[j];
-                    }
-                }
-            };
-            // Projected length of the owned edges.
-            if (r.pixel_error > 0) {
-                for (int k = 0; k < n; ++k) {
-                    const uint32_t s = m.corner_side[c0 + uint32_t(k)];
-                    if (m.edge_owner[m.corner_edge[c0 + uint32_t(k)]] != s) continue;
-                    constexpr int segments = 4;
-                    float P[segments + 1][3];
-                    for (int j = 0; j <= segments; ++j) {
-                        float uv[2];
-                        param.GetEdgeCoord(k, float(j) / segments, uv);
-                        eval(uv, P[j]);
-                    }
-                    double best = 0;
-                    for (const auto& M : inst) {
-                        double len = 0;
-                        for (int j = 0; j < segments; ++j) {
-                            double a[3] = {P[j][0], P[j][1], P[j][2]}, b[3] = {P[j + 1][0], P[j + 1][1], P[j + 1][2]};
-                            auto wa = M.point(a), wb = M.point(b);
-                            std::array<double, 3> mid{0.5 * (wa[0] + wb[0]), 0.5 * (wa[1] + wb[1]), 0.5 * (wa[2] + wb[2])};
-                            len += distance3(wa, wb) * focal / std::max(distance3(mid, eye), min_distance);
-                        }
-                        best = std::max(best, len);
-                    }
-                    side[s].length_pixels = best;
-                }
-            }
-            if (!probe_curvature || !smooth) continue;
-            osd::Bfr::Tessellation probe(param, 3);
-            coords.resize(size_t(probe.GetNumCoords()) * 2);
-            probe.GetCoords(coords.data());
-            samples.clear();
-            for (int i = 0; i < probe.GetNumCoords(); ++i) {
-                float uv[2];
-                pull_inside(param, &coords[size_t(i) * 2], uv);
-                float P[3], Du[3], Dv[3], Duu[3], Duv[3], Dvv[3];
-                surface.Evaluate(uv, patch.data(), 3, P, Du, Dv, Duu, Duv, Dvv);
-                const int tile = param.HasSubFaces() ? param.GetSubFace(uv) : 0;
-                for (const auto& M : inst) {
-                    double p[3] = {P[0], P[1], P[2]};
-                    auto w = [&](const float* v) {
-                        double d[3] = {v[0], v[1], v[2]};
-                        return M.vector(d);
-                    };
-                    const double dist = std::max(distance3(M.point(p), eye), min_distance);
-                    samples.push_back({tile, w(Duu), w(Duv), w(Dvv), focal / dist});
-                }
-            }
-            auto need = [&](int edge, double world, double pixels) {
-                SideProbe& sp = side[m.corner_side[c0 + uint32_t((edge + n) % n)]];
-                sp.need_world = std::max(sp.need_world, world);
-                sp.need_pixels = std::max(sp.need_pixels, pixels);
-            };
-            if (param.GetType() == osd::Bfr::Parameterization::TRI) {
-                double world = 0, pixels = 0;
-                for (const auto& sm : samples) {
-                    const double a = triangle_need(sm);
-                    world = std::max(world, a);
-                    pixels = std::max(pixels, a * sm.pixel_scale);
-                }
-                for (int k = 0; k < 3; ++k) need(k, world, pixels);
-            } else {
-                const int tiles = param.HasSubFaces() ? n : 1;
-                for (int tile = 0; tile < tiles; ++tile) {
-                    const auto world = quad_need(samples, tile, false), pixels = quad_need(samples, tile, true);
-                    if (param.HasSubFaces()) {
-                        need(tile, world[0], pixels[0]);
-                        need(tile - 1, world[1], pixels[1]);
-                    } else {
-                        need(0, world[0], pixels[0]);
-                        need(2, world[0], pixels[0]);
-                        need(1, world[1], pixels[1]);
-                        need(3, world[1], pixels[1]);
-                    }
-                }
-            }
-        }
-    });
-    for (size_t e = 0; e < E; ++e) {
-        double need_world = 0, need_pixels = 0;
-        for (uint32_t s = m.edge_side_begin[e]; s < m.edge_side_begin[e + 1]; ++s) {
-            need_world = std::max(need_world, side[s].need_world);
-            need_pixels = std::max(need_pixels, side[s].need_pixels);
-        }
-        if (r.pixel_error > 0) out[e] = std::max(out[e], side[m.edge_owner[e]].length_pixels / r.pixel_error);
-        if (r.max_error > 0) out[e] = std::max(out[e], std::sqrt(need_world / r.max_error));
-        if (r.screen_error > 0) out[e] = std::max(out[e], std::sqrt(need_pixels / r.screen_error));
-    }
-    if (probe_curvature) verify_error(out, m, r, inst, eye, focal, min_distance);
+    Probes pr = make_probes(m, r, inst, probe_curvature);
+    probe_faces(pr);
+    probed_criteria(out, pr);
+    if (probe_curvature) verify_error(out, m, r, inst, pr.eye, pr.focal, pr.min_distance);
     return Status::success();
 }
 

@@ -53,14 +53,21 @@ struct Layout {
     size_t vertices = 0, triangles = 0, slots = 0;
 };
 
-} // namespace
-
-Status evaluate_tessellation(TessellateOutput& out, const PreparedMesh& m, const std::vector<int>& rates,
-                             bool keep_parameters) {
-    const size_t F = m.face_count(), E = m.edges.size(), C = m.corner_input.size();
-    const size_t G = m.group_value.size();
-    const int W = m.W, K = m.K;
+// The working state of one evaluate_tessellation: what the faces read, and the buffers they write.
+struct Evaluation {
+    const PreparedMesh& m;
+    const std::vector<int>& rates;
+    TessellateOutput& out;
+    const bool keep_parameters;
+    const int W, K;
     Layout L;
+    std::vector<float> data, attrs;                // W and K floats per output vertex
+    std::vector<float> corner_normal, side_normal; // normals each face evaluates at its boundary points
+};
+
+// Output indices and normal slots of everything, from prefix sums over the rates.
+Status plan_layout(Layout& L, const PreparedMesh& m, const std::vector<int>& rates) {
+    const size_t F = m.face_count(), E = m.edges.size();
     L.face_interior.resize(F);
     std::vector<uint32_t> face_facets(F);
     tbb::parallel_for(tbb::blocked_range<size_t>(0, F, 512), [&](const tbb::blocked_range<size_t>& range) {
@@ -72,7 +79,7 @@ Status evaluate_tessellation(TessellateOutput& out, const PreparedMesh& m, const
             face_facets[f] = uint32_t(t.GetNumFacets());
         }
     });
-    size_t cursor = G, slots = 0, tris = 0;
+    size_t cursor = m.group_value.size(), slots = 0, tris = 0;
     L.edge_out.assign(E, none);
     L.side_out.assign(m.side_corner.size(), none);
     L.side_slot.assign(m.side_corner.size(), 0);
@@ -102,9 +109,19 @@ Status evaluate_tessellation(TessellateOutput& out, const PreparedMesh& m, const
         if (cursor > 0xfffffff0u || tris * 3 > 0xfffffff0u)
             return Status::error(StatusCode::out_of_memory, "more than 4 billion output indices or vertices");
     }
-    const size_t V = cursor;
+    L.vertices = cursor;
+    L.triangles = tris;
+    L.slots = slots;
+    return Status::success();
+}
 
-    std::vector<float> data(V * size_t(W)), attrs(V * size_t(K));
+// The output arrays and the working buffers at their sizes, zeroed.
+void allocate(Evaluation& ev) {
+    const PreparedMesh& m = ev.m;
+    TessellateOutput& out = ev.out;
+    const size_t V = ev.L.vertices, tris = ev.L.triangles;
+    ev.data.assign(V * size_t(ev.W), 0.0f);
+    ev.attrs.assign(V * size_t(ev.K), 0.0f);
     out.normals.assign(V * 3, 0.0f);
     if (m.has_skin) {
         out.joints.assign(V * 4, 0);
@@ -114,175 +131,233 @@ Status evaluate_tessellation(TessellateOutput& out, const PreparedMesh& m, const
     out.triangle_faces.assign(tris, 0);
     out.triangle_patches.clear();
     out.triangle_coords.clear();
-    if (keep_parameters) {
+    if (ev.keep_parameters) {
         out.triangle_patches.assign(tris, 0);
         out.triangle_coords.assign(tris * 6, 0.0f);
     }
-    std::vector<float> corner_normal(C * 3, 0.0f), side_normal(slots * 3, 0.0f);
-    float* N = out.normals.data();
+    ev.corner_normal.assign(m.corner_input.size() * 3, 0.0f);
+    ev.side_normal.assign(ev.L.slots * 3, 0.0f);
+}
 
-    // limit_corners: linear faces read their corners' limit positions (only once all smooth faces are done).
-    auto process = [&](size_t f, bool smooth, bool limit_corners, Surface& vtx, Surface& fvar, Scratch& x) {
-        const uint32_t c0 = m.face_offset[f];
-        const int n = int(m.face_size(f));
-        const auto param = m.parameterization(f);
-        const int nr = face_rates(m, f, rates, x.rates);
-        const int* fr = x.rates.data();
-        osd::Bfr::Tessellation tess(param, nr, fr, osd::Bfr::Tessellation::Options().SetFacetSize(3));
-        const int ncoords = tess.GetNumCoords(), nb = tess.GetNumBoundaryCoords();
-        x.coords.resize(size_t(ncoords) * 2);
-        tess.GetCoords(x.coords.data());
-        const std::vector<float>& coords = x.coords;
-        x.bidx.resize(size_t(nb));
-        std::vector<int>& bidx = x.bidx;
-        x.P.resize(size_t(W));
-        x.Du.resize(size_t(W));
-        x.Dv.resize(size_t(W));
-        x.w.resize(size_t(n));
-        x.corner_data.resize(size_t(n));
-        std::vector<float>&P = x.P, &Du = x.Du, &Dv = x.Dv, &w = x.w, &patch_v = x.patch_v, &patch_a = x.patch_a;
-        std::vector<const float*>& corner_data = x.corner_data;
-        float face_normal[3] = {0, 0, 1};
-        if (smooth) {
-            patch_v.resize(size_t(vtx.GetNumPatchPoints()) * size_t(W));
-            vtx.PreparePatchPoints(m.refiner_data.data(), W, patch_v.data(), W);
-            if (K > 0) {
-                patch_a.resize(size_t(fvar.GetNumPatchPoints()) * size_t(K));
-                fvar.PreparePatchPoints(m.refiner_fvar.data(), K, patch_a.data(), K);
-            }
-        } else {
-            for (int k = 0; k < n; ++k) {
-                const uint32_t c = c0 + uint32_t(k), p = m.corner_point[c];
-                corner_data[size_t(k)] = limit_corners && m.smooth(m.corner_face[m.point_owner[p]])
-                                             ? &data[size_t(m.point_group_begin[p]) * size_t(W)]
-                                             : &m.welded_data[size_t(m.corner_welded[c]) * size_t(W)];
-            }
-            auto nn = newell_normal(corner_data.data(), size_t(n));
-            face_normal[0] = float(nn[0]);
-            face_normal[1] = float(nn[1]);
-            face_normal[2] = float(nn[2]);
-            normalise(face_normal);
+// One face being evaluated: its tessellation, and what its points are evaluated from (the patch points of
+// its surfaces, or its corners for a face tessellated linearly).
+struct FaceEvaluation {
+    Evaluation& ev;
+    const PreparedMesh& m;
+    const Layout& L;
+    const int W, K;
+    const size_t f;
+    const bool smooth;
+    Surface &vtx, &fvar;
+    Scratch& x;
+    const uint32_t c0;
+    const int n;
+    const osd::Bfr::Parameterization param;
+    const int nr;
+    osd::Bfr::Tessellation tess;
+    const int ncoords, nb;
+    float face_normal[3] = {0, 0, 1};
+
+    FaceEvaluation(Evaluation& ev, size_t f, bool smooth, bool limit_corners, Surface& vtx, Surface& fvar, Scratch& x);
+    void control_normal(float* nrm);
+    void eval_point(const float* uv, float* nrm);
+    void eval_attrs(const float* uv, size_t o);
+    void write_data(size_t o) { std::copy(x.P.begin(), x.P.end(), &ev.data[o * size_t(W)]); }
+    void boundary();
+    void interior();
+    void triangles();
+};
+
+FaceEvaluation::FaceEvaluation(Evaluation& ev, size_t f, bool smooth, bool limit_corners, Surface& vtx, Surface& fvar,
+                               Scratch& x)
+    : ev(ev), m(ev.m), L(ev.L), W(ev.W), K(ev.K), f(f), smooth(smooth), vtx(vtx), fvar(fvar), x(x), c0(m.face_offset[f]),
+      n(int(m.face_size(f))), param(m.parameterization(f)), nr(face_rates(m, f, ev.rates, x.rates)),
+      tess(param, nr, x.rates.data(), osd::Bfr::Tessellation::Options().SetFacetSize(3)), ncoords(tess.GetNumCoords()),
+      nb(tess.GetNumBoundaryCoords()) {
+    x.coords.resize(size_t(ncoords) * 2);
+    tess.GetCoords(x.coords.data());
+    x.bidx.resize(size_t(nb));
+    x.P.resize(size_t(W));
+    x.Du.resize(size_t(W));
+    x.Dv.resize(size_t(W));
+    x.w.resize(size_t(n));
+    x.corner_data.resize(size_t(n));
+    if (smooth) {
+        x.patch_v.resize(size_t(vtx.GetNumPatchPoints()) * size_t(W));
+        vtx.PreparePatchPoints(m.refiner_data.data(), W, x.patch_v.data(), W);
+        if (K > 0) {
+            x.patch_a.resize(size_t(fvar.GetNumPatchPoints()) * size_t(K));
+            fvar.PreparePatchPoints(m.refiner_fvar.data(), K, x.patch_a.data(), K);
         }
-        // The control polygon's normal: the fallback where the surface's derivatives vanish.
-        auto control_normal = [&](float* nrm) {
-            x.control.resize(size_t(n));
-            for (int k = 0; k < n; ++k)
-                x.control[size_t(k)] = &m.welded_data[size_t(m.corner_welded[c0 + uint32_t(k)]) * size_t(W)];
-            auto nn = newell_normal(x.control.data(), size_t(n));
-            nrm[0] = float(nn[0]);
-            nrm[1] = float(nn[1]);
-            nrm[2] = float(nn[2]);
-            normalise(nrm);
-        };
-        // Position (+ vertex data) and unit normal at uv.
-        auto eval_point = [&](const float* uv, float* nrm) {
-            if (smooth) {
-                vtx.Evaluate(uv, patch_v.data(), W, P.data(), Du.data(), Dv.data());
-                nrm[0] = Du[1] * Dv[2] - Du[2] * Dv[1];
-                nrm[1] = Du[2] * Dv[0] - Du[0] * Dv[2];
-                nrm[2] = Du[0] * Dv[1] - Du[1] * Dv[0];
-                normalise(nrm);
-                if (is_zero(nrm)) control_normal(nrm);
-            } else {
-                linear_weights(param, uv, w.data());
-                std::fill(P.begin(), P.end(), 0.0f);
-                for (int k = 0; k < n; ++k)
-                    for (int j = 0; j < W; ++j) P[size_t(j)] += w[size_t(k)] * corner_data[size_t(k)][j];
-                std::copy(face_normal, face_normal + 3, nrm);
-            }
-        };
-        auto eval_attrs = [&](const float* uv, size_t o) {
-            if (K > 0) {
-                float* a = &attrs[o * size_t(K)];
-                if (smooth) {
-                    fvar.Evaluate(uv, patch_a.data(), K, a);
-                } else {
-                    linear_weights(param, uv, w.data());
-                    std::fill(a, a + K, 0.0f);
-                    for (int k = 0; k < n; ++k) {
-                        const float* v = &m.value_attrs[size_t(m.corner_value[c0 + uint32_t(k)]) * size_t(K)];
-                        for (int j = 0; j < K; ++j) a[j] += w[size_t(k)] * v[j];
-                    }
-                }
-            }
-            if (m.has_skin) {
-                linear_weights(param, uv, w.data());
-                SkinAccumulator acc;
-                for (int k = 0; k < n; ++k) {
-                    const size_t v = m.corner_value[c0 + uint32_t(k)];
-                    acc.add(&m.value_joints[v * 4], &m.value_weights[v * 4], w[size_t(k)]);
-                }
-                acc.finish(&out.joints[o * 4], &out.weights[o * 4]);
-            }
-        };
-        auto write_data = [&](size_t o) { std::copy(P.begin(), P.end(), &data[o * size_t(W)]); };
-
-        int b = 0;
+    } else {
         for (int k = 0; k < n; ++k) {
-            const uint32_t c = c0 + uint32_t(k), g = m.corner_group[c], p = m.corner_point[c];
-            const float* uv = &coords[size_t(b) * 2];
-            eval_point(uv, &corner_normal[size_t(c) * 3]);
-            if (m.point_owner[p] == c)
-                for (uint32_t q = m.point_group_begin[p]; q < m.point_group_begin[p + 1]; ++q) write_data(q);
-            if (m.group_attr_owner[g] == c && K > 0) {
-                // Groups of one (point, value) differ only by normal sector: one evaluation for all of them.
-                eval_attrs(uv, g);
-                for (uint32_t q = m.point_group_begin[p]; q < m.point_group_begin[p + 1]; ++q)
-                    if (q != g && m.group_value[q] == m.group_value[g])
-                        std::copy_n(&attrs[size_t(g) * size_t(K)], K, &attrs[size_t(q) * size_t(K)]);
-            }
-            bidx[size_t(b++)] = int(g);
-            const uint32_t e = m.corner_edge[c], s = m.corner_side[c];
-            const int np = fr[k] - 1;
-            if (np <= 0) continue;
-            const bool forward = p == m.edges[e][0];
-            const bool split = m.edge_split[e] != 0, owner = m.edge_owner[e] == s;
-            for (int j = 0; j < np; ++j) {
-                const float* puv = &coords[size_t(b + j) * 2];
-                const uint32_t q = uint32_t(forward ? j : np - 1 - j);
-                eval_point(puv, &side_normal[(size_t(L.side_slot[s]) + q) * 3]);
-                if (owner) {
-                    if (split) {
-                        for (uint32_t t = m.edge_side_begin[e]; t < m.edge_side_begin[e + 1]; ++t) write_data(L.side_out[t] + q);
-                    } else {
-                        write_data(L.edge_out[e] + q);
-                    }
-                }
-                const uint32_t o = split ? L.side_out[s] + q : L.edge_out[e] + q;
-                if (split || owner) eval_attrs(puv, o);
-                bidx[size_t(b + j)] = int(o);
-            }
-            b += np;
+            const uint32_t c = c0 + uint32_t(k), p = m.corner_point[c];
+            x.corner_data[size_t(k)] = limit_corners && m.smooth(m.corner_face[m.point_owner[p]])
+                                           ? &ev.data[size_t(m.point_group_begin[p]) * size_t(W)]
+                                           : &m.welded_data[size_t(m.corner_welded[c]) * size_t(W)];
         }
-        const uint32_t interior = L.face_out[f];
-        for (int i = nb; i < ncoords; ++i) {
-            const float* uv = &coords[size_t(i) * 2];
-            const size_t o = interior + uint32_t(i - nb);
-            eval_point(uv, &N[o * 3]);
-            write_data(o);
-            eval_attrs(uv, o);
-        }
-        const int nfacets = tess.GetNumFacets();
-        x.facets.resize(size_t(nfacets) * 3);
-        std::vector<int>& facets = x.facets;
-        tess.GetFacets(facets.data());
-        const size_t t0 = L.face_tri[f];
-        if (keep_parameters)
-            for (int t = 0; t < nfacets; ++t) {
-                out.triangle_patches[t0 + size_t(t)] = uint32_t(f);
-                for (int k = 0; k < 3; ++k) {
-                    const int local = facets[size_t(t) * 3 + size_t(k)];
-                    out.triangle_coords[(t0 + size_t(t)) * 6 + size_t(k) * 2] = coords[size_t(local) * 2];
-                    out.triangle_coords[(t0 + size_t(t)) * 6 + size_t(k) * 2 + 1] = coords[size_t(local) * 2 + 1];
-                }
-            }
-        tess.TransformFacetCoordIndices(facets.data(), bidx.data(), int(interior) - nb);
-        for (int t = 0; t < nfacets; ++t) {
-            out.triangle_faces[t0 + size_t(t)] = m.face_source[f];
-            for (int k = 0; k < 3; ++k) out.indices[(t0 + size_t(t)) * 3 + size_t(k)] = uint32_t(facets[size_t(t) * 3 + size_t(k)]);
-        }
-    };
+        auto nn = newell_normal(x.corner_data.data(), size_t(n));
+        face_normal[0] = float(nn[0]);
+        face_normal[1] = float(nn[1]);
+        face_normal[2] = float(nn[2]);
+        normalise(face_normal);
+    }
+}
 
+// The control polygon's normal: the fallback where the surface's derivatives vanish.
+void FaceEvaluation::control_normal(float* nrm) {
+    x.control.resize(size_t(n));
+    for (int k = 0; k < n; ++k)
+        x.control[size_t(k)] = &m.welded_data[size_t(m.corner_welded[c0 + uint32_t(k)]) * size_t(W)];
+    auto nn = newell_normal(x.control.data(), size_t(n));
+    nrm[0] = float(nn[0]);
+    nrm[1] = float(nn[1]);
+    nrm[2] = float(nn[2]);
+    normalise(nrm);
+}
+
+// Position (+ vertex data) and unit normal at uv.
+void FaceEvaluation::eval_point(const float* uv, float* nrm) {
+    std::vector<float>&P = x.P, &Du = x.Du, &Dv = x.Dv, &w = x.w;
+    if (smooth) {
+        vtx.Evaluate(uv, x.patch_v.data(), W, P.data(), Du.data(), Dv.data());
+        nrm[0] = Du[1] * Dv[2] - Du[2] * Dv[1];
+        nrm[1] = Du[2] * Dv[0] - Du[0] * Dv[2];
+        nrm[2] = Du[0] * Dv[1] - Du[1] * Dv[0];
+        normalise(nrm);
+        if (is_zero(nrm)) control_normal(nrm);
+    } else {
+        linear_weights(param, uv, w.data());
+        std::fill(P.begin(), P.end(), 0.0f);
+        for (int k = 0; k < n; ++k)
+            for (int j = 0; j < W; ++j) P[size_t(j)] += w[size_t(k)] * x.corner_data[size_t(k)][j];
+        std::copy(face_normal, face_normal + 3, nrm);
+    }
+}
+
+void FaceEvaluation::eval_attrs(const float* uv, size_t o) {
+    std::vector<float>& w = x.w;
+    if (K > 0) {
+        float* a = &ev.attrs[o * size_t(K)];
+        if (smooth) {
+            fvar.Evaluate(uv, x.patch_a.data(), K, a);
+        } else {
+            linear_weights(param, uv, w.data());
+            std::fill(a, a + K, 0.0f);
+            for (int k = 0; k < n; ++k) {
+                const float* v = &m.value_attrs[size_t(m.corner_value[c0 + uint32_t(k)]) * size_t(K)];
+                for (int j = 0; j < K; ++j) a[j] += w[size_t(k)] * v[j];
+            }
+        }
+    }
+    if (m.has_skin) {
+        linear_weights(param, uv, w.data());
+        SkinAccumulator acc;
+        for (int k = 0; k < n; ++k) {
+            const size_t v = m.corner_value[c0 + uint32_t(k)];
+            acc.add(&m.value_joints[v * 4], &m.value_weights[v * 4], w[size_t(k)]);
+        }
+        acc.finish(&ev.out.joints[o * 4], &ev.out.weights[o * 4]);
+    }
+}
+
+// The corners and the edge points: normals into the face's own slots; data and attributes written by their
+// owners; bidx, the output index of every boundary coordinate.
+void FaceEvaluation::boundary() {
+    const std::vector<float>& coords = x.coords;
+    std::vector<int>& bidx = x.bidx;
+    const int* fr = x.rates.data();
+    int b = 0;
+    for (int k = 0; k < n; ++k) {
+        const uint32_t c = c0 + uint32_t(k), g = m.corner_group[c], p = m.corner_point[c];
+        const float* uv = &coords[size_t(b) * 2];
+        eval_point(uv, &ev.corner_normal[size_t(c) * 3]);
+        if (m.point_owner[p] == c)
+            for (uint32_t q = m.point_group_begin[p]; q < m.point_group_begin[p + 1]; ++q) write_data(q);
+        if (m.group_attr_owner[g] == c && K > 0) {
+            // Groups of one (point, value) differ only by normal sector: one evaluation for all of them.
+            eval_attrs(uv, g);
+            for (uint32_t q = m.point_group_begin[p]; q < m.point_group_begin[p + 1]; ++q)
+                if (q != g && m.group_value[q] == m.group_value[g])
+                    std::copy_n(&ev.attrs[size_t(g) * size_t(K)], K, &ev.attrs[size_t(q) * size_t(K)]);
+        }
+        bidx[size_t(b++)] = int(g);
+        const uint32_t e = m.corner_edge[c], s = m.corner_side[c];
+        const int np = fr[k] - 1;
+        if (np <= 0) continue;
+        const bool forward = p == m.edges[e][0];
+        const bool split = m.edge_split[e] != 0, owner = m.edge_owner[e] == s;
+        for (int j = 0; j < np; ++j) {
+            const float* puv = &coords[size_t(b + j) * 2];
+            const uint32_t q = uint32_t(forward ? j : np - 1 - j);
+            eval_point(puv, &ev.side_normal[(size_t(L.side_slot[s]) + q) * 3]);
+            if (owner) {
+                if (split) {
+                    for (uint32_t t = m.edge_side_begin[e]; t < m.edge_side_begin[e + 1]; ++t) write_data(L.side_out[t] + q);
+                } else {
+                    write_data(L.edge_out[e] + q);
+                }
+            }
+            const uint32_t o = split ? L.side_out[s] + q : L.edge_out[e] + q;
+            if (split || owner) eval_attrs(puv, o);
+            bidx[size_t(b + j)] = int(o);
+        }
+        b += np;
+    }
+}
+
+// The interior points, all the face's own.
+void FaceEvaluation::interior() {
+    const uint32_t interior = L.face_out[f];
+    float* N = ev.out.normals.data();
+    for (int i = nb; i < ncoords; ++i) {
+        const float* uv = &x.coords[size_t(i) * 2];
+        const size_t o = interior + uint32_t(i - nb);
+        eval_point(uv, &N[o * 3]);
+        write_data(o);
+        eval_attrs(uv, o);
+    }
+}
+
+// The face's triangles, with their patch coordinates if kept.
+void FaceEvaluation::triangles() {
+    TessellateOutput& out = ev.out;
+    const std::vector<float>& coords = x.coords;
+    const uint32_t interior = L.face_out[f];
+    const int nfacets = tess.GetNumFacets();
+    x.facets.resize(size_t(nfacets) * 3);
+    std::vector<int>& facets = x.facets;
+    tess.GetFacets(facets.data());
+    const size_t t0 = L.face_tri[f];
+    if (ev.keep_parameters)
+        for (int t = 0; t < nfacets; ++t) {
+            out.triangle_patches[t0 + size_t(t)] = uint32_t(f);
+            for (int k = 0; k < 3; ++k) {
+                const int local = facets[size_t(t) * 3 + size_t(k)];
+                out.triangle_coords[(t0 + size_t(t)) * 6 + size_t(k) * 2] = coords[size_t(local) * 2];
+                out.triangle_coords[(t0 + size_t(t)) * 6 + size_t(k) * 2 + 1] = coords[size_t(local) * 2 + 1];
+            }
+        }
+    tess.TransformFacetCoordIndices(facets.data(), x.bidx.data(), int(interior) - nb);
+    for (int t = 0; t < nfacets; ++t) {
+        out.triangle_faces[t0 + size_t(t)] = m.face_source[f];
+        for (int k = 0; k < 3; ++k) out.indices[(t0 + size_t(t)) * 3 + size_t(k)] = uint32_t(facets[size_t(t) * 3 + size_t(k)]);
+    }
+}
+
+// limit_corners: linear faces read their corners' limit positions (only once all smooth faces are done).
+void process(Evaluation& ev, size_t f, bool smooth, bool limit_corners, Surface& vtx, Surface& fvar, Scratch& x) {
+    FaceEvaluation face(ev, f, smooth, limit_corners, vtx, fvar, x);
+    face.boundary();
+    face.interior();
+    face.triangles();
+}
+
+// Smooth faces first, then the faces tessellated linearly.
+void evaluate_faces(Evaluation& ev) {
+    const PreparedMesh& m = ev.m;
+    const size_t F = m.face_count();
+    const int K = ev.K;
     for (int pass = 0; pass < 2; ++pass) {
         const bool smooth_pass = pass == 0;
         tbb::parallel_for(tbb::blocked_range<size_t>(0, F, 16), [&](const tbb::blocked_range<size_t>& range) {
@@ -295,15 +370,22 @@ Status evaluate_tessellation(TessellateOutput& out, const PreparedMesh& m, const
                     // become a crash or a crack: such a face would keep its (already shared) boundary points.
                     bool ok = m.factory_of(f).InitVertexSurface(m.face_refiner[f], &vtx);
                     if (ok && K > 0) ok = m.factory_of(f).InitFaceVaryingSurface(m.face_refiner[f], &fvar);
-                    process(f, ok, false, vtx, fvar, scratch);
+                    process(ev, f, ok, false, vtx, fvar, scratch);
                 } else {
-                    process(f, false, true, vtx, fvar, scratch);
+                    process(ev, f, false, true, vtx, fvar, scratch);
                 }
             }
         });
     }
+}
 
-    // ---- normals at shared points: averaged per sector (groups) and across non-crease edges
+// Per sector (groups), with the skin of each group's value.
+void average_group_normals(Evaluation& ev) {
+    const PreparedMesh& m = ev.m;
+    TessellateOutput& out = ev.out;
+    const std::vector<float>& corner_normal = ev.corner_normal;
+    float* N = out.normals.data();
+    const size_t G = m.group_value.size();
     tbb::parallel_for(tbb::blocked_range<size_t>(0, G, 1024), [&](const tbb::blocked_range<size_t>& range) {
         for (size_t g = range.begin(); g != range.end(); ++g) {
             const uint32_t s = m.group_sector[g];
@@ -322,6 +404,16 @@ Status evaluate_tessellation(TessellateOutput& out, const PreparedMesh& m, const
             }
         }
     });
+}
+
+// Across the edges that are no crease: the sides' normals averaged (the same for every side of a seam).
+void average_edge_normals(Evaluation& ev) {
+    const PreparedMesh& m = ev.m;
+    const Layout& L = ev.L;
+    const std::vector<int>& rates = ev.rates;
+    const std::vector<float>& side_normal = ev.side_normal;
+    float* N = ev.out.normals.data();
+    const size_t E = m.edges.size();
     tbb::parallel_for(tbb::blocked_range<size_t>(0, E, 1024), [&](const tbb::blocked_range<size_t>& range) {
         for (size_t e = range.begin(); e != range.end(); ++e) {
             const int np = rates[e] - 1;
@@ -350,10 +442,15 @@ Status evaluate_tessellation(TessellateOutput& out, const PreparedMesh& m, const
             }
         }
     });
-    for (size_t i = 0; i < V; ++i)
-        if (is_zero(&N[i * 3])) N[i * 3 + 2] = 1.0f;
+}
 
-    // ---- de-interleave
+// ---- de-interleave
+void deinterleave(Evaluation& ev) {
+    const PreparedMesh& m = ev.m;
+    TessellateOutput& out = ev.out;
+    const std::vector<float>&data = ev.data, &attrs = ev.attrs;
+    const size_t V = ev.L.vertices;
+    const int W = ev.W, K = ev.K;
     out.positions.resize(V * 3);
     for (size_t v = 0; v < V; ++v) std::copy_n(&data[v * size_t(W)], 3, &out.positions[v * 3]);
     out.vertex_data.assign(m.vertex_data_components.size(), {});
@@ -380,8 +477,28 @@ Status evaluate_tessellation(TessellateOutput& out, const PreparedMesh& m, const
             std::copy_n(&attrs[v * size_t(K) + size_t(offset)], nc, &out.attributes[a][v * size_t(nc)]);
         offset += nc;
     }
+}
+
+} // namespace
+
+Status evaluate_tessellation(TessellateOutput& out, const PreparedMesh& m, const std::vector<int>& rates,
+                             bool keep_parameters) {
+    Evaluation ev{m, rates, out, keep_parameters, m.W, m.K, {}, {}, {}, {}, {}};
+    if (Status s = plan_layout(ev.L, m, rates); !s.ok()) return s;
+    allocate(ev);
+    evaluate_faces(ev);
+
+    // ---- normals at shared points: averaged per sector (groups) and across non-crease edges
+    average_group_normals(ev);
+    average_edge_normals(ev);
+    const size_t V = ev.L.vertices;
+    float* N = out.normals.data();
+    for (size_t i = 0; i < V; ++i)
+        if (is_zero(&N[i * 3])) N[i * 3 + 2] = 1.0f;
+
+    deinterleave(ev);
     out.stats.vertices = V;
-    out.stats.triangles = tris;
+    out.stats.triangles = ev.L.triangles;
     return Status::success();
 }
 

@@ -242,27 +242,16 @@ size_t orient_faces(PreparedMesh& m) {
     return flipped;
 }
 
-} // namespace
+uint32_t sides(const PreparedMesh& m, size_t e) { return m.edge_side_begin[e + 1] - m.edge_side_begin[e]; }
 
-Status check_surface_options(const SurfaceOptions& options) { return check_options(options); }
-
-Status prepare_mesh(PreparedMesh& m, const TessellateInput& in, const SurfaceOptions& o) {
-    if (Status s = check_options(o); !s.ok()) return s;
-    if (Status s = check_input(in, o); !s.ok()) return s;
-    m = PreparedMesh{};
-    m.options = o;
-    m.scheme = o.scheme == SubdivisionScheme::loop       ? osd::Sdc::SCHEME_LOOP
-               : o.scheme == SubdivisionScheme::bilinear ? osd::Sdc::SCHEME_BILINEAR
-                                                         : osd::Sdc::SCHEME_CATMARK;
-    TessellateStats& st = m.stats;
+// ---- weld
+// Fills welded_input, W and welded_data; returns the welded id of every input vertex.
+std::vector<uint32_t> weld(PreparedMesh& m, const TessellateInput& in, const SurfaceOptions& o) {
     const size_t nv = in.vertex_count;
-    m.input_vertex_count = nv;
-
-    // ---- weld
     std::vector<uint32_t> remap(nv);
     if (nv) weld_positions(remap.data(), in.positions, nv, 3, o.weld_tolerance);
     kernel::WeldedIds welded = kernel::welded_ids(remap.data(), nv);
-    const std::vector<uint32_t>& welded_of = welded.of_vertex;
+    std::vector<uint32_t> welded_of = std::move(welded.of_vertex);
     m.welded_input = std::move(welded.first);
     m.W = 3;
     for (const auto& a : in.vertex_data) {
@@ -280,73 +269,81 @@ Status prepare_mesh(PreparedMesh& m, const TessellateInput& in, const SurfaceOpt
             k += a.components;
         }
     }
+    return welded_of;
+}
 
-    // ---- faces: repair
+// ---- faces: repair
+// Fills the faces and their corners, face_group_of with each face's group; returns the number of input
+// polygons split into several faces.
+size_t repair_faces(PreparedMesh& m, std::vector<uint32_t>& face_group_of, const TessellateInput& in,
+                    const std::vector<uint32_t>& welded_of) {
+    TessellateStats& st = m.stats;
     const size_t nf_in = in.face_sizes ? in.face_count : in.index_count / 3;
     st.input_faces = nf_in;
     std::vector<uint32_t> welded_of_index(in.index_count);
     for (size_t i = 0; i < in.index_count; ++i) welded_of_index[i] = welded_of[in.indices[i]];
     m.face_offset.push_back(0);
-    std::vector<uint32_t> face_group_of;
     size_t split_polygons = 0;
-    {
-        size_t first = 0;
-        std::vector<std::vector<uint32_t>> pieces;
-        for (size_t f = 0; f < nf_in; ++f) {
-            const size_t n = in.face_sizes ? in.face_sizes[f] : 3;
-            // The common case, no welded vertex twice: no repair, no allocation.
-            bool distinct = n >= 3;
-            for (size_t i = 0; i < n && distinct && n <= 16; ++i)
-                for (size_t j = i + 1; j < n; ++j)
-                    if (welded_of_index[first + i] == welded_of_index[first + j]) {
-                        distinct = false;
-                        break;
-                    }
-            if (distinct && n <= 16) {
-                for (size_t i = first; i < first + n; ++i) {
-                    m.corner_input.push_back(in.indices[i]);
-                    m.corner_welded.push_back(welded_of_index[i]);
-                    m.corner_face.push_back(uint32_t(m.face_source.size()));
+    size_t first = 0;
+    std::vector<std::vector<uint32_t>> pieces;
+    for (size_t f = 0; f < nf_in; ++f) {
+        const size_t n = in.face_sizes ? in.face_sizes[f] : 3;
+        // The common case, no welded vertex twice: no repair, no allocation.
+        bool distinct = n >= 3;
+        for (size_t i = 0; i < n && distinct && n <= 16; ++i)
+            for (size_t j = i + 1; j < n; ++j)
+                if (welded_of_index[first + i] == welded_of_index[first + j]) {
+                    distinct = false;
+                    break;
                 }
-                m.face_source.push_back(uint32_t(f));
-                face_group_of.push_back(in.face_groups ? in.face_groups[f] : 0u);
-                m.face_offset.push_back(uint32_t(m.corner_input.size()));
-                first += n;
-                continue;
+        if (distinct && n <= 16) {
+            for (size_t i = first; i < first + n; ++i) {
+                m.corner_input.push_back(in.indices[i]);
+                m.corner_welded.push_back(welded_of_index[i]);
+                m.corner_face.push_back(uint32_t(m.face_source.size()));
             }
-            std::vector<uint32_t> corners(n);
-            std::iota(corners.begin(), corners.end(), uint32_t(first));
+            m.face_source.push_back(uint32_t(f));
+            face_group_of.push_back(in.face_groups ? in.face_groups[f] : 0u);
+            m.face_offset.push_back(uint32_t(m.corner_input.size()));
             first += n;
-            pieces.clear();
-            split_polygon(pieces, std::move(corners), welded_of_index);
-            if (pieces.empty()) ++st.dropped_faces;
-            if (pieces.size() > 1) ++split_polygons;
-            for (const auto& piece : pieces) {
-                for (uint32_t idx : piece) {
-                    m.corner_input.push_back(in.indices[idx]);
-                    m.corner_welded.push_back(welded_of_index[idx]);
-                    m.corner_face.push_back(uint32_t(m.face_source.size()));
-                }
-                m.face_source.push_back(uint32_t(f));
-                face_group_of.push_back(in.face_groups ? in.face_groups[f] : 0u);
-                m.face_offset.push_back(uint32_t(m.corner_input.size()));
+            continue;
+        }
+        std::vector<uint32_t> corners(n);
+        std::iota(corners.begin(), corners.end(), uint32_t(first));
+        first += n;
+        pieces.clear();
+        split_polygon(pieces, std::move(corners), welded_of_index);
+        if (pieces.empty()) ++st.dropped_faces;
+        if (pieces.size() > 1) ++split_polygons;
+        for (const auto& piece : pieces) {
+            for (uint32_t idx : piece) {
+                m.corner_input.push_back(in.indices[idx]);
+                m.corner_welded.push_back(welded_of_index[idx]);
+                m.corner_face.push_back(uint32_t(m.face_source.size()));
             }
+            m.face_source.push_back(uint32_t(f));
+            face_group_of.push_back(in.face_groups ? in.face_groups[f] : 0u);
+            m.face_offset.push_back(uint32_t(m.corner_input.size()));
         }
     }
-    const size_t F = m.face_source.size();
-    const size_t C = m.corner_input.size();
-    st.faces = F;
-    if (o.refuse_bad_topology && st.dropped_faces)
-        return Status::error(StatusCode::invalid_input, str(st.dropped_faces) + " degenerate faces (a repeated vertex)");
-    if (o.refuse_bad_topology && split_polygons)
-        return Status::error(StatusCode::invalid_input, str(split_polygons) + " faces that visit a vertex twice");
-    m.face_linear.assign(F, 0);
-    build_edges(m);
-    st.flipped_faces = orient_faces(m);
-    if (st.flipped_faces && o.refuse_bad_topology)
-        return Status::error(StatusCode::invalid_input, str(st.flipped_faces) + " faces oriented against their neighbours");
+    return split_polygons;
+}
 
-    // ---- attribute values
+// The attribute vector (uvs, then the attribute arrays) of input vertex v.
+void attr_vector(const TessellateInput& in, size_t v, float* out) {
+    int k = 0;
+    if (in.uvs) {
+        out[k++] = in.uvs[v * 2];
+        out[k++] = in.uvs[v * 2 + 1];
+    }
+    for (const auto& a : in.attributes)
+        for (int c = 0; c < a.components; ++c) out[k++] = a.values[v * size_t(a.components) + size_t(c)];
+}
+
+// Sets has_uv, has_skin, K and attribute_components, and returns the attribute classes below.
+// Attribute class of each input vertex: equal attribute vectors (bitwise) and skins share a class.
+std::vector<uint32_t> attribute_classes(PreparedMesh& m, const TessellateInput& in) {
+    const size_t nv = in.vertex_count;
     m.has_uv = in.uvs != nullptr;
     m.has_skin = in.joints != nullptr;
     m.K = in.uvs ? 2 : 0;
@@ -355,16 +352,6 @@ Status prepare_mesh(PreparedMesh& m, const TessellateInput& in, const SurfaceOpt
         m.K += a.components;
     }
     const int K = m.K;
-    auto attr_vector = [&](size_t v, float* out) {
-        int k = 0;
-        if (in.uvs) {
-            out[k++] = in.uvs[v * 2];
-            out[k++] = in.uvs[v * 2 + 1];
-        }
-        for (const auto& a : in.attributes)
-            for (int c = 0; c < a.components; ++c) out[k++] = a.values[v * size_t(a.components) + size_t(c)];
-    };
-    // Attribute class of each input vertex: equal attribute vectors (bitwise) and skins share a class.
     std::vector<uint32_t> attr_class(nv, 0);
     if (K > 0 || m.has_skin) {
         const size_t key_len = size_t(K) + (m.has_skin ? 8 : 0);
@@ -372,7 +359,7 @@ Status prepare_mesh(PreparedMesh& m, const TessellateInput& in, const SurfaceOpt
         std::vector<float> tmp(static_cast<size_t>(K));
         for (size_t v = 0; v < nv; ++v) {
             uint32_t* key = &keys[v * key_len];
-            attr_vector(v, tmp.data());
+            attr_vector(in, v, tmp.data());
             for (int k = 0; k < K; ++k) key[k] = float_bits(tmp[size_t(k)]);
             if (m.has_skin)
                 for (int j = 0; j < 4; ++j) {
@@ -401,46 +388,51 @@ Status prepare_mesh(PreparedMesh& m, const TessellateInput& in, const SurfaceOpt
             attr_class[order[i]] = cls;
         }
     }
-    // Values: distinct (welded position, face group, attribute class) over the corners.
-    m.corner_value.assign(C, 0);
-    {
-        auto key = [&](uint32_t c) {
-            return std::array<uint32_t, 3>{m.corner_welded[c], face_group_of[m.corner_face[c]], attr_class[m.corner_input[c]]};
-        };
-        const std::vector<uint32_t> order = order_by<std::array<uint32_t, 3>>(C, key);
-        uint32_t value = 0;
-        std::vector<float> tmp(static_cast<size_t>(K));
-        for (size_t i = 0; i < C; ++i) {
-            const uint32_t c = order[i];
-            if (i && key(c) != key(order[i - 1])) ++value;
-            if (i == 0 || key(c) != key(order[i - 1])) {
-                const size_t v = m.corner_input[c];
-                attr_vector(v, tmp.data());
-                m.value_attrs.insert(m.value_attrs.end(), tmp.begin(), tmp.end());
-                if (m.has_skin) {
-                    m.value_joints.insert(m.value_joints.end(), in.joints + v * 4, in.joints + v * 4 + 4);
-                    m.value_weights.insert(m.value_weights.end(), in.weights + v * 4, in.weights + v * 4 + 4);
-                }
-            }
-            m.corner_value[c] = value;
-        }
-    }
+    return attr_class;
+}
 
-    // ---- edges over welded positions (again if faces were flipped)
-    if (st.flipped_faces) build_edges(m);
+// Values: distinct (welded position, face group, attribute class) over the corners.
+void attribute_values(PreparedMesh& m, const TessellateInput& in, const std::vector<uint32_t>& face_group_of,
+                      const std::vector<uint32_t>& attr_class) {
+    const size_t C = m.corner_input.size();
+    m.corner_value.assign(C, 0);
+    auto key = [&](uint32_t c) {
+        return std::array<uint32_t, 3>{m.corner_welded[c], face_group_of[m.corner_face[c]], attr_class[m.corner_input[c]]};
+    };
+    const std::vector<uint32_t> order = order_by<std::array<uint32_t, 3>>(C, key);
+    uint32_t value = 0;
+    std::vector<float> tmp(static_cast<size_t>(m.K));
+    for (size_t i = 0; i < C; ++i) {
+        const uint32_t c = order[i];
+        if (i && key(c) != key(order[i - 1])) ++value;
+        if (i == 0 || key(c) != key(order[i - 1])) {
+            const size_t v = m.corner_input[c];
+            attr_vector(in, v, tmp.data());
+            m.value_attrs.insert(m.value_attrs.end(), tmp.begin(), tmp.end());
+            if (m.has_skin) {
+                m.value_joints.insert(m.value_joints.end(), in.joints + v * 4, in.joints + v * 4 + 4);
+                m.value_weights.insert(m.value_weights.end(), in.weights + v * 4, in.weights + v * 4 + 4);
+            }
+        }
+        m.corner_value[c] = value;
+    }
+}
+
+// Edges with more than two sides (1) or two sides in the same direction (2) send their faces to face_linear;
+// returns the mark of every edge.
+std::vector<uint8_t> bad_edges(PreparedMesh& m) {
+    TessellateStats& st = m.stats;
     const size_t E = m.edge_side_begin.size() - 1;
-    st.edges = E;
-    auto sides = [&](size_t e) { return m.edge_side_begin[e + 1] - m.edge_side_begin[e]; };
     auto consistent = [&](size_t e) { // for two sides: they traverse the edge in opposite directions
         uint32_t c1 = m.side_corner[m.edge_side_begin[e]], c2 = m.side_corner[m.edge_side_begin[e] + 1];
         return m.corner_welded[c1] == m.corner_welded[m.next_corner(c2)];
     };
     std::vector<uint8_t> bad_edge(E, 0);
     for (size_t e = 0; e < E; ++e) {
-        if (sides(e) > 2) {
+        if (sides(m, e) > 2) {
             bad_edge[e] = 1;
             ++st.non_manifold_edges;
-        } else if (sides(e) == 2 && !consistent(e)) {
+        } else if (sides(m, e) == 2 && !consistent(e)) {
             bad_edge[e] = 2;
             ++st.inconsistent_edges;
         }
@@ -448,108 +440,113 @@ Status prepare_mesh(PreparedMesh& m, const TessellateInput& in, const SurfaceOpt
             for (uint32_t s = m.edge_side_begin[e]; s < m.edge_side_begin[e + 1]; ++s)
                 m.face_linear[m.corner_face[m.side_corner[s]]] = 1;
     }
-    if (o.refuse_bad_topology) {
-        if (st.non_manifold_edges)
-            return Status::error(StatusCode::invalid_input, str(st.non_manifold_edges) + " non-manifold edges");
-        if (st.inconsistent_edges)
-            return Status::error(StatusCode::invalid_input,
-                                 str(st.inconsistent_edges) + " edges with inconsistently oriented faces");
-    }
+    return bad_edge;
+}
 
-    // ---- fans of the smooth faces (the refiner's vertices). Interior vertices of valence 2 (two faces sharing
-    // both edges at a vertex: the control hull folds there) stay in the refiner. OpenSubdiv 3.5.0's Bfr gives
-    // their faces the right limit surface (against 9 levels of uniform refinement, test
-    // tessellate_reference.Valence2VerticesAreOnTheLimitSurface), but may share such a face's
-    // irregular patch wrongly through its surface cache (fixed in 3.6, PR 1353): those faces are evaluated
-    // without the cache (face_uncached). The other 3.5.0 bugs there need a semi-sharp edge (PR 1301), which
-    // furrow never makes, or a valence-2 dart, one infinitely sharp edge at the vertex (PR 1336), which its
-    // creases cannot make: both edges of a valence-2 vertex lie between the same two faces, so the crease
-    // angle marks both or neither. A crease at any corner of such a face still makes 3.5.0's builder read
-    // out of bounds: build_surfaces takes those faces out of Bfr (keep_valence2_faces_off_creases).
+// ---- fans of the smooth faces (the refiner's vertices). Interior vertices of valence 2 (two faces sharing
+// both edges at a vertex: the control hull folds there) stay in the refiner. OpenSubdiv 3.5.0's Bfr gives
+// their faces the right limit surface (against 9 levels of uniform refinement, test
+// tessellate_reference.Valence2VerticesAreOnTheLimitSurface), but may share such a face's
+// irregular patch wrongly through its surface cache (fixed in 3.6, PR 1353): those faces are evaluated
+// without the cache (face_uncached). The other 3.5.0 bugs there need a semi-sharp edge (PR 1301), which
+// furrow never makes, or a valence-2 dart, one infinitely sharp edge at the vertex (PR 1336), which its
+// creases cannot make: both edges of a valence-2 vertex lie between the same two faces, so the crease
+// angle marks both or neither. A crease at any corner of such a face still makes 3.5.0's builder read
+// out of bounds: build_surfaces takes those faces out of Bfr (keep_valence2_faces_off_creases).
+// Returns the fan (a corner) of every corner of a smooth face, none for the others.
+std::vector<uint32_t> smooth_fans(PreparedMesh& m, const std::vector<uint8_t>& bad_edge) {
+    const size_t C = m.corner_input.size(), E = m.edge_side_begin.size() - 1;
     std::vector<uint32_t> smooth_class(C, none);
-    m.face_uncached.assign(F, 0);
-    {
-        DisjointSets ds(C);
-        std::vector<uint32_t> join_sites;
-        for (size_t e = 0; e < E; ++e) {
-            if (sides(e) != 2 || bad_edge[e]) continue;
-            uint32_t c1 = m.side_corner[m.edge_side_begin[e]], c2 = m.side_corner[m.edge_side_begin[e] + 1];
-            if (m.face_linear[m.corner_face[c1]] || m.face_linear[m.corner_face[c2]]) continue;
-            ds.unite(c1, m.next_corner(c2));
-            ds.unite(m.next_corner(c1), c2);
-            join_sites.push_back(c1);
-            join_sites.push_back(m.next_corner(c1));
-        }
-        std::vector<uint32_t> corners_in(C, 0), joins_in(C, 0);
-        for (uint32_t c = 0; c < C; ++c)
-            if (!m.face_linear[m.corner_face[c]]) ++corners_in[ds.find(c)];
-        for (uint32_t c : join_sites) ++joins_in[ds.find(c)];
-        for (uint32_t c = 0; c < C; ++c) {
-            if (m.face_linear[m.corner_face[c]]) continue;
-            const uint32_t r = ds.find(c);
-            smooth_class[c] = r;
-            if (corners_in[r] == 2 && joins_in[r] == 2) {
-                m.face_uncached[m.corner_face[c]] = 1;
-                if (r == c) ++st.valence2_vertices;
-            }
+    m.face_uncached.assign(m.face_count(), 0);
+    DisjointSets ds(C);
+    std::vector<uint32_t> join_sites;
+    for (size_t e = 0; e < E; ++e) {
+        if (sides(m, e) != 2 || bad_edge[e]) continue;
+        uint32_t c1 = m.side_corner[m.edge_side_begin[e]], c2 = m.side_corner[m.edge_side_begin[e] + 1];
+        if (m.face_linear[m.corner_face[c1]] || m.face_linear[m.corner_face[c2]]) continue;
+        ds.unite(c1, m.next_corner(c2));
+        ds.unite(m.next_corner(c1), c2);
+        join_sites.push_back(c1);
+        join_sites.push_back(m.next_corner(c1));
+    }
+    std::vector<uint32_t> corners_in(C, 0), joins_in(C, 0);
+    for (uint32_t c = 0; c < C; ++c)
+        if (!m.face_linear[m.corner_face[c]]) ++corners_in[ds.find(c)];
+    for (uint32_t c : join_sites) ++joins_in[ds.find(c)];
+    for (uint32_t c = 0; c < C; ++c) {
+        if (m.face_linear[m.corner_face[c]]) continue;
+        const uint32_t r = ds.find(c);
+        smooth_class[c] = r;
+        if (corners_in[r] == 2 && joins_in[r] == 2) {
+            m.face_uncached[m.corner_face[c]] = 1;
+            if (r == c) ++m.stats.valence2_vertices;
         }
     }
-    // Refiner vertices numbered by their first corner.
-    {
-        std::vector<uint32_t> id(C, none);
-        uint32_t next = 0;
-        m.corner_refiner_vertex.assign(C, none);
-        for (uint32_t c = 0; c < C; ++c) {
-            if (smooth_class[c] == none) continue;
-            uint32_t& r = id[smooth_class[c]];
-            if (r == none) {
-                r = next++;
-                m.refiner_vertex_welded.push_back(m.corner_welded[c]);
-            }
-            m.corner_refiner_vertex[c] = r;
-        }
-    }
+    return smooth_class;
+}
 
-    // ---- points: welded positions split into edge-connected fans of all faces
-    {
-        DisjointSets ds(C);
-        for (size_t e = 0; e < E; ++e) {
-            if (sides(e) < 2) continue;
-            const uint32_t c0 = m.side_corner[m.edge_side_begin[e]];
-            for (uint32_t s = m.edge_side_begin[e] + 1; s < m.edge_side_begin[e + 1]; ++s) {
-                const uint32_t c = m.side_corner[s];
-                if (m.corner_welded[c] == m.corner_welded[c0]) {
-                    ds.unite(c, c0);
-                    ds.unite(m.next_corner(c), m.next_corner(c0));
-                } else {
-                    ds.unite(c, m.next_corner(c0));
-                    ds.unite(m.next_corner(c), c0);
-                }
-            }
+// Refiner vertices numbered by their first corner.
+void number_refiner_vertices(PreparedMesh& m, const std::vector<uint32_t>& smooth_class) {
+    const size_t C = m.corner_input.size();
+    std::vector<uint32_t> id(C, none);
+    uint32_t next = 0;
+    m.corner_refiner_vertex.assign(C, none);
+    for (uint32_t c = 0; c < C; ++c) {
+        if (smooth_class[c] == none) continue;
+        uint32_t& r = id[smooth_class[c]];
+        if (r == none) {
+            r = next++;
+            m.refiner_vertex_welded.push_back(m.corner_welded[c]);
         }
-        std::vector<uint32_t> id(C, none);
-        std::vector<uint32_t> points_of_welded(m.welded_input.size(), 0);
-        m.corner_point.assign(C, none);
-        for (uint32_t c = 0; c < C; ++c) {
-            uint32_t& p = id[ds.find(c)];
-            if (p == none) {
-                p = uint32_t(m.point_welded.size());
-                m.point_welded.push_back(m.corner_welded[c]);
-                ++points_of_welded[m.corner_welded[c]];
-            }
-            m.corner_point[c] = p;
-        }
-        for (uint32_t n : points_of_welded) st.split_vertices += n > 1;
+        m.corner_refiner_vertex[c] = r;
     }
-    const size_t P = m.point_welded.size();
+}
+
+// ---- points: welded positions split into edge-connected fans of all faces
+// Also the edges' end points.
+void split_points(PreparedMesh& m) {
+    const size_t C = m.corner_input.size(), E = m.edge_side_begin.size() - 1;
+    DisjointSets ds(C);
+    for (size_t e = 0; e < E; ++e) {
+        if (sides(m, e) < 2) continue;
+        const uint32_t c0 = m.side_corner[m.edge_side_begin[e]];
+        for (uint32_t s = m.edge_side_begin[e] + 1; s < m.edge_side_begin[e + 1]; ++s) {
+            const uint32_t c = m.side_corner[s];
+            if (m.corner_welded[c] == m.corner_welded[c0]) {
+                ds.unite(c, c0);
+                ds.unite(m.next_corner(c), m.next_corner(c0));
+            } else {
+                ds.unite(c, m.next_corner(c0));
+                ds.unite(m.next_corner(c), c0);
+            }
+        }
+    }
+    std::vector<uint32_t> id(C, none);
+    std::vector<uint32_t> points_of_welded(m.welded_input.size(), 0);
+    m.corner_point.assign(C, none);
+    for (uint32_t c = 0; c < C; ++c) {
+        uint32_t& p = id[ds.find(c)];
+        if (p == none) {
+            p = uint32_t(m.point_welded.size());
+            m.point_welded.push_back(m.corner_welded[c]);
+            ++points_of_welded[m.corner_welded[c]];
+        }
+        m.corner_point[c] = p;
+    }
+    for (uint32_t n : points_of_welded) m.stats.split_vertices += n > 1;
     m.edges.resize(E);
     for (size_t e = 0; e < E; ++e) {
         const uint32_t c0 = m.side_corner[m.edge_side_begin[e]];
         uint32_t a = m.corner_point[c0], b = m.corner_point[m.next_corner(c0)];
         m.edges[e] = {std::min(a, b), std::max(a, b)};
     }
+}
 
-    // ---- creases, seams, normal sectors
+// ---- creases, seams, normal sectors
+// edge_split and edge_crease of every edge.
+void creases_and_seams(PreparedMesh& m, const std::vector<uint8_t>& bad_edge) {
+    const SurfaceOptions& o = m.options;
+    const size_t F = m.face_count(), E = m.edge_side_begin.size() - 1;
     std::vector<std::array<double, 3>> face_normal(F);
     for (size_t f = 0; f < F; ++f) {
         std::vector<const float*> pts;
@@ -562,7 +559,7 @@ Status prepare_mesh(PreparedMesh& m, const TessellateInput& in, const SurfaceOpt
     m.edge_split.assign(E, 0);
     m.edge_crease.assign(E, 0);
     for (size_t e = 0; e < E; ++e) {
-        if (sides(e) == 1) continue;
+        if (sides(m, e) == 1) continue;
         if (bad_edge[e]) {
             m.edge_split[e] = 3;
             continue;
@@ -575,67 +572,74 @@ Status prepare_mesh(PreparedMesh& m, const TessellateInput& in, const SurfaceOpt
             if (l > 0 && (n1[0] * n2[0] + n1[1] * n2[1] + n1[2] * n2[2]) / l < cos_crease) {
                 m.edge_split[e] |= 2;
                 m.edge_crease[e] = 1;
-                ++st.crease_edges;
+                ++m.stats.crease_edges;
             }
         }
         if (m.corner_value[c1] != m.corner_value[m.next_corner(c2)] || m.corner_value[m.next_corner(c1)] != m.corner_value[c2])
             m.edge_split[e] |= 1;
     }
+}
+
+// The normal sector of every corner, as its root corner: corners joined across edges that are no crease.
+std::vector<uint32_t> sector_roots(const PreparedMesh& m) {
+    const size_t C = m.corner_input.size(), E = m.edge_side_begin.size() - 1;
     std::vector<uint32_t> sector_root(C);
-    {
-        DisjointSets ds(C);
-        for (size_t e = 0; e < E; ++e) {
-            if (sides(e) != 2 || (m.edge_split[e] & 2)) continue;
-            uint32_t c1 = m.side_corner[m.edge_side_begin[e]], c2 = m.side_corner[m.edge_side_begin[e] + 1];
-            ds.unite(c1, m.next_corner(c2));
-            ds.unite(m.next_corner(c1), c2);
-        }
-        for (uint32_t c = 0; c < C; ++c) sector_root[c] = ds.find(c);
+    DisjointSets ds(C);
+    for (size_t e = 0; e < E; ++e) {
+        if (sides(m, e) != 2 || (m.edge_split[e] & 2)) continue;
+        uint32_t c1 = m.side_corner[m.edge_side_begin[e]], c2 = m.side_corner[m.edge_side_begin[e] + 1];
+        ds.unite(c1, m.next_corner(c2));
+        ds.unite(m.next_corner(c1), c2);
     }
+    for (uint32_t c = 0; c < C; ++c) sector_root[c] = ds.find(c);
+    return sector_root;
+}
 
-    // ---- groups: output vertices at points, one per (point, value, sector)
-    {
-        auto key = [&](uint32_t c) {
-            return std::array<uint32_t, 3>{m.corner_point[c], m.corner_value[c], sector_root[c]};
-        };
-        const std::vector<uint32_t> order = order_by<std::array<uint32_t, 3>>(C, key);
-        m.corner_group.assign(C, none);
-        m.point_group_begin.assign(P + 1, 0);
-        for (size_t i = 0; i < C; ++i) {
-            const uint32_t c = order[i];
-            if (i == 0 || key(c) != key(order[i - 1])) {
-                m.group_point.push_back(m.corner_point[c]);
-                m.group_value.push_back(m.corner_value[c]);
-                m.group_sector.push_back(sector_root[c]); // a corner for now, a sector index below
-                ++m.point_group_begin[m.corner_point[c] + 1];
-            }
-            m.corner_group[c] = uint32_t(m.group_value.size() - 1);
+// ---- groups: output vertices at points, one per (point, value, sector)
+void build_groups(PreparedMesh& m, const std::vector<uint32_t>& sector_root) {
+    const size_t C = m.corner_input.size(), P = m.point_welded.size();
+    auto key = [&](uint32_t c) {
+        return std::array<uint32_t, 3>{m.corner_point[c], m.corner_value[c], sector_root[c]};
+    };
+    const std::vector<uint32_t> order = order_by<std::array<uint32_t, 3>>(C, key);
+    m.corner_group.assign(C, none);
+    m.point_group_begin.assign(P + 1, 0);
+    for (size_t i = 0; i < C; ++i) {
+        const uint32_t c = order[i];
+        if (i == 0 || key(c) != key(order[i - 1])) {
+            m.group_point.push_back(m.corner_point[c]);
+            m.group_value.push_back(m.corner_value[c]);
+            m.group_sector.push_back(sector_root[c]); // a corner for now, a sector index below
+            ++m.point_group_begin[m.corner_point[c] + 1];
         }
-        for (size_t p = 0; p < P; ++p) m.point_group_begin[p + 1] += m.point_group_begin[p];
-        const size_t G = m.group_value.size();
-        m.group_attr_end.assign(G, 0);
-        for (size_t g = G; g-- > 0;) {
-            const bool same_next = g + 1 < G && m.group_point[g + 1] == m.group_point[g] &&
-                                   m.group_value[g + 1] == m.group_value[g];
-            m.group_attr_end[g] = same_next ? m.group_attr_end[g + 1] : uint32_t(g + 1);
-        }
-        // Sectors: runs of (point, sector root) over the corners.
-        auto skey = [&](uint32_t c) { return pack(m.corner_point[c], sector_root[c]); };
-        const std::vector<uint32_t> sorder = order_by<uint64_t>(C, skey);
-        std::vector<uint32_t> sector_of_root(C, none);
-        for (size_t i = 0; i < C; ++i) {
-            const uint32_t c = sorder[i];
-            if (i == 0 || skey(c) != skey(sorder[i - 1])) {
-                sector_of_root[sector_root[c]] = uint32_t(m.sector_begin.size());
-                m.sector_begin.push_back(uint32_t(i));
-            }
-            m.sector_corners.push_back(c);
-        }
-        m.sector_begin.push_back(uint32_t(C));
-        for (auto& s : m.group_sector) s = sector_of_root[s];
+        m.corner_group[c] = uint32_t(m.group_value.size() - 1);
     }
+    for (size_t p = 0; p < P; ++p) m.point_group_begin[p + 1] += m.point_group_begin[p];
+    const size_t G = m.group_value.size();
+    m.group_attr_end.assign(G, 0);
+    for (size_t g = G; g-- > 0;) {
+        const bool same_next = g + 1 < G && m.group_point[g + 1] == m.group_point[g] &&
+                               m.group_value[g + 1] == m.group_value[g];
+        m.group_attr_end[g] = same_next ? m.group_attr_end[g + 1] : uint32_t(g + 1);
+    }
+    // Sectors: runs of (point, sector root) over the corners.
+    auto skey = [&](uint32_t c) { return pack(m.corner_point[c], sector_root[c]); };
+    const std::vector<uint32_t> sorder = order_by<uint64_t>(C, skey);
+    std::vector<uint32_t> sector_of_root(C, none);
+    for (size_t i = 0; i < C; ++i) {
+        const uint32_t c = sorder[i];
+        if (i == 0 || skey(c) != skey(sorder[i - 1])) {
+            sector_of_root[sector_root[c]] = uint32_t(m.sector_begin.size());
+            m.sector_begin.push_back(uint32_t(i));
+        }
+        m.sector_corners.push_back(c);
+    }
+    m.sector_begin.push_back(uint32_t(C));
+    for (auto& s : m.group_sector) s = sector_of_root[s];
+}
 
-    // ---- bounding box
+// ---- bounding box
+void bounding_box(PreparedMesh& m) {
     bool any = false;
     for (uint32_t w : m.corner_welded) {
         const float* p = &m.welded_data[size_t(w) * size_t(m.W)];
@@ -645,6 +649,59 @@ Status prepare_mesh(PreparedMesh& m, const TessellateInput& in, const SurfaceOpt
         }
         any = true;
     }
+}
+
+} // namespace
+
+Status check_surface_options(const SurfaceOptions& options) { return check_options(options); }
+
+Status prepare_mesh(PreparedMesh& m, const TessellateInput& in, const SurfaceOptions& o) {
+    if (Status s = check_options(o); !s.ok()) return s;
+    if (Status s = check_input(in, o); !s.ok()) return s;
+    m = PreparedMesh{};
+    m.options = o;
+    m.scheme = o.scheme == SubdivisionScheme::loop       ? osd::Sdc::SCHEME_LOOP
+               : o.scheme == SubdivisionScheme::bilinear ? osd::Sdc::SCHEME_BILINEAR
+                                                         : osd::Sdc::SCHEME_CATMARK;
+    TessellateStats& st = m.stats;
+    m.input_vertex_count = in.vertex_count;
+
+    const std::vector<uint32_t> welded_of = weld(m, in, o);
+
+    std::vector<uint32_t> face_group_of;
+    const size_t split_polygons = repair_faces(m, face_group_of, in, welded_of);
+    st.faces = m.face_count();
+    if (o.refuse_bad_topology && st.dropped_faces)
+        return Status::error(StatusCode::invalid_input, str(st.dropped_faces) + " degenerate faces (a repeated vertex)");
+    if (o.refuse_bad_topology && split_polygons)
+        return Status::error(StatusCode::invalid_input, str(split_polygons) + " faces that visit a vertex twice");
+    m.face_linear.assign(m.face_count(), 0);
+    build_edges(m);
+    st.flipped_faces = orient_faces(m);
+    if (st.flipped_faces && o.refuse_bad_topology)
+        return Status::error(StatusCode::invalid_input, str(st.flipped_faces) + " faces oriented against their neighbours");
+
+    // ---- attribute values
+    const std::vector<uint32_t> attr_class = attribute_classes(m, in);
+    attribute_values(m, in, face_group_of, attr_class);
+
+    // ---- edges over welded positions (again if faces were flipped)
+    if (st.flipped_faces) build_edges(m);
+    st.edges = m.edge_side_begin.size() - 1;
+    const std::vector<uint8_t> bad_edge = bad_edges(m);
+    if (o.refuse_bad_topology) {
+        if (st.non_manifold_edges)
+            return Status::error(StatusCode::invalid_input, str(st.non_manifold_edges) + " non-manifold edges");
+        if (st.inconsistent_edges)
+            return Status::error(StatusCode::invalid_input,
+                                 str(st.inconsistent_edges) + " edges with inconsistently oriented faces");
+    }
+
+    number_refiner_vertices(m, smooth_fans(m, bad_edge));
+    split_points(m);
+    creases_and_seams(m, bad_edge);
+    build_groups(m, sector_roots(m));
+    bounding_box(m);
     return Status::success();
 }
 
