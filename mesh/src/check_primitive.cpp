@@ -44,23 +44,21 @@ struct EdgeUse {
     bool forward;       // the face goes from the smaller to the larger vertex
 };
 
-} // namespace
-
-CheckReport check_primitive(const Primitive& prim, const CheckOptions& options) {
-    CheckReport r;
-    const size_t n = prim.positions.size() / 3;
-    const float* positions = prim.positions.data();
-    r.vertices = n;
-
-    r.nan_values = count_non_finite(prim.positions) + count_non_finite(prim.normals) +
-                   count_non_finite(prim.tangents) + count_non_finite(prim.uv0) + count_non_finite(prim.uv1) +
-                   count_non_finite(prim.colors) + count_non_finite(prim.weights);
+// Non-finite values in every attribute, morph target and custom attribute.
+size_t count_nan_values(const Primitive& prim) {
+    size_t nan_values = count_non_finite(prim.positions) + count_non_finite(prim.normals) +
+                        count_non_finite(prim.tangents) + count_non_finite(prim.uv0) + count_non_finite(prim.uv1) +
+                        count_non_finite(prim.colors) + count_non_finite(prim.weights);
     for (const MorphTarget& t : prim.targets)
-        r.nan_values += count_non_finite(t.position_deltas) + count_non_finite(t.normal_deltas) +
-                        count_non_finite(t.tangent_deltas);
-    for (const CustomAttribute& a : prim.custom) r.nan_values += count_non_finite(a.values);
+        nan_values += count_non_finite(t.position_deltas) + count_non_finite(t.normal_deltas) + count_non_finite(t.tangent_deltas);
+    for (const CustomAttribute& a : prim.custom) nan_values += count_non_finite(a.values);
+    return nan_values;
+}
 
-    auto point = [&](size_t v) { return kernel::point_at(positions, v); };
+// Bounding box and diagonal of the finite positions, and the range of the finite UVs.
+void measure_extent(CheckReport& r, const Primitive& prim) {
+    const size_t n = prim.positions.size() / 3;
+    auto point = [&](size_t v) { return kernel::point_at(prim.positions.data(), v); };
     {
         double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
         bool any = false;
@@ -87,36 +85,34 @@ CheckReport check_primitive(const Primitive& prim, const CheckOptions& options) 
         }
         if (any) r.uv_min = {lo[0], lo[1]}, r.uv_max = {hi[0], hi[1]};
     }
+}
 
-    std::vector<uint32_t> remap(n);
-    r.welded_vertices = weld_positions(remap.data(), positions, n);
-    r.duplicate_vertices = n - r.welded_vertices;
+// What the face pass gathers for the edge and fan passes.
+struct FaceScan {
+    DisjointSets corner_sets; // corners of one welded vertex joined into fans
+    DisjointSets vertex_sets; // welded vertices joined into components
+    std::vector<char> in_face; // welded vertex used by a valid face
+    std::vector<EdgeUse> uses;
+    std::vector<std::array<uint32_t, 3>> si_triangles; // welded, for the self-intersection test
+    size_t proper_faces = 0;                           // valid and not degenerate
+    FaceScan(size_t corners, size_t n) : corner_sets(corners), vertex_sets(n), in_face(n, 0) { uses.reserve(corners); }
+};
 
-    // Indices and references, for every mode. Non-indexed points reference all their vertices.
+// Faces: validity, geometry (zero-area, slivers), and the edge uses of every face with its corners in range.
+void scan_faces(CheckReport& r, FaceScan& fs, const Primitive& prim, const std::vector<uint32_t>& remap, const CheckOptions& options) {
+    const size_t n = prim.positions.size() / 3;
     const std::vector<uint32_t>& indices = prim.indices;
-    std::vector<char> referenced(n, prim.mode == PrimitiveMode::points && indices.empty() ? 1 : 0);
-    for (uint32_t i : indices) {
-        if (i < n) referenced[i] = 1;
-        else ++r.indices_out_of_range;
-    }
-    if (prim.mode != PrimitiveMode::triangles) {
-        r.unreferenced_vertices = size_t(std::count(referenced.begin(), referenced.end(), 0));
-        return r;
-    }
-
-    // ---- faces: validity, geometry, edge uses -------------------------------------------------------
+    auto point = [&](size_t v) { return kernel::point_at(prim.positions.data(), v); };
+    DisjointSets& corner_sets = fs.corner_sets;
+    DisjointSets& vertex_sets = fs.vertex_sets;
+    std::vector<char>& in_face = fs.in_face;
+    std::vector<EdgeUse>& uses = fs.uses;
+    std::vector<std::array<uint32_t, 3>>& si_triangles = fs.si_triangles;
+    size_t& proper_faces = fs.proper_faces;
     const bool polygons = !prim.face_sizes.empty();
-    r.faces = polygons ? prim.face_sizes.size() : indices.size() / 3;
     const double zero_area = options.zero_area_relative * r.diagonal * r.diagonal;
     const double sliver_angle = options.sliver_angle_degrees * pi / 180.0;
 
-    DisjointSets corner_sets(indices.size()); // corners of one welded vertex joined into fans
-    DisjointSets vertex_sets(n);              // welded vertices joined into components
-    std::vector<char> in_face(n, 0);          // welded vertex used by a valid face
-    std::vector<EdgeUse> uses;
-    uses.reserve(indices.size());
-    std::vector<std::array<uint32_t, 3>> si_triangles; // welded, for the self-intersection test
-    size_t proper_faces = 0;                           // valid and not degenerate
     std::vector<std::pair<uint32_t, uint32_t>> scratch;
 
     size_t first = 0;
@@ -191,13 +187,16 @@ CheckReport check_primitive(const Primitive& prim, const CheckOptions& options) 
         }
         if (area <= zero_area) ++r.zero_area_faces;
     }
+}
 
-    // ---- edges ----------------------------------------------------------------------------------------
+// Edges: boundary, inconsistent and non-manifold ones, valences; the corners across each edge join fans.
+// Returns the index (into fs.uses) of the single use of every boundary edge.
+std::vector<size_t> scan_edges(CheckReport& r, FaceScan& fs, std::vector<uint32_t>& valence, std::vector<char>& on_boundary) {
+    std::vector<EdgeUse>& uses = fs.uses;
+    DisjointSets& corner_sets = fs.corner_sets;
     std::sort(uses.begin(), uses.end(), [](const EdgeUse& a, const EdgeUse& b) {
         return a.key != b.key ? a.key < b.key : a.corner_lo < b.corner_lo;
     });
-    std::vector<uint32_t> valence(n, 0);
-    std::vector<char> on_boundary(n, 0);
     std::vector<size_t> boundary; // index of the single use of each boundary edge
     for (size_t i = 0; i < uses.size();) {
         size_t j = i;
@@ -221,8 +220,19 @@ CheckReport check_primitive(const Primitive& prim, const CheckOptions& options) 
         }
         i = j;
     }
+    return boundary;
+}
 
-    // ---- fans, boundary loops, components ---------------------------------------------------------------
+// Fans (a vertex with more than one is non-manifold), boundary loops (edges continue each other within a
+// fan), components and interior valence-2 vertices.
+void scan_fans(CheckReport& r, FaceScan& fs, const Primitive& prim, const std::vector<uint32_t>& remap, const std::vector<size_t>& boundary,
+               const std::vector<uint32_t>& valence, const std::vector<char>& on_boundary) {
+    const size_t n = prim.positions.size() / 3;
+    const std::vector<uint32_t>& indices = prim.indices;
+    const std::vector<EdgeUse>& uses = fs.uses;
+    DisjointSets& corner_sets = fs.corner_sets;
+    DisjointSets& vertex_sets = fs.vertex_sets;
+    const std::vector<char>& in_face = fs.in_face;
     // Every set of corners is one fan at its welded vertex; count each set once, at its root.
     std::vector<uint32_t> fans(n, 0);
     {
@@ -256,24 +266,58 @@ CheckReport check_primitive(const Primitive& prim, const CheckOptions& options) 
         if (vertex_sets.find(uint32_t(v)) == v) ++r.components;
         if (!on_boundary[v] && valence[v] == 2) ++r.valence2_interior_vertices;
     }
-    r.unreferenced_vertices = size_t(std::count(referenced.begin(), referenced.end(), 0));
-    r.closed = r.boundary_edges == 0 && proper_faces > 0;
+}
 
-    if (options.self_intersections) {
-        // Compact the welded vertices the triangles use; CGAL sees only what it has to test.
-        std::vector<uint32_t> compact(n, std::numeric_limits<uint32_t>::max());
-        std::vector<double> xyz;
-        for (auto& t : si_triangles)
-            for (uint32_t& v : t) {
-                if (compact[v] == std::numeric_limits<uint32_t>::max()) {
-                    compact[v] = uint32_t(xyz.size() / 3);
-                    V3 p = point(v);
-                    xyz.insert(xyz.end(), {p.x, p.y, p.z});
-                }
-                v = compact[v];
+// Self-intersecting pairs among the proper faces' triangles (CGAL, exact predicates).
+size_t count_self_intersecting(const Primitive& prim, std::vector<std::array<uint32_t, 3>>& si_triangles) {
+    const size_t n = prim.positions.size() / 3;
+    auto point = [&](size_t v) { return kernel::point_at(prim.positions.data(), v); };
+    // Compact the welded vertices the triangles use; CGAL sees only what it has to test.
+    std::vector<uint32_t> compact(n, std::numeric_limits<uint32_t>::max());
+    std::vector<double> xyz;
+    for (auto& t : si_triangles)
+        for (uint32_t& v : t) {
+            if (compact[v] == std::numeric_limits<uint32_t>::max()) {
+                compact[v] = uint32_t(xyz.size() / 3);
+                V3 p = point(v);
+                xyz.insert(xyz.end(), {p.x, p.y, p.z});
             }
-        r.self_intersections = detail::count_self_intersections(xyz, si_triangles);
+            v = compact[v];
+        }
+    return detail::count_self_intersections(xyz, si_triangles);
+}
+
+} // namespace
+
+CheckReport check_primitive(const Primitive& prim, const CheckOptions& options) {
+    CheckReport r;
+    const size_t n = prim.positions.size() / 3;
+    r.vertices = n;
+    r.nan_values = count_nan_values(prim);
+    measure_extent(r, prim);
+    std::vector<uint32_t> remap(n);
+    r.welded_vertices = weld_positions(remap.data(), prim.positions.data(), n);
+    r.duplicate_vertices = n - r.welded_vertices;
+
+    // Indices and references, for every mode. Non-indexed points reference all their vertices.
+    const std::vector<uint32_t>& indices = prim.indices;
+    std::vector<char> referenced(n, prim.mode == PrimitiveMode::points && indices.empty() ? 1 : 0);
+    for (uint32_t i : indices) {
+        if (i < n) referenced[i] = 1;
+        else ++r.indices_out_of_range;
     }
+    r.unreferenced_vertices = size_t(std::count(referenced.begin(), referenced.end(), 0));
+    if (prim.mode != PrimitiveMode::triangles) return r;
+
+    r.faces = prim.face_sizes.empty() ? indices.size() / 3 : prim.face_sizes.size();
+    FaceScan fs(indices.size(), n);
+    scan_faces(r, fs, prim, remap, options);
+    std::vector<uint32_t> valence(n, 0);
+    std::vector<char> on_boundary(n, 0);
+    const std::vector<size_t> boundary = scan_edges(r, fs, valence, on_boundary);
+    scan_fans(r, fs, prim, remap, boundary, valence, on_boundary);
+    r.closed = r.boundary_edges == 0 && fs.proper_faces > 0;
+    if (options.self_intersections) r.self_intersections = count_self_intersecting(prim, fs.si_triangles);
     return r;
 }
 
