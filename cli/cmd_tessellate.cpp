@@ -29,21 +29,118 @@ FocusPoint parse_focus(const std::string& s) {
     return f;
 }
 
+struct TessellateArgs {
+    std::string in, out;
+    std::string scheme = "catmark", boundary = "corner", uv = "corners";
+    CameraFlags camera;
+    int uniform = 0, max_rate = 0, accuracy = 2;
+    std::optional<double> near, far;
+    double pixel_error = 0, screen_error = 0, max_error = 0, crease_angle = 180;
+    std::vector<FocusPoint> focus;
+    size_t max_triangles = 0;
+    bool strict = false;
+};
+
+// --scheme, --boundary, --uv, --crease-angle, --accuracy and --strict as SurfaceOptions.
+void set_surface_options(SurfaceOptions& s, const TessellateArgs& a) {
+    s.scheme = a.scheme == "loop"       ? SubdivisionScheme::loop
+               : a.scheme == "bilinear" ? SubdivisionScheme::bilinear
+                                        : SubdivisionScheme::catmark;
+    s.boundary = a.boundary == "edge" ? BoundaryInterpolation::edge_only : BoundaryInterpolation::edge_and_corner;
+    const std::pair<const char*, UvInterpolation> uv_names[] = {
+        {"smooth", UvInterpolation::smooth},         {"corners", UvInterpolation::corners_only},
+        {"corners1", UvInterpolation::corners_plus1}, {"corners2", UvInterpolation::corners_plus2},
+        {"boundaries", UvInterpolation::boundaries}, {"linear", UvInterpolation::linear}};
+    for (const auto& [name, value] : uv_names)
+        if (a.uv == name) s.uv_interpolation = value;
+    s.crease_angle_degrees = a.crease_angle;
+    s.accuracy = a.accuracy;
+    s.refuse_bad_topology = a.strict;
+}
+
+// The criteria as RateOptions; throws CLI::ValidationError for --near/--far without the other, a view criterion
+// without --camera, or no criterion at all.
+void set_rate_options(RateOptions& r, const TessellateArgs& a) {
+    r.uniform = a.uniform;
+    r.max_rate = a.max_rate > 0 ? a.max_rate : std::max(64, a.uniform);
+    r.pixel_error = a.pixel_error;
+    r.screen_error = a.screen_error;
+    r.max_error = a.max_error;
+    r.focus = a.focus;
+    r.max_triangles = a.max_triangles;
+    if (a.near || a.far) {
+        if (!a.near || !a.far) throw CLI::ValidationError("--near/--far", "give both --near and --far");
+        if (!(*a.near >= 0) || !(*a.near < *a.far))
+            throw CLI::ValidationError("--near/--far", "need 0 <= near < far, got near " + number(*a.near) +
+                                                           " and far " + number(*a.far));
+        r.distance = true;
+        r.near = *a.near;
+        r.far = *a.far;
+    }
+    const bool view = r.distance || r.pixel_error > 0 || r.screen_error > 0;
+    if (view && !a.camera.eye)
+        throw CLI::ValidationError("--camera", "--near/--far, --pixel-error and --screen-error need --camera x,y,z");
+    if (a.camera.eye) r.camera = TessellationCamera{*a.camera.eye, a.camera.fov_degrees, a.camera.height};
+    if (!view && r.uniform == 0 && r.max_error <= 0 && r.focus.empty())
+        throw CLI::ValidationError("criterion", "give at least one of --uniform, --camera with --near/--far, "
+                                                "--pixel-error or --screen-error, --max-error, --focus");
+}
+
+// The repairs of the input, "3 degenerate faces dropped, 2 faces flipped" ("" when there were none).
+std::string repairs_summary(const TessellateStats& s) {
+    std::string repairs;
+    auto add = [&](size_t n, const char* what) {
+        if (n) repairs += (repairs.empty() ? "" : ", ") + std::to_string(n) + " " + what;
+    };
+    add(s.dropped_faces, "degenerate faces dropped");
+    add(s.flipped_faces, "faces flipped");
+    add(s.split_vertices, "bowtie vertices split");
+    add(s.linear_faces, "faces tessellated linearly");
+    add(s.crease_edges, "crease edges");
+    return repairs;
+}
+
+void report_tessellation(const TessellateArgs& a, const GlobalFlags& g, const SceneTessellateReport& rep, double ms) {
+    const TessellateStats& s = rep.totals;
+    const std::string repairs = repairs_summary(s);
+    info(g, "Wrote " + a.out + " (" + std::to_string(rep.meshes) + " meshes, " + std::to_string(rep.triangles_in) +
+                " -> " + std::to_string(rep.triangles_out) + " triangles, rates " + std::to_string(s.min_rate) +
+                ".." + std::to_string(s.max_rate) + " mean " + number(s.mean_rate) +
+                (s.rate_scale < 1 ? ", scaled by " + number(s.rate_scale) + " for --max-triangles" : "") + ", " +
+                number(ms) + " ms)" + (repairs.empty() ? "" : "; " + repairs));
+}
+
+// Validates the arguments, tessellates the scene, writes it and prints the report.
+void run_tessellate(const TessellateArgs& a, const GlobalFlags& g) {
+    TessellateOptions o;
+    o.triangle_budget = kDefaultTriangleBudget;
+    set_surface_options(o.surface, a);
+    set_rate_options(o.rates, a);
+
+    Progress progress(g, "furrow tessellate");
+    progress.stage("loading " + a.in);
+    Scene scene = load_or_throw(a.in);
+    for (const auto& w : scene.warnings) info(g, "Warning: " + a.in + ": " + w);
+    if (same_file(a.out, a.in))
+        throw InputError(a.out, "output path is the input file; refusing to overwrite the input");
+    const auto t0 = std::chrono::steady_clock::now();
+    SceneTessellateReport rep;
+    progress.stage("tessellating");
+    require_ok(tessellate_scene(scene, o, &rep), a.in);
+    // A scene without a face (no mesh, only points or lines) used to be "tessellated" into a copy with exit
+    // 0; shells, render and stamp refuse such input, and so does tessellate now.
+    if (rep.meshes == 0) throw InputError(a.in, "no triangles or polygons to tessellate");
+    const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    for (const auto& w : rep.warnings) info(g, "Warning: " + a.in + ": " + w);
+    progress.stage("writing " + a.out);
+    save_or_throw(scene, a.out, a.in);
+    report_tessellation(a, g, rep, ms);
+}
+
 } // namespace
 
 void register_tessellate(CLI::App& app, GlobalFlags& g) {
-    struct Args {
-        std::string in, out;
-        std::string scheme = "catmark", boundary = "corner", uv = "corners";
-        CameraFlags camera;
-        int uniform = 0, max_rate = 0, accuracy = 2;
-        std::optional<double> near, far;
-        double pixel_error = 0, screen_error = 0, max_error = 0, crease_angle = 180;
-        std::vector<FocusPoint> focus;
-        size_t max_triangles = 0;
-        bool strict = false;
-    };
-    auto a = std::make_shared<Args>();
+    auto a = std::make_shared<TessellateArgs>();
     CLI::App* cmd = app.add_subcommand(
         "tessellate", "Adaptive, crack-free tessellation of the subdivision surface of every mesh (OpenSubdiv Bfr)");
     cmd->add_option("input", a->in, "Input file (.gltf .glb .obj .ply .off .stl)")->required();
@@ -100,81 +197,7 @@ void register_tessellate(CLI::App& app, GlobalFlags& g) {
                 "  furrow tessellate bunny.off -o bunny.glb --scheme loop --max-error 0.0005 --max-triangles 200000\n"
                 "  furrow tessellate box.obj -o box.glb --crease-angle 60 --uniform 8\n"
                 "  furrow tessellate fox.glb -o fox.glb --camera 0,50,300 --screen-error 0.5 --focus 0,40,60,20");
-    cmd->callback([a, &g] {
-        TessellateOptions o;
-        o.triangle_budget = kDefaultTriangleBudget;
-        o.surface.scheme = a->scheme == "loop"       ? SubdivisionScheme::loop
-                           : a->scheme == "bilinear" ? SubdivisionScheme::bilinear
-                                                     : SubdivisionScheme::catmark;
-        o.surface.boundary = a->boundary == "edge" ? BoundaryInterpolation::edge_only : BoundaryInterpolation::edge_and_corner;
-        const std::pair<const char*, UvInterpolation> uv_names[] = {
-            {"smooth", UvInterpolation::smooth},         {"corners", UvInterpolation::corners_only},
-            {"corners1", UvInterpolation::corners_plus1}, {"corners2", UvInterpolation::corners_plus2},
-            {"boundaries", UvInterpolation::boundaries}, {"linear", UvInterpolation::linear}};
-        for (const auto& [name, value] : uv_names)
-            if (a->uv == name) o.surface.uv_interpolation = value;
-        o.surface.crease_angle_degrees = a->crease_angle;
-        o.surface.accuracy = a->accuracy;
-        o.surface.refuse_bad_topology = a->strict;
-
-        RateOptions& r = o.rates;
-        r.uniform = a->uniform;
-        r.max_rate = a->max_rate > 0 ? a->max_rate : std::max(64, a->uniform);
-        r.pixel_error = a->pixel_error;
-        r.screen_error = a->screen_error;
-        r.max_error = a->max_error;
-        r.focus = a->focus;
-        r.max_triangles = a->max_triangles;
-        if (a->near || a->far) {
-            if (!a->near || !a->far) throw CLI::ValidationError("--near/--far", "give both --near and --far");
-            if (!(*a->near >= 0) || !(*a->near < *a->far))
-                throw CLI::ValidationError("--near/--far", "need 0 <= near < far, got near " + number(*a->near) +
-                                                               " and far " + number(*a->far));
-            r.distance = true;
-            r.near = *a->near;
-            r.far = *a->far;
-        }
-        const bool view = r.distance || r.pixel_error > 0 || r.screen_error > 0;
-        if (view && !a->camera.eye)
-            throw CLI::ValidationError("--camera", "--near/--far, --pixel-error and --screen-error need --camera x,y,z");
-        if (a->camera.eye) r.camera = TessellationCamera{*a->camera.eye, a->camera.fov_degrees, a->camera.height};
-        if (!view && r.uniform == 0 && r.max_error <= 0 && r.focus.empty())
-            throw CLI::ValidationError("criterion", "give at least one of --uniform, --camera with --near/--far, "
-                                                    "--pixel-error or --screen-error, --max-error, --focus");
-
-        Progress progress(g, "furrow tessellate");
-        progress.stage("loading " + a->in);
-        Scene scene = load_or_throw(a->in);
-        for (const auto& w : scene.warnings) info(g, "Warning: " + a->in + ": " + w);
-        if (same_file(a->out, a->in))
-            throw InputError(a->out, "output path is the input file; refusing to overwrite the input");
-        const auto t0 = std::chrono::steady_clock::now();
-        SceneTessellateReport rep;
-        progress.stage("tessellating");
-        require_ok(tessellate_scene(scene, o, &rep), a->in);
-        // A scene without a face (no mesh, only points or lines) used to be "tessellated" into a copy with exit
-        // 0; shells, render and stamp refuse such input, and so does tessellate now.
-        if (rep.meshes == 0) throw InputError(a->in, "no triangles or polygons to tessellate");
-        const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-        for (const auto& w : rep.warnings) info(g, "Warning: " + a->in + ": " + w);
-        progress.stage("writing " + a->out);
-        save_or_throw(scene, a->out, a->in);
-        const TessellateStats& s = rep.totals;
-        std::string repairs;
-        auto add = [&](size_t n, const char* what) {
-            if (n) repairs += (repairs.empty() ? "" : ", ") + std::to_string(n) + " " + what;
-        };
-        add(s.dropped_faces, "degenerate faces dropped");
-        add(s.flipped_faces, "faces flipped");
-        add(s.split_vertices, "bowtie vertices split");
-        add(s.linear_faces, "faces tessellated linearly");
-        add(s.crease_edges, "crease edges");
-        info(g, "Wrote " + a->out + " (" + std::to_string(rep.meshes) + " meshes, " + std::to_string(rep.triangles_in) +
-                    " -> " + std::to_string(rep.triangles_out) + " triangles, rates " + std::to_string(s.min_rate) +
-                    ".." + std::to_string(s.max_rate) + " mean " + number(s.mean_rate) +
-                    (s.rate_scale < 1 ? ", scaled by " + number(s.rate_scale) + " for --max-triangles" : "") + ", " +
-                    number(ms) + " ms)" + (repairs.empty() ? "" : "; " + repairs));
-    });
+    cmd->callback([a, &g] { run_tessellate(*a, g); });
 }
 
 } // namespace furrow::cli
