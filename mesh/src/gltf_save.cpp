@@ -276,16 +276,8 @@ Status write_primitive(tinygltf::Primitive& out, const Primitive& src, bool need
 
 std::vector<double> vec(const double* p, size_t n) { return std::vector<double>(p, p + n); }
 
-Status build_model(tinygltf::Model& m, const Scene& scene) {
-    static const tinygltf::Model empty;
-    const tinygltf::Model& src = scene.document ? scene.document->model : empty;
-    m = src;
-    m.buffers.clear();
-    m.bufferViews.clear();
-    m.accessors.clear();
-    BinWriter w(m);
-
-    // --- reference checks: never write a dangling index
+// Reference checks: never write a dangling index.
+Status check_references(const Scene& scene, const tinygltf::Model& src) {
     auto bad = [](const std::string& what) { return Status::error(StatusCode::invalid_argument, what); };
     for (size_t i = 0; i < scene.nodes.size(); ++i) {
         const Node& n = scene.nodes[i];
@@ -304,9 +296,15 @@ Status build_model(tinygltf::Model& m, const Scene& scene) {
         if (scene.materials[i].base_color_texture.texture >= int(scene.textures.size()))
             return bad("material " + std::to_string(i) + ": texture does not exist");
 
-    // --- materials (properties furrow does not model are kept from the source material)
+    return Status::success();
+}
+
+// Materials: properties furrow does not model are kept from the source material. Notes which materials have
+// a normal texture (their primitives need tangents).
+Status write_materials(tinygltf::Model& m, const Scene& scene, std::vector<bool>& material_needs_tangents) {
+    auto bad = [](const std::string& what) { return Status::error(StatusCode::invalid_argument, what); };
     m.materials.resize(scene.materials.size());
-    std::vector<bool> material_needs_tangents(scene.materials.size(), false);
+    material_needs_tangents.assign(scene.materials.size(), false);
     for (size_t i = 0; i < scene.materials.size(); ++i) {
         const Material& a = scene.materials[i];
         tinygltf::Material& o = m.materials[i];
@@ -326,7 +324,13 @@ Status build_model(tinygltf::Model& m, const Scene& scene) {
             if (t >= int(scene.textures.size())) return bad("material " + std::to_string(i) + ": texture does not exist");
     }
 
-    // --- meshes
+    return Status::success();
+}
+
+// Meshes: every primitive's attributes into the binary chunk; extras and extensions kept from the source.
+Status write_meshes(tinygltf::Model& m, const Scene& scene, const tinygltf::Model& src, const std::vector<bool>& material_needs_tangents,
+                    BinWriter& w) {
+    auto bad = [](const std::string& what) { return Status::error(StatusCode::invalid_argument, what); };
     std::vector<tinygltf::Mesh> meshes(scene.meshes.size());
     for (size_t mi = 0; mi < scene.meshes.size(); ++mi) {
         const Mesh& mesh = scene.meshes[mi];
@@ -360,7 +364,11 @@ Status build_model(tinygltf::Model& m, const Scene& scene) {
     }
     m.meshes = std::move(meshes);
 
-    // --- nodes and scene
+    return Status::success();
+}
+
+// Nodes (identity transforms left out) and the default scene's roots.
+void write_nodes(tinygltf::Model& m, const Scene& scene) {
     m.nodes.resize(scene.nodes.size());
     for (size_t i = 0; i < scene.nodes.size(); ++i) {
         const Node& n = scene.nodes[i];
@@ -389,7 +397,11 @@ Status build_model(tinygltf::Model& m, const Scene& scene) {
     m.scenes[size_t(si)].nodes = scene.roots;
     m.defaultScene = si;
 
-    // --- textures, samplers, images (embedded)
+}
+
+// Textures, samplers, and images (embedded; a missing source file keeps its reference).
+Status write_textures(tinygltf::Model& m, const Scene& scene, BinWriter& w) {
+    auto bad = [](const std::string& what) { return Status::error(StatusCode::invalid_argument, what); };
     m.textures.resize(scene.textures.size());
     for (size_t i = 0; i < scene.textures.size(); ++i) {
         m.textures[i].source = scene.textures[i].image;
@@ -424,7 +436,12 @@ Status build_model(tinygltf::Model& m, const Scene& scene) {
         }
     }
 
-    // --- skins
+    return Status::success();
+}
+
+// Skins with their inverse bind matrices.
+Status write_skins(tinygltf::Model& m, const Scene& scene, BinWriter& w) {
+    auto bad = [](const std::string& what) { return Status::error(StatusCode::invalid_argument, what); };
     m.skins.resize(scene.skins.size());
     for (size_t i = 0; i < scene.skins.size(); ++i) {
         const Skin& a = scene.skins[i];
@@ -443,7 +460,12 @@ Status build_model(tinygltf::Model& m, const Scene& scene) {
         }
     }
 
-    // --- animations: samplers re-encoded from the source accessors (shared accessors stay shared)
+    return Status::success();
+}
+
+// Animations: samplers re-encoded from the source accessors (shared accessors stay shared).
+Status write_animations(tinygltf::Model& m, const Scene& scene, const tinygltf::Model& src, BinWriter& w) {
+    auto bad = [](const std::string& what) { return Status::error(StatusCode::invalid_argument, what); };
     std::map<int, int> remap;
     for (auto& anim : m.animations) {
         for (auto& smp : anim.samplers) {
@@ -465,6 +487,26 @@ Status build_model(tinygltf::Model& m, const Scene& scene) {
         for (const auto& ch : anim.channels)
             if (ch.target_node >= int(scene.nodes.size())) return bad("animation channel targets a node that does not exist");
     }
+
+    return Status::success();
+}
+
+Status build_model(tinygltf::Model& m, const Scene& scene) {
+    static const tinygltf::Model empty;
+    const tinygltf::Model& src = scene.document ? scene.document->model : empty;
+    m = src;
+    m.buffers.clear();
+    m.bufferViews.clear();
+    m.accessors.clear();
+    BinWriter w(m);
+    if (Status s = check_references(scene, src); !s.ok()) return s;
+    std::vector<bool> material_needs_tangents;
+    if (Status s = write_materials(m, scene, material_needs_tangents); !s.ok()) return s;
+    if (Status s = write_meshes(m, scene, src, material_needs_tangents, w); !s.ok()) return s;
+    write_nodes(m, scene);
+    if (Status s = write_textures(m, scene, w); !s.ok()) return s;
+    if (Status s = write_skins(m, scene, w); !s.ok()) return s;
+    if (Status s = write_animations(m, scene, src, w); !s.ok()) return s;
 
     // --- the document block
     auto drop = [](std::vector<std::string>& v, const std::string& e) { v.erase(std::remove(v.begin(), v.end(), e), v.end()); };
