@@ -160,21 +160,21 @@ int ply_type_size(const std::string& t) {
     return 0; // OpenMesh's Unsupported: consumes nothing
 }
 
-Status check_ply(const std::string& bytes) {
+// The header up to end_header: the format, the elements with their properties, where end_header began
+// (before_end) and each element's count against the body's size. `in` is left after end_header.
+Status parse_ply_header(std::istringstream& in, std::string& file_type, std::vector<PlyElement>& elements, std::streamoff& before_end,
+                        const std::string& bytes) {
     auto bad = [](const std::string& m) { return Status::error(StatusCode::invalid_input, "PLY: " + m); };
-    std::istringstream in(bytes);
     std::string line;
     std::getline(in, line);
     while (!line.empty() && std::isspace(static_cast<unsigned char>(line.back()))) line.pop_back();
     if (line != "ply" && line != "PLY") return bad("the file does not start with 'ply'");
-    std::string keyword, file_type;
+    std::string keyword;
     float version = 0;
     in >> keyword >> file_type >> version;
     if (in.fail() || keyword != "format") return bad("no valid format line");
     if (file_type != "ascii" && file_type != "binary_little_endian" && file_type != "binary_big_endian")
         return bad("unknown format '" + file_type.substr(0, 24) + "'");
-    std::vector<PlyElement> elements;
-    std::streamoff before_end = 0;
     for (;;) {
         before_end = in.tellg();
         in >> keyword;
@@ -223,56 +223,61 @@ Status check_ply(const std::string& bytes) {
     for (const PlyElement& e : elements)
         if (e.count > body) return bad("an element count of " + std::to_string(e.count) + " is more than the file holds");
 
-    if (file_type == "ascii") {
-        // OpenMesh reads on from the token after end_header. Numbers it reads must be plain numbers, so that
-        // each of its reads takes exactly one token and none fails.
-        std::vector<std::string> tokens;
-        for (std::string t; in >> t;) tokens.push_back(t);
-        size_t at = 0;
-        auto unsigned_token = [&](unsigned long long& v) {
-            if (at >= tokens.size()) return false;
-            const std::string& t = tokens[at++];
-            auto r = std::from_chars(t.data(), t.data() + t.size(), v);
-            return r.ec == std::errc() && r.ptr == t.data() + t.size() && v <= 0xFFFFFFFFull;
-        };
-        auto number_token = [&]() {
-            if (at >= tokens.size()) return false;
-            const std::string& t = tokens[at++];
-            double v = 0;
-            auto r = std::from_chars(t.data(), t.data() + t.size(), v);
-            return !t.empty() && (std::isdigit(static_cast<unsigned char>(t[0])) || t[0] == '-' || t[0] == '.') &&
-                   r.ec == std::errc() && r.ptr == t.data() + t.size() && std::abs(v) <= 3.4e38;
-        };
-        for (const PlyElement& e : elements) {
-            const bool face = e.name == "face";
-            for (unsigned long long i = 0; i < e.count; ++i) {
-                unsigned long long corners = 0;
-                bool have_corners = false;
-                for (const PlyProperty& p : e.properties) {
-                    if (face && p.list && (p.name == "vertex_index" || p.name == "vertex_indices" || p.name == "texcoord")) {
-                        unsigned long long n = 0, v = 0;
-                        if (!unsigned_token(n) || n > tokens.size() - at) return bad("a face list count is not valid");
-                        if (p.name == "texcoord" && (!have_corners || corners == 0))
-                            return bad("face texture coordinates without corners");
-                        for (unsigned long long k = 0; k < n; ++k)
-                            if (p.name == "texcoord" ? !number_token() : !unsigned_token(v)) return bad("a face holds something other than numbers");
-                        if (p.name != "texcoord") corners = n, have_corners = true;
-                    } else if (at >= tokens.size()) {
-                        return bad("the file ends before its last element");
-                    } else if (!p.list && ply_type_size(p.type) > 0) {
-                        if (!number_token()) return bad("'" + tokens[at - 1].substr(0, 16) + "' is not a number");
-                    } else {
-                        ++at; // read as a word and dropped
-                    }
+    return Status::success();
+}
+
+// An ASCII body: OpenMesh reads on from the token after end_header. Numbers it reads must be plain numbers,
+// so that each of its reads takes exactly one token and none fails.
+Status check_ply_ascii_body(std::istringstream& in, const std::vector<PlyElement>& elements) {
+    auto bad = [](const std::string& m) { return Status::error(StatusCode::invalid_input, "PLY: " + m); };
+    std::vector<std::string> tokens;
+    for (std::string t; in >> t;) tokens.push_back(t);
+    size_t at = 0;
+    auto unsigned_token = [&](unsigned long long& v) {
+        if (at >= tokens.size()) return false;
+        const std::string& t = tokens[at++];
+        auto r = std::from_chars(t.data(), t.data() + t.size(), v);
+        return r.ec == std::errc() && r.ptr == t.data() + t.size() && v <= 0xFFFFFFFFull;
+    };
+    auto number_token = [&]() {
+        if (at >= tokens.size()) return false;
+        const std::string& t = tokens[at++];
+        double v = 0;
+        auto r = std::from_chars(t.data(), t.data() + t.size(), v);
+        return !t.empty() && (std::isdigit(static_cast<unsigned char>(t[0])) || t[0] == '-' || t[0] == '.') &&
+               r.ec == std::errc() && r.ptr == t.data() + t.size() && std::abs(v) <= 3.4e38;
+    };
+    for (const PlyElement& e : elements) {
+        const bool face = e.name == "face";
+        for (unsigned long long i = 0; i < e.count; ++i) {
+            unsigned long long corners = 0;
+            bool have_corners = false;
+            for (const PlyProperty& p : e.properties) {
+                if (face && p.list && (p.name == "vertex_index" || p.name == "vertex_indices" || p.name == "texcoord")) {
+                    unsigned long long n = 0, v = 0;
+                    if (!unsigned_token(n) || n > tokens.size() - at) return bad("a face list count is not valid");
+                    if (p.name == "texcoord" && (!have_corners || corners == 0))
+                        return bad("face texture coordinates without corners");
+                    for (unsigned long long k = 0; k < n; ++k)
+                        if (p.name == "texcoord" ? !number_token() : !unsigned_token(v)) return bad("a face holds something other than numbers");
+                    if (p.name != "texcoord") corners = n, have_corners = true;
+                } else if (at >= tokens.size()) {
+                    return bad("the file ends before its last element");
+                } else if (!p.list && ply_type_size(p.type) > 0) {
+                    if (!number_token()) return bad("'" + tokens[at - 1].substr(0, 16) + "' is not a number");
+                } else {
+                    ++at; // read as a word and dropped
                 }
             }
-            if (face) break; // OpenMesh stops after the faces
         }
-        return Status::success();
+        if (face) break; // OpenMesh stops after the faces
     }
+    return Status::success();
+}
 
-    // Binary: OpenMesh seeks to 12 bytes (14 after "\r\n") past where the end_header token began.
-    const bool msb = file_type == "binary_big_endian";
+// A binary body: OpenMesh seeks to 12 bytes (14 after "\r\n") past where the end_header token began.
+Status check_ply_binary_body(const std::string& bytes, const std::vector<PlyElement>& elements, bool msb, std::streamoff before_end) {
+    auto bad = [](const std::string& m) { return Status::error(StatusCode::invalid_input, "PLY: " + m); };
     size_t at = size_t(before_end) + (bytes.compare(size_t(before_end), 2, "\r\n") == 0 ? 14 : 12);
     auto read_count = [&](const std::string& type, unsigned long long& n) {
         const int size = ply_type_size(type);
@@ -317,6 +322,16 @@ Status check_ply(const std::string& bytes) {
         break; // OpenMesh stops after the faces
     }
     return Status::success();
+}
+
+Status check_ply(const std::string& bytes) {
+    std::istringstream in(bytes);
+    std::string file_type;
+    std::vector<PlyElement> elements;
+    std::streamoff before_end = 0;
+    if (Status s = parse_ply_header(in, file_type, elements, before_end, bytes); !s.ok()) return s;
+    if (file_type == "ascii") return check_ply_ascii_body(in, elements);
+    return check_ply_binary_body(bytes, elements, file_type == "binary_big_endian", before_end);
 }
 
 // OpenMesh's OFF reader (OFFReader.cc, read_ascii) checks none of its stream reads: without counts in the
