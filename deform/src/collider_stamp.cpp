@@ -432,8 +432,14 @@ StampResult stamp_sweep_sharp(const StampTarget& T, const Collider& c, const Loc
     const bool turns = c.shape != ColliderShape::sphere && turn * R_turn > 0.5 * t;
     // Long translations: chunks so that each bounding box stays tight around the trench.
     const double chunk = std::max(4 * R, 32 * t);
-    int n = steps(dist / chunk);
-    if (turns) n = std::max(n, steps(turn * R_turn / (0.5 * t)));
+    // Sweeps are capped at 1e4 per path segment (each rasterises its bounding box, up to the whole grid): a
+    // shape that would need more, whose far texel moves over 5000 texels in one segment, is resolved more
+    // coarsely. A 1e26 m box turning 1e-12 rad near a 2 m field asked for 1e6 full-field sweeps (found by
+    // fuzz_stamp). Ordinary shapes stay far below the cap: a 1 m box turning a full turn on 1 cm texels
+    // takes 900 sweeps.
+    auto sweeps = [](double x) { return clamped_int(std::ceil(x), 1, 10000); };
+    int n = sweeps(dist / chunk);
+    if (turns) n = std::max(n, sweeps(turn * R_turn / (0.5 * t)));
     for (int k = 0; k < n; ++k) {
         const LocalPose a = lerp(p0, p1, double(k) / n), b = lerp(p0, p1, double(k + 1) / n);
         sweep_fixed(T, c, a, b, a.heading, decay, res);
