@@ -539,10 +539,15 @@ Status stamp_scene(Scene& scene, const ColliderSet& colliders, const StampOption
             const Primitive& p = scene.meshes[size_t(m)].primitives[k];
             if (p.mode != PrimitiveMode::triangles) continue;
             // Every vertex of the ground is displaced, used by a triangle or not (DisplacedGround::prepare).
+            // Coordinates near float's limit (3.4e38) overflow once the ground is tessellated and displaced
+            // (a fuzz_stamp ground at 7.9e37 came out with infinite positions): beyond 1e30 units is refused.
             for (float x : p.positions)
                 if (!std::isfinite(x))
                     return Status::error(StatusCode::invalid_input, "mesh " + std::to_string(m) + " primitive " + std::to_string(k) +
                                                                         ": a vertex position is not finite");
+                else if (std::abs(x) > 1e30f)
+                    return Status::error(StatusCode::invalid_input, "mesh " + std::to_string(m) + " primitive " + std::to_string(k) +
+                                                                        ": a vertex coordinate is beyond 1e30 units");
             for (uint32_t i : p.indices)
                 if (i >= p.vertex_count())
                     return Status::error(StatusCode::invalid_input, "mesh " + std::to_string(m) + " primitive " + std::to_string(k) +
