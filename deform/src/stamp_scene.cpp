@@ -516,19 +516,9 @@ Status deform_mesh(Scene& scene, int mesh_index, const Mat& M, const D3& O, bool
     return Status::success();
 }
 
-} // namespace
-
-Status stamp_scene(Scene& scene, const ColliderSet& colliders, const StampOptions& o, StampReport* report, Heightmap* heightmap_out) {
-    StampReport rep;
-    auto bad = [](const std::string& m) { return Status::error(StatusCode::invalid_argument, m); };
-    if (!(o.max_error >= 0) || !std::isfinite(o.max_error)) return bad("max error must be a finite number >= 0");
-    if (o.max_rate < 1 || o.max_rate > 4096) return bad("max rate must be in 1..4096");
-    if (o.time && !std::isfinite(*o.time)) return bad("time must be finite");
-    if (o.camera) {
-        if (!(o.camera->fov_degrees > 0 && o.camera->fov_degrees < 180)) return bad("camera field of view must be in (0, 180)");
-        if (o.camera->viewport_height < 1) return bad("camera viewport height must be >= 1");
-        if (!(o.camera->pixel_error > 0) || !std::isfinite(o.camera->pixel_error)) return bad("pixel error must be > 0");
-    }
+// The ground's triangle primitives, checked before anything changes: finite coordinates within 1e30 units,
+// indices in range.
+Status check_ground(const Scene& scene) {
     // scene_triangles reads an index out of range as a degenerate corner, which is right for a heightmap of the
     // ground, but the meshes are then written back with their own indices: such a ground came out of an ok
     // stamp still naming vertices that do not exist (found by fuzz_stamp). Refused, as render_scene does.
@@ -555,6 +545,23 @@ Status stamp_scene(Scene& scene, const ColliderSet& colliders, const StampOption
                                                                         std::to_string(p.vertex_count()) + " vertices)");
         }
     }
+    return Status::success();
+}
+
+} // namespace
+
+Status stamp_scene(Scene& scene, const ColliderSet& colliders, const StampOptions& o, StampReport* report, Heightmap* heightmap_out) {
+    StampReport rep;
+    auto bad = [](const std::string& m) { return Status::error(StatusCode::invalid_argument, m); };
+    if (!(o.max_error >= 0) || !std::isfinite(o.max_error)) return bad("max error must be a finite number >= 0");
+    if (o.max_rate < 1 || o.max_rate > 4096) return bad("max rate must be in 1..4096");
+    if (o.time && !std::isfinite(*o.time)) return bad("time must be finite");
+    if (o.camera) {
+        if (!(o.camera->fov_degrees > 0 && o.camera->fov_degrees < 180)) return bad("camera field of view must be in (0, 180)");
+        if (o.camera->viewport_height < 1) return bad("camera viewport height must be >= 1");
+        if (!(o.camera->pixel_error > 0) || !std::isfinite(o.camera->pixel_error)) return bad("pixel error must be > 0");
+    }
+    if (Status st = check_ground(scene); !st.ok()) return st;
     const auto t0 = Clock::now();
     std::vector<float> gp;
     std::vector<uint32_t> gi;
