@@ -134,6 +134,35 @@ Status triangle_list(std::vector<uint32_t>& tris, const Primitive& p, size_t mes
 }
 
 // Pass 1: morph, skin and transform one primitive's vertices to world space.
+// The bind-pose matrices of a skinned node's joints (world × inverse bind), checked against the skin and the
+// primitive's JOINTS_0.
+Status joint_matrices_of(std::vector<Mat4>& joint_matrices, const Instance& inst, const Scene& scene, const std::vector<Mat4>& world,
+                         int node_index) {
+    const Node& node = scene.nodes[size_t(node_index)];
+    const Primitive& p = *inst.prim;
+    if (size_t(node.skin) >= scene.skins.size())
+        return Status::error(StatusCode::invalid_input, "node " + std::to_string(node_index) + ": skin out of range");
+    const Skin& skin = scene.skins[size_t(node.skin)];
+    if (!skin.inverse_bind_matrices.empty() && skin.inverse_bind_matrices.size() != 16 * skin.joints.size())
+        return Status::error(StatusCode::invalid_input, "skin " + std::to_string(node.skin) +
+                                                            ": inverseBindMatrices has the wrong size");
+    for (size_t k = 0; k < skin.joints.size(); ++k) {
+        int j = skin.joints[k];
+        if (j < 0 || size_t(j) >= scene.nodes.size())
+            return Status::error(StatusCode::invalid_input, "skin " + std::to_string(node.skin) +
+                                                                ": joint node out of range");
+        Mat4 ibm{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+        if (!skin.inverse_bind_matrices.empty())
+            for (int e = 0; e < 16; ++e) ibm[size_t(e)] = skin.inverse_bind_matrices[16 * k + size_t(e)];
+        joint_matrices.push_back(kernel::multiply(world[size_t(j)], ibm));
+    }
+    for (size_t i = 0; i < p.joints.size(); ++i)
+        if (p.weights[i] != 0 && p.joints[i] >= joint_matrices.size())
+            return Status::error(StatusCode::invalid_input,
+                                 where(inst.mesh, inst.prim_index) + ": JOINTS_0 refers to a missing joint");
+    return Status::success();
+}
+
 Status world_vertices(Instance& inst, const Scene& scene, const std::vector<Mat4>& world, int node_index) {
     const Node& node = scene.nodes[size_t(node_index)];
     const Mesh& mesh = scene.meshes[size_t(node.mesh)];
@@ -167,28 +196,8 @@ Status world_vertices(Instance& inst, const Scene& scene, const std::vector<Mat4
     const Mat4& node_world = world[size_t(node_index)];
     std::vector<Mat4> joint_matrices;
     bool skinned = node.skin >= 0 && p.joints.size() == 4 * n && p.weights.size() == 4 * n && n > 0;
-    if (skinned) {
-        if (size_t(node.skin) >= scene.skins.size())
-            return Status::error(StatusCode::invalid_input, "node " + std::to_string(node_index) + ": skin out of range");
-        const Skin& skin = scene.skins[size_t(node.skin)];
-        if (!skin.inverse_bind_matrices.empty() && skin.inverse_bind_matrices.size() != 16 * skin.joints.size())
-            return Status::error(StatusCode::invalid_input, "skin " + std::to_string(node.skin) +
-                                                                ": inverseBindMatrices has the wrong size");
-        for (size_t k = 0; k < skin.joints.size(); ++k) {
-            int j = skin.joints[k];
-            if (j < 0 || size_t(j) >= scene.nodes.size())
-                return Status::error(StatusCode::invalid_input, "skin " + std::to_string(node.skin) +
-                                                                    ": joint node out of range");
-            Mat4 ibm{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
-            if (!skin.inverse_bind_matrices.empty())
-                for (int e = 0; e < 16; ++e) ibm[size_t(e)] = skin.inverse_bind_matrices[16 * k + size_t(e)];
-            joint_matrices.push_back(kernel::multiply(world[size_t(j)], ibm));
-        }
-        for (size_t i = 0; i < p.joints.size(); ++i)
-            if (p.weights[i] != 0 && p.joints[i] >= joint_matrices.size())
-                return Status::error(StatusCode::invalid_input,
-                                     where(inst.mesh, inst.prim_index) + ": JOINTS_0 refers to a missing joint");
-    }
+    if (skinned)
+        if (Status st = joint_matrices_of(joint_matrices, inst, scene, world, node_index); !st.ok()) return st;
     // A mirroring placement turns the winding around; a skinned mesh's is its bind placement (its node's
     // transform is ignored), so a mirrored bind pose culls the same faces as its unskinned twin.
     inst.flip = det3(skinned ? scene.mesh_placement(node_index, world) : node_world) < 0;
