@@ -37,6 +37,7 @@ function(furrow_add_library name)
   target_link_libraries(furrow_${name} PUBLIC ${A_PUBLIC_DEPS} PRIVATE ${A_PRIVATE_DEPS})
   # The private geometry kernel (mesh/kernel/furrow_kernel): shared by every module, never installed.
   target_include_directories(furrow_${name} PRIVATE $<BUILD_INTERFACE:${PROJECT_SOURCE_DIR}/mesh/kernel>)
+  target_link_libraries(furrow_${name} PRIVATE glm::glm) # the kernel's vector type (furrow_kernel/vec3.h)
   target_compile_options(furrow_${name} PRIVATE ${FURROW_WARNINGS})
   install(TARGETS furrow_${name} EXPORT furrowTargets
     ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR} LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR})

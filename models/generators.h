@@ -485,10 +485,10 @@ inline Status generate_all(const std::filesystem::path& dir) {
     const auto albedo = creature_albedo_rgba8(points);
     Status st = save_scene(creature_scene(encode_png_rgba8(albedo.data(), creature_texture_width, creature_texture_height)),
                            (dir / "creature.glb").string());
-    if (st.ok()) st = save_png((dir / "creature_fur_mask.png").string(),
-                               creature_fur_mask(points, creature_texture_width, creature_texture_height));
+    if (st.ok()) st = save_png(creature_fur_mask(points, creature_texture_width, creature_texture_height),
+                               (dir / "creature_fur_mask.png").string());
     if (st.ok()) st = save_scene(ground_scene(), (dir / "ground.glb").string());
-    if (st.ok()) st = save_png((dir / "footprint.png").string(), footprint_brush());
+    if (st.ok()) st = save_png(footprint_brush(), (dir / "footprint.png").string());
     if (st.ok()) st = write_text_file(dir / "colliders.json", colliders_json());
     if (st.ok()) st = write_text_file(dir / "scene.json", scene_json());
     return st;

@@ -22,33 +22,33 @@
 #include <atomic>
 #include <functional>
 
-namespace furrow::detail {
+namespace furrow::deform_detail {
 namespace {
 
 // Lowest w of the capsule {x : dist(x, segment ab) <= r} on the vertical line (qu, qv, ·); +inf if missed.
 // (u, v, w) are used as (x, y, z) with w vertical.
-double capsule_low(double qu, double qv, const D3& a, const D3& b, double r) {
+double capsule_low(double qu, double qv, const Vec3& a, const Vec3& b, double r) {
     double best = kInf;
     const double r2 = r * r;
-    for (const D3* e : {&a, &b}) {
+    for (const Vec3* e : {&a, &b}) {
         const double du = qu - e->x, dv = qv - e->y;
         const double s = r2 - du * du - dv * dv;
         if (s >= 0) best = std::min(best, e->z - std::sqrt(s));
     }
-    const D3 d = b - a;
+    const Vec3 d = b - a;
     const double L2 = dot(d, d);
     if (L2 > 1e-24) {
         // Infinite cylinder around the axis: |(X − a) × d|² = r²·|d|² with X − a = e + w·ẑ.
-        const D3 e{qu - a.x, qv - a.y, -a.z};
-        const D3 A{-d.y, d.x, 0.0}; // ẑ × d
-        const D3 B = cross(e, d);
+        const Vec3 e{qu - a.x, qv - a.y, -a.z};
+        const Vec3 A{-d.y, d.x, 0.0}; // ẑ × d
+        const Vec3 B = cross(e, d);
         const double AA = dot(A, A);
         if (AA > 1e-12 * L2) {
             const double AB = dot(A, B), BB = dot(B, B);
             const double disc = AB * AB - AA * (BB - r2 * L2);
             if (disc >= 0) {
                 const double w = (-AB - std::sqrt(disc)) / AA;
-                const D3 xa{e.x, e.y, e.z + w};
+                const Vec3 xa{e.x, e.y, e.z + w};
                 const double t = dot(xa, d) / L2;
                 if (t >= 0 && t <= 1) best = std::min(best, w);
             }
@@ -62,13 +62,13 @@ double capsule_low(double qu, double qv, const D3& a, const D3& b, double r) {
 // what the vertical line meets first.
 struct SlabFace {
     bool valid = false;
-    D3 a0, e1, e2, n;
+    Vec3 a0, e1, e2, n;
     double g11 = 0, g12 = 0, g22 = 0, det = 0;
 };
 
-SlabFace make_face(const D3& a0, const D3& e1, const D3& e2) {
+SlabFace make_face(const Vec3& a0, const Vec3& e1, const Vec3& e2) {
     SlabFace f;
-    D3 n = cross(e1, e2);
+    Vec3 n = cross(e1, e2);
     const double nn = norm(n);
     if (!(nn > 1e-9 * norm(e1) * norm(e2)) || nn == 0) return f;
     n = n * (1.0 / nn);
@@ -85,8 +85,8 @@ SlabFace make_face(const D3& a0, const D3& e1, const D3& e2) {
 double face_low(const SlabFace& f, double qu, double qv, double r) {
     if (!f.valid) return kInf;
     const double w = f.a0.z + (-r - (qu - f.a0.x) * f.n.x - (qv - f.a0.y) * f.n.y) / f.n.z;
-    const D3 s = D3{qu, qv, w} + f.n * r; // the touching point on the face
-    const D3 g = s - f.a0;
+    const Vec3 s = Vec3{qu, qv, w} + f.n * r; // the touching point on the face
+    const Vec3 g = s - f.a0;
     const double b1 = dot(g, f.e1), b2 = dot(g, f.e2);
     const double alpha = (f.g22 * b1 - f.g12 * b2) / f.det, beta = (f.g11 * b2 - f.g12 * b1) / f.det;
     const double eps = 1e-12;
@@ -163,7 +163,7 @@ double shape_radius(const Collider& c) {
 }
 
 // Capsule end points for a pose (half axis in local (u, v, w)).
-D3 capsule_half_axis(const Collider& c, double heading) {
+Vec3 capsule_half_axis(const Collider& c, double heading) {
     const Axes ax = axes(heading);
     const double h = 0.5 * c.length;
     return {h * (c.axis[0] * ax.ex_u + c.axis[2] * ax.ez_u), h * (c.axis[0] * ax.ex_v + c.axis[2] * ax.ez_v), h * c.axis[1]};
@@ -233,7 +233,7 @@ void sweep_fixed(const StampTarget& T, const Collider& c, const LocalPose& p0, c
     const double R = shape_radius(c) + T.texel;
     const double u0 = std::min(p0.u, p1.u) - R, u1 = std::max(p0.u, p1.u) + R;
     const double v0 = std::min(p0.v, p1.v) - R, v1 = std::max(p0.v, p1.v) + R;
-    const D3 c0{p0.u, p0.v, p0.w}, c1{p1.u, p1.v, p1.w};
+    const Vec3 c0{p0.u, p0.v, p0.w}, c1{p1.u, p1.v, p1.w};
     switch (c.shape) {
     case ColliderShape::sphere: {
         const double r = c.radius;
@@ -242,8 +242,8 @@ void sweep_fixed(const StampTarget& T, const Collider& c, const LocalPose& p0, c
     }
     case ColliderShape::capsule: {
         const double r = c.radius;
-        const D3 h = capsule_half_axis(c, heading);
-        const D3 a0 = c0 - h, b0 = c0 + h, a1 = c1 - h, b1 = c1 + h;
+        const Vec3 h = capsule_half_axis(c, heading);
+        const Vec3 a0 = c0 - h, b0 = c0 + h, a1 = c1 - h, b1 = c1 + h;
         const SlabFace face = make_face(a0, b0 - a0, a1 - a0);
         const bool moving = dot(c1 - c0, c1 - c0) > 0;
         rasterise(T, u0, u1, v0, v1, decay, res, [&](double qu, double qv, double g) {
@@ -527,4 +527,4 @@ StampResult stamp_sweep(const StampTarget& T, const Collider& c, const LocalPose
     return stamp_sweep_sharp(T, c, from, to, decay);
 }
 
-} // namespace furrow::detail
+} // namespace furrow::deform_detail

@@ -4,6 +4,7 @@
 // typo ("radious") produces a plausible-looking but wrong imprint that nobody notices. Every error names the
 // member it is about, so the CLI's one-line "Error: <file>: <what>" is enough to fix the file.
 #include "deform_internal.h"
+#include <furrow_kernel/no_throw.h>
 
 #include <nlohmann/json.hpp>
 
@@ -174,49 +175,53 @@ Collider parse_one(const json& c, size_t index, const std::string& base_dir) {
 } // namespace
 
 Status parse_colliders(ColliderSet& out, const std::string& text, const std::string& base_dir) {
-    json doc;
-    try {
-        doc = json::parse(text);
-    } catch (const json::exception& e) {
-        // nlohmann prefixes "[json.exception.parse_error.101] parse error at line 3, column 5: ..."
-        std::string what = e.what();
-        auto pos = what.find("] ");
-        return Status::error(StatusCode::invalid_input, "malformed JSON: " + (pos == std::string::npos ? what : what.substr(pos + 2)));
-    }
-    try {
-        if (!doc.is_object()) throw Bad{"the document must be an object {\"up\": ..., \"colliders\": [...]}"};
-        check_keys(doc, {"up", "colliders"}, "top level");
-        ColliderSet set;
-        if (doc.contains("up")) {
-            set.up = vec3(doc["up"], "up");
-            double n = std::hypot(set.up[0], set.up[1], set.up[2]);
-            if (!(n > 0)) throw Bad{"up: must not be the zero vector"};
-            for (double& x : set.up) x /= n;
+    return kernel::no_throw("reading the colliders", [&]() -> Status {
+        json doc;
+        try {
+            doc = json::parse(text);
+        } catch (const json::exception& e) {
+            // nlohmann prefixes "[json.exception.parse_error.101] parse error at line 3, column 5: ..."
+            std::string what = e.what();
+            auto pos = what.find("] ");
+            return Status::error(StatusCode::invalid_input, "malformed JSON: " + (pos == std::string::npos ? what : what.substr(pos + 2)));
         }
-        const json& cs = required(doc, "colliders", "top level");
-        if (!cs.is_array()) throw Bad{"colliders: must be an array"};
-        for (size_t i = 0; i < cs.size(); ++i) set.colliders.push_back(parse_one(cs[i], i, base_dir));
-        out = std::move(set);
-    } catch (const Bad& b) {
-        return Status::error(StatusCode::invalid_input, b.message);
-    } catch (const json::exception& e) {
-        return Status::error(StatusCode::invalid_input, std::string("unexpected JSON content: ") + e.what());
-    }
-    return Status::success();
+        try {
+            if (!doc.is_object()) throw Bad{"the document must be an object {\"up\": ..., \"colliders\": [...]}"};
+            check_keys(doc, {"up", "colliders"}, "top level");
+            ColliderSet set;
+            if (doc.contains("up")) {
+                set.up = vec3(doc["up"], "up");
+                double n = std::hypot(set.up[0], set.up[1], set.up[2]);
+                if (!(n > 0)) throw Bad{"up: must not be the zero vector"};
+                for (double& x : set.up) x /= n;
+            }
+            const json& cs = required(doc, "colliders", "top level");
+            if (!cs.is_array()) throw Bad{"colliders: must be an array"};
+            for (size_t i = 0; i < cs.size(); ++i) set.colliders.push_back(parse_one(cs[i], i, base_dir));
+            out = std::move(set);
+        } catch (const Bad& b) {
+            return Status::error(StatusCode::invalid_input, b.message);
+        } catch (const json::exception& e) {
+            return Status::error(StatusCode::invalid_input, std::string("unexpected JSON content: ") + e.what());
+        }
+        return Status::success();
+    });
 }
 
 Status load_colliders(ColliderSet& out, const std::string& path) {
-    // A folder opens and reads as empty, which was reported as "malformed JSON": say what is wrong.
-    std::error_code ec;
-    if (std::filesystem::is_directory(path, ec))
-        return Status::error(StatusCode::io_error, "is a directory, not a colliders file");
-    std::ifstream f(path, std::ios::binary);
-    if (!f) return Status::error(StatusCode::io_error, "cannot open the colliders file");
-    std::ostringstream ss;
-    ss << f.rdbuf();
-    if (f.bad()) return Status::error(StatusCode::io_error, "cannot read the colliders file");
-    std::filesystem::path dir = std::filesystem::path(path).parent_path();
-    return parse_colliders(out, ss.str(), dir.empty() ? "." : dir.string());
+    return kernel::no_throw("reading the colliders", [&]() -> Status {
+        // A folder opens and reads as empty, which was reported as "malformed JSON": say what is wrong.
+        std::error_code ec;
+        if (std::filesystem::is_directory(path, ec))
+            return Status::error(StatusCode::io_error, "is a directory, not a colliders file");
+        std::ifstream f(path, std::ios::binary);
+        if (!f) return Status::error(StatusCode::io_error, "cannot open the colliders file");
+        std::ostringstream ss;
+        ss << f.rdbuf();
+        if (f.bad()) return Status::error(StatusCode::io_error, "cannot read the colliders file");
+        std::filesystem::path dir = std::filesystem::path(path).parent_path();
+        return parse_colliders(out, ss.str(), dir.empty() ? "." : dir.string());
+    });
 }
 
 } // namespace furrow

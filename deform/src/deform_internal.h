@@ -2,6 +2,7 @@
 #pragma once
 
 #include <furrow/deform.h>
+#include <furrow_kernel/vec3.h>
 
 #include <array>
 #include <cmath>
@@ -14,19 +15,15 @@
 #include <string>
 #include <vector>
 
-namespace furrow::detail {
+namespace furrow::deform_detail {
 
-struct D3 {
-    double x = 0, y = 0, z = 0;
-};
-inline D3 operator+(D3 a, D3 b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
-inline D3 operator-(D3 a, D3 b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
-inline D3 operator*(D3 a, double s) { return {a.x * s, a.y * s, a.z * s}; }
-inline double dot(D3 a, D3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
-inline D3 cross(D3 a, D3 b) { return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x}; }
-inline double norm(D3 a) { return std::sqrt(dot(a, a)); }
-inline D3 d3(const std::array<double, 3>& a) { return {a[0], a[1], a[2]}; }
-inline std::array<double, 3> arr(D3 a) { return {a.x, a.y, a.z}; }
+// Vectors are the kernel's (furrow_kernel/vec3.h); d3/arr convert from and to the public std::array.
+using kernel::Vec3;
+using kernel::cross;
+using kernel::dot;
+using kernel::norm;
+inline Vec3 d3(const std::array<double, 3>& a) { return kernel::vec3_of(a); }
+inline std::array<double, 3> arr(const Vec3& a) { return kernel::array_of(a); }
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
@@ -54,7 +51,7 @@ public:
     ~GroundRaycaster();
     void build(const float* positions, size_t vertex_count, const uint32_t* indices, size_t index_count);
     // First hit of the ray origin + t·direction (t > 0); NaN when none. Returns the ray parameter t.
-    double first_hit(const D3& origin, const D3& direction) const;
+    double first_hit(const Vec3& origin, const Vec3& direction) const;
     bool built() const;
 
 private:
@@ -152,4 +149,4 @@ void triangle_detail_rates(std::vector<int>& rates, const Heightmap& heightmap, 
 // Size of the grid for a ground extent, and the memory guard (bytes per texel of all layers).
 constexpr size_t kBytesPerTexel = 28;
 
-} // namespace furrow::detail
+} // namespace furrow::deform_detail

@@ -13,6 +13,7 @@
 
 #include <furrow_kernel/angle_weighted_normal.h>
 #include <furrow_kernel/welded_ids.h>
+#include <furrow_kernel/no_throw.h>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -21,9 +22,9 @@
 
 namespace furrow {
 
-using namespace detail;
+using namespace deform_detail;
 
-namespace detail {
+namespace deform_detail {
 
 void welded_normals(double* normals, const std::vector<double>& P, const uint32_t* tri, const std::vector<uint32_t>& off,
                     const std::vector<uint32_t>& faces, const uint32_t* which, size_t which_count) {
@@ -49,7 +50,7 @@ void welded_normals(double* normals, const std::vector<double>& P, const uint32_
     });
 }
 
-} // namespace detail
+} // namespace deform_detail
 
 struct DisplacedGround::Impl {
     HeightmapFrame frame;
@@ -107,104 +108,106 @@ size_t DisplacedGround::welded_count() const { return impl_->rest.size() / 3; }
 
 Status DisplacedGround::prepare(const float* positions, size_t vertex_count, const uint32_t* indices, size_t index_count,
                                 const HeightmapFrame& frame, const DisplaceOptions& opt, const Heightmap* ground) {
-    if (!(frame.texel > 0) || frame.width <= 0 || frame.height <= 0)
-        return Status::error(StatusCode::invalid_argument, "the heightmap frame is empty");
-    if (index_count % 3) return Status::error(StatusCode::invalid_input, "indices are not triangles");
-    for (size_t k = 0; k < index_count; ++k)
-        if (indices[k] >= vertex_count) return Status::error(StatusCode::invalid_input, "an index is out of range");
-    // Every vertex is displaced and bucketed by texel, including those no triangle uses: a NaN among them
-    // reached an int conversion (undefined behaviour, found by fuzz_stamp).
-    for (size_t k = 0; k < 3 * vertex_count; ++k)
-        if (!std::isfinite(positions[k])) return Status::error(StatusCode::invalid_input, "a vertex position is not finite");
-    auto m = std::make_unique<Impl>();
-    m->frame = frame;
-    m->opt = opt;
-    m->vertex_count = vertex_count;
-    std::vector<uint32_t> first(vertex_count);
-    weld_positions(first.data(), positions, vertex_count);
-    // Welded points numbered in order of first appearance.
-    kernel::WeldedIds welded = kernel::welded_ids(first.data(), vertex_count);
-    m->remap = std::move(welded.of_vertex);
-    const uint32_t points = uint32_t(welded.first.size());
-    m->rest.resize(3 * size_t(points));
-    m->copy_off.assign(size_t(points) + 1, 0);
-    for (size_t v = 0; v < vertex_count; ++v) {
-        const uint32_t p = m->remap[v];
-        for (int d = 0; d < 3; ++d) m->rest[3 * size_t(p) + size_t(d)] = positions[3 * v + size_t(d)];
-        ++m->copy_off[size_t(p) + 1];
-    }
-    for (size_t p = 0; p < points; ++p) m->copy_off[p + 1] += m->copy_off[p];
-    m->copies.resize(vertex_count);
-    {
-        std::vector<uint32_t> fill(m->copy_off.begin(), m->copy_off.end() - 1);
-        for (size_t v = 0; v < vertex_count; ++v) m->copies[fill[m->remap[v]]++] = uint32_t(v);
-    }
-    // Triangles on welded points; degenerate ones carry no normal and no neighbourhood.
-    for (size_t t = 0; t + 3 <= index_count; t += 3) {
-        const uint32_t a = m->remap[indices[t]], b = m->remap[indices[t + 1]], c = m->remap[indices[t + 2]];
-        if (a == b || b == c || c == a) continue;
-        m->tris.insert(m->tris.end(), {a, b, c});
-    }
-    const size_t T = m->tris.size() / 3;
-    m->face_off.assign(size_t(points) + 1, 0);
-    for (uint32_t v : m->tris) ++m->face_off[size_t(v) + 1];
-    for (size_t p = 0; p < points; ++p) m->face_off[p + 1] += m->face_off[p];
-    m->faces.resize(m->face_off.back());
-    {
-        std::vector<uint32_t> fill(m->face_off.begin(), m->face_off.end() - 1);
-        for (size_t t = 0; t < T; ++t)
-            for (int k = 0; k < 3; ++k) m->faces[fill[m->tris[3 * t + size_t(k)]]++] = uint32_t(t);
-    }
-    // Undeformed normals give the displacement direction.
-    m->dir.assign(3 * size_t(points), 0.0);
-    if (opt.along_up) {
-        for (size_t p = 0; p < points; ++p)
-            for (int d = 0; d < 3; ++d) m->dir[3 * p + size_t(d)] = frame.up[size_t(d)];
-    } else {
-        welded_normals(m->dir.data(), m->rest, m->tris.data(), m->face_off, m->faces, nullptr, 0);
-        for (size_t p = 0; p < points; ++p) {
-            double* o = &m->dir[3 * p];
-            if (o[0] == 0 && o[1] == 0 && o[2] == 0) o[0] = frame.up[0], o[1] = frame.up[1], o[2] = frame.up[2];
+    return kernel::no_throw("preparing the ground", [&]() -> Status {
+        if (!(frame.texel > 0) || frame.width <= 0 || frame.height <= 0)
+            return Status::error(StatusCode::invalid_argument, "the heightmap frame is empty");
+        if (index_count % 3) return Status::error(StatusCode::invalid_input, "indices are not triangles");
+        for (size_t k = 0; k < index_count; ++k)
+            if (indices[k] >= vertex_count) return Status::error(StatusCode::invalid_input, "an index is out of range");
+        // Every vertex is displaced and bucketed by texel, including those no triangle uses: a NaN among them
+        // reached an int conversion (undefined behaviour, found by fuzz_stamp).
+        for (size_t k = 0; k < 3 * vertex_count; ++k)
+            if (!std::isfinite(positions[k])) return Status::error(StatusCode::invalid_input, "a vertex position is not finite");
+        auto m = std::make_unique<Impl>();
+        m->frame = frame;
+        m->opt = opt;
+        m->vertex_count = vertex_count;
+        std::vector<uint32_t> first(vertex_count);
+        weld_positions(first.data(), positions, vertex_count);
+        // Welded points numbered in order of first appearance.
+        kernel::WeldedIds welded = kernel::welded_ids(first.data(), vertex_count);
+        m->remap = std::move(welded.of_vertex);
+        const uint32_t points = uint32_t(welded.first.size());
+        m->rest.resize(3 * size_t(points));
+        m->copy_off.assign(size_t(points) + 1, 0);
+        for (size_t v = 0; v < vertex_count; ++v) {
+            const uint32_t p = m->remap[v];
+            for (int d = 0; d < 3; ++d) m->rest[3 * size_t(p) + size_t(d)] = positions[3 * v + size_t(d)];
+            ++m->copy_off[size_t(p) + 1];
         }
-    }
-    m->texel.resize(2 * size_t(points));
-    for (size_t p = 0; p < points; ++p) {
-        auto t = frame.to_texel(&m->rest[3 * p]);
-        m->texel[2 * p] = t[0], m->texel[2 * p + 1] = t[1];
-    }
-    if (opt.top_only && ground) {
-        const double tol = opt.top_tolerance > 0 ? opt.top_tolerance : 2 * frame.texel;
-        m->movable.assign(points, 1);
-        for (size_t p = 0; p < points; ++p) {
-            // On the grid before rounding to int, for the same reason as tile_of (same texels as before).
-            const double ti = m->texel[2 * p], tj = m->texel[2 * p + 1];
-            if (!(ti > -0.5 && tj > -0.5 && ti < ground->frame.width - 0.5 && tj < ground->frame.height - 0.5)) continue;
-            const int i = int(std::lround(ti)), j = int(std::lround(tj));
-            const float g = ground->at(i, j);
-            const double w = dot(D3{m->rest[3 * p], m->rest[3 * p + 1], m->rest[3 * p + 2]}, d3(frame.up));
-            if (!std::isnan(g) && w < double(g) - tol) m->movable[p] = 0;
+        for (size_t p = 0; p < points; ++p) m->copy_off[p + 1] += m->copy_off[p];
+        m->copies.resize(vertex_count);
+        {
+            std::vector<uint32_t> fill(m->copy_off.begin(), m->copy_off.end() - 1);
+            for (size_t v = 0; v < vertex_count; ++v) m->copies[fill[m->remap[v]]++] = uint32_t(v);
         }
-    }
-    m->tiles_x = (frame.width + Impl::kTile - 1) / Impl::kTile + 1;
-    m->tiles_y = (frame.height + Impl::kTile - 1) / Impl::kTile + 1;
-    const size_t tiles = size_t(m->tiles_x) * size_t(m->tiles_y);
-    m->tile_off.assign(tiles + 1, 0);
-    std::vector<uint32_t> tile_of(points);
-    for (size_t p = 0; p < points; ++p) {
-        tile_of[p] = uint32_t(m->tile_of(m->texel[2 * p + 1], m->tiles_y) * m->tiles_x + m->tile_of(m->texel[2 * p], m->tiles_x));
-        ++m->tile_off[size_t(tile_of[p]) + 1];
-    }
-    for (size_t k = 0; k < tiles; ++k) m->tile_off[k + 1] += m->tile_off[k];
-    m->tile_pts.resize(points);
-    {
-        std::vector<uint32_t> fill(m->tile_off.begin(), m->tile_off.end() - 1);
-        for (size_t p = 0; p < points; ++p) m->tile_pts[fill[tile_of[p]]++] = uint32_t(p);
-    }
-    m->cur = m->rest;
-    m->nrm.assign(3 * size_t(points), 0.0);
-    m->mark.assign(points, 0);
-    impl_ = std::move(m);
-    return Status::success();
+        // Triangles on welded points; degenerate ones carry no normal and no neighbourhood.
+        for (size_t t = 0; t + 3 <= index_count; t += 3) {
+            const uint32_t a = m->remap[indices[t]], b = m->remap[indices[t + 1]], c = m->remap[indices[t + 2]];
+            if (a == b || b == c || c == a) continue;
+            m->tris.insert(m->tris.end(), {a, b, c});
+        }
+        const size_t T = m->tris.size() / 3;
+        m->face_off.assign(size_t(points) + 1, 0);
+        for (uint32_t v : m->tris) ++m->face_off[size_t(v) + 1];
+        for (size_t p = 0; p < points; ++p) m->face_off[p + 1] += m->face_off[p];
+        m->faces.resize(m->face_off.back());
+        {
+            std::vector<uint32_t> fill(m->face_off.begin(), m->face_off.end() - 1);
+            for (size_t t = 0; t < T; ++t)
+                for (int k = 0; k < 3; ++k) m->faces[fill[m->tris[3 * t + size_t(k)]]++] = uint32_t(t);
+        }
+        // Undeformed normals give the displacement direction.
+        m->dir.assign(3 * size_t(points), 0.0);
+        if (opt.along_up) {
+            for (size_t p = 0; p < points; ++p)
+                for (int d = 0; d < 3; ++d) m->dir[3 * p + size_t(d)] = frame.up[size_t(d)];
+        } else {
+            welded_normals(m->dir.data(), m->rest, m->tris.data(), m->face_off, m->faces, nullptr, 0);
+            for (size_t p = 0; p < points; ++p) {
+                double* o = &m->dir[3 * p];
+                if (o[0] == 0 && o[1] == 0 && o[2] == 0) o[0] = frame.up[0], o[1] = frame.up[1], o[2] = frame.up[2];
+            }
+        }
+        m->texel.resize(2 * size_t(points));
+        for (size_t p = 0; p < points; ++p) {
+            auto t = frame.to_texel(&m->rest[3 * p]);
+            m->texel[2 * p] = t[0], m->texel[2 * p + 1] = t[1];
+        }
+        if (opt.top_only && ground) {
+            const double tol = opt.top_tolerance > 0 ? opt.top_tolerance : 2 * frame.texel;
+            m->movable.assign(points, 1);
+            for (size_t p = 0; p < points; ++p) {
+                // On the grid before rounding to int, for the same reason as tile_of (same texels as before).
+                const double ti = m->texel[2 * p], tj = m->texel[2 * p + 1];
+                if (!(ti > -0.5 && tj > -0.5 && ti < ground->frame.width - 0.5 && tj < ground->frame.height - 0.5)) continue;
+                const int i = int(std::lround(ti)), j = int(std::lround(tj));
+                const float g = ground->at(i, j);
+                const double w = dot(Vec3{m->rest[3 * p], m->rest[3 * p + 1], m->rest[3 * p + 2]}, d3(frame.up));
+                if (!std::isnan(g) && w < double(g) - tol) m->movable[p] = 0;
+            }
+        }
+        m->tiles_x = (frame.width + Impl::kTile - 1) / Impl::kTile + 1;
+        m->tiles_y = (frame.height + Impl::kTile - 1) / Impl::kTile + 1;
+        const size_t tiles = size_t(m->tiles_x) * size_t(m->tiles_y);
+        m->tile_off.assign(tiles + 1, 0);
+        std::vector<uint32_t> tile_of(points);
+        for (size_t p = 0; p < points; ++p) {
+            tile_of[p] = uint32_t(m->tile_of(m->texel[2 * p + 1], m->tiles_y) * m->tiles_x + m->tile_of(m->texel[2 * p], m->tiles_x));
+            ++m->tile_off[size_t(tile_of[p]) + 1];
+        }
+        for (size_t k = 0; k < tiles; ++k) m->tile_off[k + 1] += m->tile_off[k];
+        m->tile_pts.resize(points);
+        {
+            std::vector<uint32_t> fill(m->tile_off.begin(), m->tile_off.end() - 1);
+            for (size_t p = 0; p < points; ++p) m->tile_pts[fill[tile_of[p]]++] = uint32_t(p);
+        }
+        m->cur = m->rest;
+        m->nrm.assign(3 * size_t(points), 0.0);
+        m->mark.assign(points, 0);
+        impl_ = std::move(m);
+        return Status::success();
+    });
 }
 
 size_t DisplacedGround::displace_all(const Heightmap& h, float* pos, float* nor) {

@@ -15,7 +15,7 @@
 #include <algorithm>
 #include <cmath>
 
-namespace furrow::detail {
+namespace furrow::deform_detail {
 
 void triangle_detail_rates(std::vector<int>& rates, const Heightmap& hm, const float* positions, const uint32_t* indices,
                            size_t triangle_count, const DetailRateOptions& o) {
@@ -41,7 +41,7 @@ void triangle_detail_rates(std::vector<int>& rates, const Heightmap& hm, const f
     tbb::parallel_for(tbb::blocked_range<size_t>(0, triangle_count, 64), [&](const tbb::blocked_range<size_t>& r) {
         for (size_t k = r.begin(); k != r.end(); ++k) {
             double tx[3][3];
-            D3 p[3];
+            Vec3 p[3];
             for (int c = 0; c < 3; ++c) {
                 const float* q = positions + 3 * size_t(indices[3 * k + size_t(c)]);
                 p[c] = {q[0], q[1], q[2]};
@@ -59,7 +59,7 @@ void triangle_detail_rates(std::vector<int>& rates, const Heightmap& hm, const f
             if (!(hmax > 0)) continue;
             double e = o.max_error;
             if (o.camera) {
-                const D3 centre = (p[0] + p[1] + p[2]) * (1.0 / 3.0);
+                const Vec3 centre = (p[0] + p[1] + p[2]) * (1.0 / 3.0);
                 e = std::max(e, o.camera->pixel_error * norm(centre - d3(o.camera->eye)) / focal);
             }
             const double s = std::max(o.min_spacing, std::sqrt(8.0 * e / hmax));
@@ -74,4 +74,4 @@ void triangle_detail_rates(std::vector<int>& rates, const Heightmap& hm, const f
     });
 }
 
-} // namespace furrow::detail
+} // namespace furrow::deform_detail

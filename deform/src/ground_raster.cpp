@@ -10,7 +10,7 @@
 
 #include <algorithm>
 
-namespace furrow::detail {
+namespace furrow::deform_detail {
 
 size_t rasterize_ground(float* heights, const HeightmapFrame& f, const float* positions, size_t vertex_count,
                         const uint32_t* indices, size_t index_count) {
@@ -87,4 +87,4 @@ size_t rasterize_ground(float* heights, const HeightmapFrame& f, const float* po
     return facing_down;
 }
 
-} // namespace furrow::detail
+} // namespace furrow::deform_detail

@@ -11,7 +11,7 @@
 #include <CGAL/AABB_triangle_primitive.h>
 #include <CGAL/Simple_cartesian.h>
 
-namespace furrow::detail {
+namespace furrow::deform_detail {
 namespace {
 
 // Only hit points are constructed, and a height rounded in the last bit of a double is harmless.
@@ -29,7 +29,7 @@ using Tree = CGAL::AABB_tree<Traits>;
 
 struct GroundRaycaster::Tree {
     std::vector<Triangle> triangles;
-    detail::Tree tree;
+    deform_detail::Tree tree;
 };
 
 GroundRaycaster::GroundRaycaster() = default;
@@ -57,7 +57,7 @@ void GroundRaycaster::build(const float* positions, size_t vertex_count, const u
     tree_ = std::move(t);
 }
 
-double GroundRaycaster::first_hit(const D3& o, const D3& d) const {
+double GroundRaycaster::first_hit(const Vec3& o, const Vec3& d) const {
     const double nan = std::numeric_limits<double>::quiet_NaN();
     if (!tree_ || tree_->triangles.empty()) return nan;
     const Point origin(o.x, o.y, o.z);
@@ -84,4 +84,4 @@ double GroundRaycaster::first_hit(const D3& o, const D3& d) const {
     return nan;
 }
 
-} // namespace furrow::detail
+} // namespace furrow::deform_detail

@@ -11,28 +11,28 @@
 
 namespace furrow {
 
-namespace detail {
+namespace deform_detail {
 
 void frame_axes(const std::array<double, 3>& up_in, std::array<double, 3>& axis_u, std::array<double, 3>& axis_v,
                 std::array<double, 3>& unit_up) {
-    D3 up = d3(up_in);
+    Vec3 up = d3(up_in);
     double n = norm(up);
-    up = n > 0 ? up * (1.0 / n) : D3{0, 1, 0};
+    up = n > 0 ? up * (1.0 / n) : Vec3{0, 1, 0};
     // +x projected onto the plane, unless up is close to x: then +z (keeps +y up → (+x, +z), +z up → (+x, −y)).
-    D3 ref = std::abs(up.x) < 0.9 ? D3{1, 0, 0} : D3{0, 0, 1};
-    D3 u = ref - up * dot(ref, up);
+    Vec3 ref = std::abs(up.x) < 0.9 ? Vec3{1, 0, 0} : Vec3{0, 0, 1};
+    Vec3 u = ref - up * dot(ref, up);
     u = u * (1.0 / norm(u));
-    D3 v = cross(u, up);
+    Vec3 v = cross(u, up);
     axis_u = arr(u);
     axis_v = arr(v * (1.0 / norm(v)));
     unit_up = arr(up);
 }
 
-} // namespace detail
+} // namespace deform_detail
 
 std::array<double, 3> HeightmapFrame::to_texel(const double* p) const {
-    using namespace detail;
-    D3 d = D3{p[0], p[1], p[2]} - d3(origin);
+    using namespace deform_detail;
+    Vec3 d = Vec3{p[0], p[1], p[2]} - d3(origin);
     const double inv = texel > 0 ? 1.0 / texel : 0.0;
     return {dot(d, d3(axis_u)) * inv, dot(d, d3(axis_v)) * inv, dot(d, d3(up))};
 }

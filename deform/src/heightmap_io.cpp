@@ -10,6 +10,7 @@
 #include "deform_internal.h"
 
 #include <furrow_kernel/atomic_file.h>
+#include <furrow_kernel/no_throw.h>
 
 #include <nlohmann/json.hpp>
 
@@ -154,144 +155,148 @@ const char* kKey = "furrow-heightmap";
 } // namespace
 
 Status save_heightmap(const Heightmap& hm, const std::string& path) {
-    const int w = hm.frame.width, h = hm.frame.height;
-    if (w <= 0 || h <= 0 || hm.values.size() != size_t(w) * size_t(h))
-        return Status::error(StatusCode::invalid_argument, "the heightmap is empty or its size does not match its frame");
-    const std::string ext = lower_ext(path);
-    json meta = frame_json(hm.frame);
-    std::vector<uint8_t> bytes;
-    if (ext == ".pfm") {
-        const std::string header = "Pf\n" + std::to_string(w) + " " + std::to_string(h) + "\n-1.0\n";
-        bytes.assign(header.begin(), header.end());
-        bytes.reserve(bytes.size() + hm.values.size() * 4 + 512);
-        for (int j = h - 1; j >= 0; --j)
-            for (int i = 0; i < w; ++i) {
-                float v = hm.at(i, j);
-                uint8_t b[4];
-                std::memcpy(b, &v, 4); // little-endian hosts only (x86-64, AArch64)
-                bytes.insert(bytes.end(), b, b + 4);
+    return kernel::no_throw("writing the heightmap", [&]() -> Status {
+        const int w = hm.frame.width, h = hm.frame.height;
+        if (w <= 0 || h <= 0 || hm.values.size() != size_t(w) * size_t(h))
+            return Status::error(StatusCode::invalid_argument, "the heightmap is empty or its size does not match its frame");
+        const std::string ext = lower_ext(path);
+        json meta = frame_json(hm.frame);
+        std::vector<uint8_t> bytes;
+        if (ext == ".pfm") {
+            const std::string header = "Pf\n" + std::to_string(w) + " " + std::to_string(h) + "\n-1.0\n";
+            bytes.assign(header.begin(), header.end());
+            bytes.reserve(bytes.size() + hm.values.size() * 4 + 512);
+            for (int j = h - 1; j >= 0; --j)
+                for (int i = 0; i < w; ++i) {
+                    float v = hm.at(i, j);
+                    uint8_t b[4];
+                    std::memcpy(b, &v, 4); // little-endian hosts only (x86-64, AArch64)
+                    bytes.insert(bytes.end(), b, b + 4);
+                }
+            const std::string tail = "\n# " + std::string(kKey) + " " + meta.dump() + "\n";
+            bytes.insert(bytes.end(), tail.begin(), tail.end());
+        } else if (ext == ".png") {
+            float lo = 0, hi = 0;
+            for (float v : hm.values) {
+                if (!std::isfinite(v)) return Status::error(StatusCode::invalid_argument, "the heightmap holds a non-finite value");
+                lo = std::min(lo, v), hi = std::max(hi, v);
             }
-        const std::string tail = "\n# " + std::string(kKey) + " " + meta.dump() + "\n";
-        bytes.insert(bytes.end(), tail.begin(), tail.end());
-    } else if (ext == ".png") {
-        float lo = 0, hi = 0;
-        for (float v : hm.values) {
-            if (!std::isfinite(v)) return Status::error(StatusCode::invalid_argument, "the heightmap holds a non-finite value");
-            lo = std::min(lo, v), hi = std::max(hi, v);
+            // Zero (untouched snow) is made an exact level, so that a reload can restore it exactly.
+            const double scale = hi > lo ? double(hi) - double(lo) : 1.0;
+            const double step = scale / 65535.0;
+            const long zero = std::lround(-double(lo) / step);
+            const double offset = -double(zero) * step;
+            meta["offset"] = offset;
+            meta["scale"] = scale;
+            std::vector<uint16_t> px(hm.values.size());
+            for (size_t k = 0; k < px.size(); ++k)
+                px[k] = uint16_t(std::clamp(std::lround((double(hm.values[k]) - offset) / step), 0L, 65535L));
+            bytes = encode_png16(px, w, h, kKey, meta.dump());
+        } else {
+            return Status::error(StatusCode::invalid_argument, "heightmap files must end in .pfm (float) or .png (16-bit)");
         }
-        // Zero (untouched snow) is made an exact level, so that a reload can restore it exactly.
-        const double scale = hi > lo ? double(hi) - double(lo) : 1.0;
-        const double step = scale / 65535.0;
-        const long zero = std::lround(-double(lo) / step);
-        const double offset = -double(zero) * step;
-        meta["offset"] = offset;
-        meta["scale"] = scale;
-        std::vector<uint16_t> px(hm.values.size());
-        for (size_t k = 0; k < px.size(); ++k)
-            px[k] = uint16_t(std::clamp(std::lround((double(hm.values[k]) - offset) / step), 0L, 65535L));
-        bytes = encode_png16(px, w, h, kKey, meta.dump());
-    } else {
-        return Status::error(StatusCode::invalid_argument, "heightmap files must end in .pfm (float) or .png (16-bit)");
-    }
-    return kernel::atomic_write(path, bytes.data(), bytes.size());
+        return kernel::atomic_write(path, bytes.data(), bytes.size());
+    });
 }
 
 Status load_heightmap(Heightmap& out, const std::string& path) {
-    const std::string ext = lower_ext(path);
-    // A folder opens as an ifstream and then throws from the read: refuse it here (it was exit 3, internal).
-    std::error_code dir_ec;
-    if (std::filesystem::is_directory(path, dir_ec))
-        return Status::error(StatusCode::io_error, "is a directory, not a heightmap file");
-    std::ifstream in(path, std::ios::binary);
-    if (!in) return Status::error(StatusCode::io_error, "cannot open the heightmap");
-    std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(in)), {});
-    Heightmap hm;
-    if (ext == ".pfm") {
-        // Header: three whitespace-separated tokens after the magic, then exactly one whitespace byte.
-        size_t p = 0;
-        auto token = [&]() {
-            while (p < bytes.size() && std::isspace(bytes[p])) ++p;
-            size_t s = p;
-            while (p < bytes.size() && !std::isspace(bytes[p])) ++p;
-            return std::string(bytes.begin() + long(s), bytes.begin() + long(p));
-        };
-        const std::string magic = token();
-        if (magic != "Pf" && magic != "PF") return Status::error(StatusCode::invalid_input, "not a PFM file (magic '" + magic.substr(0, 8) + "')");
-        const int channels = magic == "PF" ? 3 : 1;
-        long w = 0, h = 0;
-        double scale = 0;
-        try {
-            w = std::stol(token());
-            h = std::stol(token());
-            scale = std::stod(token());
-        } catch (...) {
-            return Status::error(StatusCode::invalid_input, "malformed PFM header");
-        }
-        ++p; // the single whitespace byte before the raster
-        if (w <= 0 || h <= 0 || w > (1 << 20) || h > (1 << 20) || scale == 0)
-            return Status::error(StatusCode::invalid_input, "malformed PFM header (size or scale)");
-        const size_t need = size_t(w) * size_t(h) * size_t(channels) * 4;
-        if (p + need > bytes.size()) return Status::error(StatusCode::invalid_input, "PFM raster is truncated");
-        hm.frame.width = int(w), hm.frame.height = int(h);
-        hm.values.resize(size_t(w) * size_t(h));
-        const bool big_endian = scale > 0;
-        for (long r = 0; r < h; ++r)
-            for (long i = 0; i < w; ++i) {
-                uint8_t b[4];
-                std::memcpy(b, &bytes[p + ((size_t(r) * size_t(w) + size_t(i)) * size_t(channels)) * 4], 4);
-                if (big_endian) std::swap(b[0], b[3]), std::swap(b[1], b[2]);
-                float v;
-                std::memcpy(&v, b, 4);
-                if (!std::isfinite(v)) return Status::error(StatusCode::invalid_input, "PFM holds a non-finite value");
-                hm.values[size_t(h - 1 - r) * size_t(w) + size_t(i)] = v; // |scale| is not a multiplier in practice
+    return kernel::no_throw("reading the heightmap", [&]() -> Status {
+        const std::string ext = lower_ext(path);
+        // A folder opens as an ifstream and then throws from the read: refuse it here (it was exit 3, internal).
+        std::error_code dir_ec;
+        if (std::filesystem::is_directory(path, dir_ec))
+            return Status::error(StatusCode::io_error, "is a directory, not a heightmap file");
+        std::ifstream in(path, std::ios::binary);
+        if (!in) return Status::error(StatusCode::io_error, "cannot open the heightmap");
+        std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(in)), {});
+        Heightmap hm;
+        if (ext == ".pfm") {
+            // Header: three whitespace-separated tokens after the magic, then exactly one whitespace byte.
+            size_t p = 0;
+            auto token = [&]() {
+                while (p < bytes.size() && std::isspace(bytes[p])) ++p;
+                size_t s = p;
+                while (p < bytes.size() && !std::isspace(bytes[p])) ++p;
+                return std::string(bytes.begin() + long(s), bytes.begin() + long(p));
+            };
+            const std::string magic = token();
+            if (magic != "Pf" && magic != "PF") return Status::error(StatusCode::invalid_input, "not a PFM file (magic '" + magic.substr(0, 8) + "')");
+            const int channels = magic == "PF" ? 3 : 1;
+            long w = 0, h = 0;
+            double scale = 0;
+            try {
+                w = std::stol(token());
+                h = std::stol(token());
+                scale = std::stod(token());
+            } catch (...) {
+                return Status::error(StatusCode::invalid_input, "malformed PFM header");
             }
-        const std::string tail(bytes.begin() + long(p + need), bytes.end());
-        const size_t k = tail.find(std::string("# ") + kKey + " ");
-        if (k != std::string::npos) {
+            ++p; // the single whitespace byte before the raster
+            if (w <= 0 || h <= 0 || w > (1 << 20) || h > (1 << 20) || scale == 0)
+                return Status::error(StatusCode::invalid_input, "malformed PFM header (size or scale)");
+            const size_t need = size_t(w) * size_t(h) * size_t(channels) * 4;
+            if (p + need > bytes.size()) return Status::error(StatusCode::invalid_input, "PFM raster is truncated");
+            hm.frame.width = int(w), hm.frame.height = int(h);
+            hm.values.resize(size_t(w) * size_t(h));
+            const bool big_endian = scale > 0;
+            for (long r = 0; r < h; ++r)
+                for (long i = 0; i < w; ++i) {
+                    uint8_t b[4];
+                    std::memcpy(b, &bytes[p + ((size_t(r) * size_t(w) + size_t(i)) * size_t(channels)) * 4], 4);
+                    if (big_endian) std::swap(b[0], b[3]), std::swap(b[1], b[2]);
+                    float v;
+                    std::memcpy(&v, b, 4);
+                    if (!std::isfinite(v)) return Status::error(StatusCode::invalid_input, "PFM holds a non-finite value");
+                    hm.values[size_t(h - 1 - r) * size_t(w) + size_t(i)] = v; // |scale| is not a multiplier in practice
+                }
+            const std::string tail(bytes.begin() + long(p + need), bytes.end());
+            const size_t k = tail.find(std::string("# ") + kKey + " ");
+            if (k != std::string::npos) {
+                json meta;
+                try {
+                    meta = json::parse(tail.substr(k + 3 + std::strlen(kKey)));
+                } catch (...) {
+                    return Status::error(StatusCode::invalid_input, "bad furrow-heightmap metadata in the PFM");
+                }
+                Status s = frame_from_json(hm.frame, meta, int(w), int(h));
+                if (!s.ok()) return s;
+            }
+        } else if (ext == ".png") {
+            ImageF im;
+            Status s = decode_image(im, bytes.data(), bytes.size());
+            if (!s.ok()) return s;
+            const std::string text = png_text(bytes, kKey);
+            if (text.empty())
+                return Status::error(StatusCode::invalid_input,
+                                     "the PNG has no 'furrow-heightmap' text chunk, so its height scale is unknown (write it with "
+                                     "furrow stamp --heightmap-out, or use a .pfm)");
             json meta;
             try {
-                meta = json::parse(tail.substr(k + 3 + std::strlen(kKey)));
+                meta = json::parse(text);
             } catch (...) {
-                return Status::error(StatusCode::invalid_input, "bad furrow-heightmap metadata in the PFM");
+                return Status::error(StatusCode::invalid_input, "bad furrow-heightmap metadata in the PNG");
             }
-            Status s = frame_from_json(hm.frame, meta, int(w), int(h));
+            s = frame_from_json(hm.frame, meta, im.width, im.height);
             if (!s.ok()) return s;
+            double offset = 0, scale = 0;
+            try {
+                offset = meta.at("offset").get<double>();
+                scale = meta.at("scale").get<double>();
+            } catch (...) {
+                return Status::error(StatusCode::invalid_input, "the furrow-heightmap metadata lacks offset/scale");
+            }
+            hm.values.resize(size_t(im.width) * size_t(im.height));
+            const double half_step = 0.5 * std::abs(scale) / 65535.0;
+            for (size_t k = 0; k < hm.values.size(); ++k) {
+                const double v = offset + scale * double(im.pixels[k * size_t(im.channels)]);
+                hm.values[k] = std::abs(v) < half_step ? 0.0f : float(v); // the zero level is untouched snow
+            }
+        } else {
+            return Status::error(StatusCode::invalid_argument, "heightmap files must end in .pfm (float) or .png (16-bit)");
         }
-    } else if (ext == ".png") {
-        ImageF im;
-        Status s = decode_image(im, bytes.data(), bytes.size());
-        if (!s.ok()) return s;
-        const std::string text = png_text(bytes, kKey);
-        if (text.empty())
-            return Status::error(StatusCode::invalid_input,
-                                 "the PNG has no 'furrow-heightmap' text chunk, so its height scale is unknown (write it with "
-                                 "furrow stamp --heightmap-out, or use a .pfm)");
-        json meta;
-        try {
-            meta = json::parse(text);
-        } catch (...) {
-            return Status::error(StatusCode::invalid_input, "bad furrow-heightmap metadata in the PNG");
-        }
-        s = frame_from_json(hm.frame, meta, im.width, im.height);
-        if (!s.ok()) return s;
-        double offset = 0, scale = 0;
-        try {
-            offset = meta.at("offset").get<double>();
-            scale = meta.at("scale").get<double>();
-        } catch (...) {
-            return Status::error(StatusCode::invalid_input, "the furrow-heightmap metadata lacks offset/scale");
-        }
-        hm.values.resize(size_t(im.width) * size_t(im.height));
-        const double half_step = 0.5 * std::abs(scale) / 65535.0;
-        for (size_t k = 0; k < hm.values.size(); ++k) {
-            const double v = offset + scale * double(im.pixels[k * size_t(im.channels)]);
-            hm.values[k] = std::abs(v) < half_step ? 0.0f : float(v); // the zero level is untouched snow
-        }
-    } else {
-        return Status::error(StatusCode::invalid_argument, "heightmap files must end in .pfm (float) or .png (16-bit)");
-    }
-    out = std::move(hm);
-    return Status::success();
+        out = std::move(hm);
+        return Status::success();
+    });
 }
 
 } // namespace furrow

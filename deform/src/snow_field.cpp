@@ -10,6 +10,7 @@
 // order of stamps, only on their times. The rim is linear in the removed depth with a fixed receiver set,
 // so it decays with the same factor.
 #include "deform_internal.h"
+#include <furrow_kernel/no_throw.h>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -19,7 +20,7 @@
 
 namespace furrow {
 
-using namespace detail;
+using namespace deform_detail;
 
 struct SnowField::Impl {
     SnowOptions opt;
@@ -67,8 +68,8 @@ struct SnowField::Impl {
         Contact r;
         const double top = collider_top_offset(c), bottom = collider_bottom_offset(c);
         const double lift = 2 * top + bottom + 2 * ground.frame.texel;
-        const D3 up = d3(ground.frame.up);
-        const D3 origin = d3(ground.frame.origin) + d3(ground.frame.axis_u) * p.u + d3(ground.frame.axis_v) * p.v + up * (p.w + lift);
+        const Vec3 up = d3(ground.frame.up);
+        const Vec3 origin = d3(ground.frame.origin) + d3(ground.frame.axis_u) * p.u + d3(ground.frame.axis_v) * p.v + up * (p.w + lift);
         const double t = rays.first_hit(origin, up * -1.0);
         if (std::isnan(t)) return r;
         r.hit = true;
@@ -86,106 +87,110 @@ SnowField& SnowField::operator=(SnowField&&) noexcept = default;
 
 Status SnowField::create(const float* positions, size_t vertex_count, const uint32_t* indices, size_t index_count,
                          const SnowOptions& o) {
-    auto bad = [](const std::string& m) { return Status::error(StatusCode::invalid_argument, m); };
-    auto finite_ge0 = [](double x) { return std::isfinite(x) && x >= 0; };
-    if (!finite_ge0(o.texel)) return bad("texel must be a finite number >= 0");
-    if (o.texel == 0 && (o.resolution < 2 || o.resolution > 1000000)) return bad("resolution must be in 2..1000000");
-    if (!finite_ge0(o.snow_depth)) return bad("snow depth must be a finite number >= 0");
-    if (!finite_ge0(o.rim_width)) return bad("rim width must be a finite number >= 0");
-    if (!finite_ge0(o.rim_height) || o.rim_height > 10) return bad("rim height must be in 0..10");
-    if (!finite_ge0(o.rim_max_height)) return bad("rim max height must be a finite number >= 0");
-    if (!finite_ge0(o.repose_degrees) || o.repose_degrees > 90) return bad("angle of repose must be in 0..90 degrees");
-    if (!(o.compaction >= 0 && o.compaction <= 1)) return bad("compaction must be in 0..1");
-    if (!finite_ge0(o.refill_rate)) return bad("refill rate must be a finite number >= 0");
-    if (!finite_ge0(o.margin)) return bad("margin must be a finite number >= 0");
-    const double upn = std::hypot(o.up[0], o.up[1], o.up[2]);
-    if (!(upn > 0) || !std::isfinite(upn)) return bad("up must be a finite non-zero vector");
-    if (!positions || !indices || index_count < 3) return Status::error(StatusCode::invalid_input, "the ground has no triangles");
+    return kernel::no_throw("creating the snow field", [&]() -> Status {
+        auto bad = [](const std::string& m) { return Status::error(StatusCode::invalid_argument, m); };
+        auto finite_ge0 = [](double x) { return std::isfinite(x) && x >= 0; };
+        if (!finite_ge0(o.texel)) return bad("texel must be a finite number >= 0");
+        if (o.texel == 0 && (o.resolution < 2 || o.resolution > 1000000)) return bad("resolution must be in 2..1000000");
+        if (!finite_ge0(o.snow_depth)) return bad("snow depth must be a finite number >= 0");
+        if (!finite_ge0(o.rim_width)) return bad("rim width must be a finite number >= 0");
+        if (!finite_ge0(o.rim_height) || o.rim_height > 10) return bad("rim height must be in 0..10");
+        if (!finite_ge0(o.rim_max_height)) return bad("rim max height must be a finite number >= 0");
+        if (!finite_ge0(o.repose_degrees) || o.repose_degrees > 90) return bad("angle of repose must be in 0..90 degrees");
+        if (!(o.compaction >= 0 && o.compaction <= 1)) return bad("compaction must be in 0..1");
+        if (!finite_ge0(o.refill_rate)) return bad("refill rate must be a finite number >= 0");
+        if (!finite_ge0(o.margin)) return bad("margin must be a finite number >= 0");
+        const double upn = std::hypot(o.up[0], o.up[1], o.up[2]);
+        if (!(upn > 0) || !std::isfinite(upn)) return bad("up must be a finite non-zero vector");
+        if (!positions || !indices || index_count < 3) return Status::error(StatusCode::invalid_input, "the ground has no triangles");
 
-    auto impl = std::make_unique<Impl>();
-    impl->opt = o;
-    HeightmapFrame f;
-    frame_axes(o.up, f.axis_u, f.axis_v, f.up);
-    double lo_u = kInf, hi_u = -kInf, lo_v = kInf, hi_v = -kInf;
-    for (size_t k = 0; k < index_count; ++k) {
-        const uint32_t v = indices[k];
-        if (v >= vertex_count) return Status::error(StatusCode::invalid_input, "a ground index is out of range");
-        const D3 p{positions[3 * size_t(v)], positions[3 * size_t(v) + 1], positions[3 * size_t(v) + 2]};
-        if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
-            return Status::error(StatusCode::invalid_input, "the ground has a non-finite position");
-        const double u = dot(p, d3(f.axis_u)), w = dot(p, d3(f.axis_v));
-        lo_u = std::min(lo_u, u), hi_u = std::max(hi_u, u), lo_v = std::min(lo_v, w), hi_v = std::max(hi_v, w);
-    }
-    lo_u -= o.margin, lo_v -= o.margin, hi_u += o.margin, hi_v += o.margin;
-    const double ext = std::max(hi_u - lo_u, hi_v - lo_v);
-    if (!(ext > 0)) return Status::error(StatusCode::invalid_input, "the ground has no extent in the plane normal to up");
-    f.texel = o.texel > 0 ? o.texel : ext / double(o.resolution - 1);
-    const double wd = std::ceil((hi_u - lo_u) / f.texel - 1e-9) + 1, hd = std::ceil((hi_v - lo_v) / f.texel - 1e-9) + 1;
-    const double bytes = wd * hd * double(kBytesPerTexel);
-    if (!(bytes <= double(o.max_bytes)) || wd > 2e9 || hd > 2e9) {
-        char buf[320];
-        std::snprintf(buf, sizeof buf,
-                      "heightmap of %.0f x %.0f texels (texel %.4g m over %.4g x %.4g m) needs %.0f MiB, more than the %.0f MiB "
-                      "limit; use a larger --texel or a smaller --resolution",
-                      wd, hd, f.texel, hi_u - lo_u, hi_v - lo_v, bytes / 1048576.0, double(o.max_bytes) / 1048576.0);
-        return Status::error(StatusCode::out_of_memory, buf);
-    }
-    f.width = int(wd), f.height = int(hd);
-    f.origin = arr(d3(f.axis_u) * lo_u + d3(f.axis_v) * lo_v);
-    const size_t N = size_t(f.width) * size_t(f.height);
-    impl->ground.frame = f;
-    impl->ground.values.resize(N);
-    impl->out.frame = f;
-    impl->out.values.assign(N, 0.0f);
-    impl->carve.assign(N, 0.0f);
-    impl->rim.assign(N, 0.0f);
-    impl->tiles_x = (f.width + Impl::kTile - 1) / Impl::kTile;
-    impl->tiles_y = (f.height + Impl::kTile - 1) / Impl::kTile;
-    impl->carve_tiles.assign(size_t(impl->tiles_x) * size_t(impl->tiles_y), 0);
-    impl->out_tiles = impl->carve_tiles;
-    impl->overhangs = rasterize_ground(impl->ground.values.data(), f, positions, vertex_count, indices, index_count);
-    bool any = false;
-    for (float g : impl->ground.values)
-        if (!std::isnan(g)) {
-            any = true;
-            break;
+        auto impl = std::make_unique<Impl>();
+        impl->opt = o;
+        HeightmapFrame f;
+        frame_axes(o.up, f.axis_u, f.axis_v, f.up);
+        double lo_u = kInf, hi_u = -kInf, lo_v = kInf, hi_v = -kInf;
+        for (size_t k = 0; k < index_count; ++k) {
+            const uint32_t v = indices[k];
+            if (v >= vertex_count) return Status::error(StatusCode::invalid_input, "a ground index is out of range");
+            const Vec3 p{positions[3 * size_t(v)], positions[3 * size_t(v) + 1], positions[3 * size_t(v) + 2]};
+            if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
+                return Status::error(StatusCode::invalid_input, "the ground has a non-finite position");
+            const double u = dot(p, d3(f.axis_u)), w = dot(p, d3(f.axis_v));
+            lo_u = std::min(lo_u, u), hi_u = std::max(hi_u, u), lo_v = std::min(lo_v, w), hi_v = std::max(hi_v, w);
         }
-    if (!any) return Status::error(StatusCode::invalid_input, "no ground triangle covers a texel (the ground is edge-on to up?)");
-    impl->rays.build(positions, vertex_count, indices, index_count);
-    impl_ = std::move(impl);
-    return Status::success();
+        lo_u -= o.margin, lo_v -= o.margin, hi_u += o.margin, hi_v += o.margin;
+        const double ext = std::max(hi_u - lo_u, hi_v - lo_v);
+        if (!(ext > 0)) return Status::error(StatusCode::invalid_input, "the ground has no extent in the plane normal to up");
+        f.texel = o.texel > 0 ? o.texel : ext / double(o.resolution - 1);
+        const double wd = std::ceil((hi_u - lo_u) / f.texel - 1e-9) + 1, hd = std::ceil((hi_v - lo_v) / f.texel - 1e-9) + 1;
+        const double bytes = wd * hd * double(kBytesPerTexel);
+        if (!(bytes <= double(o.max_bytes)) || wd > 2e9 || hd > 2e9) {
+            char buf[320];
+            std::snprintf(buf, sizeof buf,
+                          "heightmap of %.0f x %.0f texels (texel %.4g m over %.4g x %.4g m) needs %.0f MiB, more than the %.0f MiB "
+                          "limit; use a larger --texel or a smaller --resolution",
+                          wd, hd, f.texel, hi_u - lo_u, hi_v - lo_v, bytes / 1048576.0, double(o.max_bytes) / 1048576.0);
+            return Status::error(StatusCode::out_of_memory, buf);
+        }
+        f.width = int(wd), f.height = int(hd);
+        f.origin = arr(d3(f.axis_u) * lo_u + d3(f.axis_v) * lo_v);
+        const size_t N = size_t(f.width) * size_t(f.height);
+        impl->ground.frame = f;
+        impl->ground.values.resize(N);
+        impl->out.frame = f;
+        impl->out.values.assign(N, 0.0f);
+        impl->carve.assign(N, 0.0f);
+        impl->rim.assign(N, 0.0f);
+        impl->tiles_x = (f.width + Impl::kTile - 1) / Impl::kTile;
+        impl->tiles_y = (f.height + Impl::kTile - 1) / Impl::kTile;
+        impl->carve_tiles.assign(size_t(impl->tiles_x) * size_t(impl->tiles_y), 0);
+        impl->out_tiles = impl->carve_tiles;
+        impl->overhangs = rasterize_ground(impl->ground.values.data(), f, positions, vertex_count, indices, index_count);
+        bool any = false;
+        for (float g : impl->ground.values)
+            if (!std::isnan(g)) {
+                any = true;
+                break;
+            }
+        if (!any) return Status::error(StatusCode::invalid_input, "no ground triangle covers a texel (the ground is edge-on to up?)");
+        impl->rays.build(positions, vertex_count, indices, index_count);
+        impl_ = std::move(impl);
+        return Status::success();
+    });
 }
 
 Status SnowField::set_base(const Heightmap& b) {
-    Impl& m = *impl_;
-    if (m.ground.values.empty()) return Status::error(StatusCode::invalid_argument, "create() the field first");
-    if (m.stamped) return Status::error(StatusCode::invalid_argument, "set_base() must come before the first stamp");
-    const int bw = b.frame.width, bh = b.frame.height;
-    if (bw <= 0 || bh <= 0 || b.values.size() != size_t(bw) * size_t(bh))
-        return Status::error(StatusCode::invalid_input, "the base heightmap is empty or its size does not match its frame");
-    const HeightmapFrame& f = m.ground.frame;
-    m.base.assign(m.carve.size(), 0.0f);
-    tbb::parallel_for(tbb::blocked_range<int>(0, f.height, 16), [&](const tbb::blocked_range<int>& r) {
-        for (int j = r.begin(); j != r.end(); ++j)
-            for (int i = 0; i < f.width; ++i) {
-                double v;
-                if (b.frame.texel > 0) {
-                    const D3 p = d3(f.origin) + d3(f.axis_u) * (i * f.texel) + d3(f.axis_v) * (j * f.texel);
-                    const double q[3] = {p.x, p.y, p.z};
-                    v = b.sample_world(q);
-                } else { // no frame: stretched over this grid
-                    v = b.sample(f.width > 1 ? double(i) * (bw - 1) / (f.width - 1) : 0.0,
-                                 f.height > 1 ? double(j) * (bh - 1) / (f.height - 1) : 0.0);
+    return kernel::no_throw("setting the base heightmap", [&]() -> Status {
+        Impl& m = *impl_;
+        if (m.ground.values.empty()) return Status::error(StatusCode::invalid_argument, "create() the field first");
+        if (m.stamped) return Status::error(StatusCode::invalid_argument, "set_base() must come before the first stamp");
+        const int bw = b.frame.width, bh = b.frame.height;
+        if (bw <= 0 || bh <= 0 || b.values.size() != size_t(bw) * size_t(bh))
+            return Status::error(StatusCode::invalid_input, "the base heightmap is empty or its size does not match its frame");
+        const HeightmapFrame& f = m.ground.frame;
+        m.base.assign(m.carve.size(), 0.0f);
+        tbb::parallel_for(tbb::blocked_range<int>(0, f.height, 16), [&](const tbb::blocked_range<int>& r) {
+            for (int j = r.begin(); j != r.end(); ++j)
+                for (int i = 0; i < f.width; ++i) {
+                    double v;
+                    if (b.frame.texel > 0) {
+                        const Vec3 p = d3(f.origin) + d3(f.axis_u) * (i * f.texel) + d3(f.axis_v) * (j * f.texel);
+                        const double q[3] = {p.x, p.y, p.z};
+                        v = b.sample_world(q);
+                    } else { // no frame: stretched over this grid
+                        v = b.sample(f.width > 1 ? double(i) * (bw - 1) / (f.width - 1) : 0.0,
+                                     f.height > 1 ? double(j) * (bh - 1) / (f.height - 1) : 0.0);
+                    }
+                    const size_t x = size_t(j) * size_t(f.width) + size_t(i);
+                    if (std::isnan(m.ground.values[x])) v = 0;
+                    m.base[x] = float(v);
+                    m.carve[x] = float(v);
                 }
-                const size_t x = size_t(j) * size_t(f.width) + size_t(i);
-                if (std::isnan(m.ground.values[x])) v = 0;
-                m.base[x] = float(v);
-                m.carve[x] = float(v);
-            }
+        });
+        m.all_dirty = true;
+        m.content = m.full();
+        return Status::success();
     });
-    m.all_dirty = true;
-    m.content = m.full();
-    return Status::success();
 }
 
 namespace {
@@ -317,45 +322,51 @@ static std::vector<ColliderPose> poses_of(const SnowField::Impl& m, const Collid
 }
 
 Status SnowField::add_collider(const Collider& c, StampStats* stats) {
-    ColliderSet one;
-    one.up = impl_->opt.up;
-    one.colliders.push_back(c);
-    return add_colliders(one, stats);
+    return kernel::no_throw("stamping", [&]() -> Status {
+        ColliderSet one;
+        one.up = impl_->opt.up;
+        one.colliders.push_back(c);
+        return add_colliders(one, stats);
+    });
 }
 
 Status SnowField::add_colliders(const ColliderSet& set, StampStats* stats) {
-    Impl& m = *impl_;
-    if (m.ground.values.empty()) return Status::error(StatusCode::invalid_argument, "create() the field first");
-    StampStats st;
-    std::vector<Job> jobs;
-    for (const Collider& c : set.colliders) {
-        if (c.shape == ColliderShape::image && !c.brush)
-            return Status::error(StatusCode::invalid_input, c.name + ": image collider without a decoded brush");
-        collect_jobs(m, c, poses_of(m, c), jobs, st);
-    }
-    st = run_jobs(m, jobs, st);
-    if (stats) *stats = st;
-    return Status::success();
+    return kernel::no_throw("stamping", [&]() -> Status {
+        Impl& m = *impl_;
+        if (m.ground.values.empty()) return Status::error(StatusCode::invalid_argument, "create() the field first");
+        StampStats st;
+        std::vector<Job> jobs;
+        for (const Collider& c : set.colliders) {
+            if (c.shape == ColliderShape::image && !c.brush)
+                return Status::error(StatusCode::invalid_input, c.name + ": image collider without a decoded brush");
+            collect_jobs(m, c, poses_of(m, c), jobs, st);
+        }
+        st = run_jobs(m, jobs, st);
+        if (stats) *stats = st;
+        return Status::success();
+    });
 }
 
 Status SnowField::stamp(const Collider& shape, const ColliderPose& pose, const ColliderPose* previous, StampStats* stats) {
-    Impl& m = *impl_;
-    if (m.ground.values.empty()) return Status::error(StatusCode::invalid_argument, "create() the field first");
-    if (shape.shape == ColliderShape::image && !shape.brush)
-        return Status::error(StatusCode::invalid_input, shape.name + ": image collider without a decoded brush");
-    std::vector<ColliderPose> poses;
-    if (previous) poses.push_back(*previous);
-    poses.push_back(pose);
-    if (previous) { // turn the short way
-        double& h = poses[1].heading_degrees;
-        h = unwrap_heading(h, poses[0].heading_degrees);
-    }
-    StampStats st;
-    std::vector<Job> jobs;
-    collect_jobs(m, shape, poses, jobs, st);
-    st = run_jobs(m, jobs, st);
-    if (stats) *stats = st;
-    return Status::success();
+    return kernel::no_throw("stamping", [&]() -> Status {
+        Impl& m = *impl_;
+        if (m.ground.values.empty()) return Status::error(StatusCode::invalid_argument, "create() the field first");
+        if (shape.shape == ColliderShape::image && !shape.brush)
+            return Status::error(StatusCode::invalid_input, shape.name + ": image collider without a decoded brush");
+        std::vector<ColliderPose> poses;
+        if (previous) poses.push_back(*previous);
+        poses.push_back(pose);
+        if (previous) { // turn the short way
+            double& h = poses[1].heading_degrees;
+            h = unwrap_heading(h, poses[0].heading_degrees);
+        }
+        StampStats st;
+        std::vector<Job> jobs;
+        collect_jobs(m, shape, poses, jobs, st);
+        st = run_jobs(m, jobs, st);
+        if (stats) *stats = st;
+        return Status::success();
+    });
 }
 
 void SnowField::set_time(double t) {
@@ -554,10 +565,10 @@ double SnowField::raised_volume() const {
 
 void SnowField::cast_down(double* out, const double* points, size_t count) const {
     const Impl& m = *impl_;
-    const D3 up = d3(m.ground.frame.up);
+    const Vec3 up = d3(m.ground.frame.up);
     tbb::parallel_for(tbb::blocked_range<size_t>(0, count, 256), [&](const tbb::blocked_range<size_t>& r) {
         for (size_t k = r.begin(); k != r.end(); ++k) {
-            const D3 o{points[3 * k], points[3 * k + 1], points[3 * k + 2]};
+            const Vec3 o{points[3 * k], points[3 * k + 1], points[3 * k + 2]};
             const double t = m.rays.first_hit(o, up * -1.0);
             out[k] = std::isnan(t) ? t : dot(o, up) - t;
         }

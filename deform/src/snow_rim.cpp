@@ -28,7 +28,7 @@
 #include <algorithm>
 #include <numbers>
 
-namespace furrow::detail {
+namespace furrow::deform_detail {
 namespace {
 
 // Working arrays, kept between calls (a game calls update() every frame): no allocation, no page faults.
@@ -350,4 +350,4 @@ double compute_rim(float* rim, const RimInput& in, const TexelRect& win, const R
     return lost;
 }
 
-} // namespace furrow::detail
+} // namespace furrow::deform_detail

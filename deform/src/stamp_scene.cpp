@@ -11,6 +11,7 @@
 #include "deform_internal.h"
 
 #include <furrow/tessellate.h>
+#include <furrow_kernel/no_throw.h>
 
 #include <algorithm>
 #include <chrono>
@@ -22,7 +23,7 @@
 
 namespace furrow {
 
-using namespace detail;
+using namespace deform_detail;
 
 namespace {
 
@@ -31,7 +32,7 @@ double seconds_since(Clock::time_point t) { return std::chrono::duration<double>
 
 using Mat = std::array<double, 16>; // column-major
 
-D3 xform_point(const Mat& m, const D3& p) {
+Vec3 xform_point(const Mat& m, const Vec3& p) {
     return {m[0] * p.x + m[4] * p.y + m[8] * p.z + m[12], m[1] * p.x + m[5] * p.y + m[9] * p.z + m[13],
             m[2] * p.x + m[6] * p.y + m[10] * p.z + m[14]};
 }
@@ -48,7 +49,7 @@ bool invert_affine(const Mat& m, Mat& out) {
                          B * inv, (a * i - c * g) * inv, -(a * f - c * d) * inv,
                          C * inv, -(a * h - b * g) * inv, (a * e - b * d) * inv};
     out = {r[0], r[3], r[6], 0, r[1], r[4], r[7], 0, r[2], r[5], r[8], 0, 0, 0, 0, 1};
-    const D3 t = xform_point(out, D3{m[12], m[13], m[14]});
+    const Vec3 t = xform_point(out, Vec3{m[12], m[13], m[14]});
     out[12] = -t.x, out[13] = -t.y, out[14] = -t.z;
     return true;
 }
@@ -173,10 +174,10 @@ void for_each_ground_primitive(const Scene& scene, F&& f) {
     }
 }
 
-D3 vertex(const Primitive& p, size_t v) { return {p.positions[3 * v], p.positions[3 * v + 1], p.positions[3 * v + 2]}; }
+Vec3 vertex(const Primitive& p, size_t v) { return {p.positions[3 * v], p.positions[3 * v + 1], p.positions[3 * v + 2]}; }
 
 // The colliders moved by −O: their paths are world positions.
-ColliderSet shifted(const ColliderSet& set, const D3& O) {
+ColliderSet shifted(const ColliderSet& set, const Vec3& O) {
     ColliderSet out = set;
     for (Collider& c : out.colliders)
         for (auto& p : c.path) p = arr(d3(p) - O);
@@ -189,11 +190,11 @@ void scene_triangles(std::vector<float>& positions, std::vector<uint32_t>& indic
                      const std::array<double, 3>& origin) {
     positions.clear();
     indices.clear();
-    const D3 O = d3(origin);
+    const Vec3 O = d3(origin);
     for_each_ground_primitive(scene, [&](const Mat& M, const Primitive& p) {
         const uint32_t base = uint32_t(positions.size() / 3);
         for (size_t v = 0; v < p.vertex_count(); ++v) {
-            const D3 q = xform_point(M, vertex(p, v)) - O; // in double, relative to `origin`, then rounded
+            const Vec3 q = xform_point(M, vertex(p, v)) - O; // in double, relative to `origin`, then rounded
             positions.insert(positions.end(), {float(q.x), float(q.y), float(q.z)});
         }
         for (uint32_t i : triangle_indices(p))
@@ -206,7 +207,7 @@ std::array<double, 3> ground_origin(const Scene& scene) {
     double lo[3] = {kInf, kInf, kInf}, hi[3] = {-kInf, -kInf, -kInf};
     for_each_ground_primitive(scene, [&](const Mat& M, const Primitive& p) {
         for (size_t v = 0; v < p.vertex_count(); ++v) {
-            const D3 q = xform_point(M, vertex(p, v));
+            const Vec3 q = xform_point(M, vertex(p, v));
             const double c[3] = {q.x, q.y, q.z};
             for (int k = 0; k < 3; ++k) lo[k] = std::min(lo[k], c[k]), hi[k] = std::max(hi[k], c[k]);
         }
@@ -248,7 +249,7 @@ Status tessellate_ground(WorkMesh& w, const Heightmap& hm, const StampOptions& o
         const auto t0 = T(0), t1 = T(1), t2 = T(2);
         auto planar = [&](const std::array<double, 3>& a, const std::array<double, 3>& b) { return texel * std::hypot(b[0] - a[0], b[1] - a[1]); };
         const double longest = std::max({planar(t0, t1), planar(t1, t2), planar(t2, t0)});
-        rates[t] = detail::clamped_int(std::ceil(longest / coarse), 1, std::max(1, o.max_rate));
+        rates[t] = deform_detail::clamped_int(std::ceil(longest / coarse), 1, std::max(1, o.max_rate));
         split = split || rates[t] > 1;
     }
     if (split) {
@@ -315,7 +316,7 @@ const std::vector<float>* channel_source(const Primitive& p, const WorkMesh::Cha
 // All ground primitives of the mesh concatenated, positions in world space relative to O (formed in double,
 // rounded to float after the origin is taken off). Normals ride along as a channel (object space) so that
 // tessellation interpolates them where the surface does not move.
-WorkMesh gather_world(const Mesh& mesh, Gathered& g, const Mat& M, const D3& O) {
+WorkMesh gather_world(const Mesh& mesh, Gathered& g, const Mat& M, const Vec3& O) {
     WorkMesh w;
     if (g.tess) {
         if (g.all_uv1) w.channels.push_back({"uv1", 2, {}});
@@ -329,7 +330,7 @@ WorkMesh gather_world(const Mesh& mesh, Gathered& g, const Mat& M, const D3& O) 
         g.vbase.push_back(base);
         const size_t nv = p.vertex_count();
         for (size_t v = 0; v < nv; ++v) {
-            const D3 q = xform_point(M, D3{p.positions[3 * v], p.positions[3 * v + 1], p.positions[3 * v + 2]}) - O;
+            const Vec3 q = xform_point(M, Vec3{p.positions[3 * v], p.positions[3 * v + 1], p.positions[3 * v + 2]}) - O;
             w.positions.insert(w.positions.end(), {float(q.x), float(q.y), float(q.z)});
         }
         g.object.insert(g.object.end(), p.positions.begin(), p.positions.begin() + long(3 * nv));
@@ -351,7 +352,7 @@ WorkMesh gather_world(const Mesh& mesh, Gathered& g, const Mat& M, const D3& O) 
 // point on any triangle around it, across welds) keeps the input's normal, so authored hard normals survive;
 // elsewhere the welded normal of the displaced surface is used.
 void to_object_space(std::vector<float>& P, std::vector<float>& N, const WorkMesh& w, const Gathered& g, const Mat& M,
-                     const Mat& inv, const D3& O) {
+                     const Mat& inv, const Vec3& O) {
     const size_t V = P.size() / 3;
     std::vector<uint8_t> moved(V, 0);
     for (size_t v = 0; v < V; ++v)
@@ -380,22 +381,22 @@ void to_object_space(std::vector<float>& P, std::vector<float>& N, const WorkMes
             }
             if (src >= 0) std::copy_n(&g.object[3 * size_t(src)], 3, &P[3 * v]);
             else {
-                const D3 q = xform_point(inv, D3{P[3 * v], P[3 * v + 1], P[3 * v + 2]} + O);
+                const Vec3 q = xform_point(inv, Vec3{P[3 * v], P[3 * v + 1], P[3 * v + 2]} + O);
                 P[3 * v] = float(q.x), P[3 * v + 1] = float(q.y), P[3 * v + 2] = float(q.z);
             }
         } else {
-            const D3 q = xform_point(inv, D3{P[3 * v], P[3 * v + 1], P[3 * v + 2]} + O);
+            const Vec3 q = xform_point(inv, Vec3{P[3 * v], P[3 * v + 1], P[3 * v + 2]} + O);
             P[3 * v] = float(q.x), P[3 * v + 1] = float(q.y), P[3 * v + 2] = float(q.z);
         }
-        D3 n{N[3 * v], N[3 * v + 1], N[3 * v + 2]};
+        Vec3 n{N[3 * v], N[3 * v + 1], N[3 * v + 2]};
         if (normal && !surface_moved[weld[v]]) {
-            n = D3{normal->values[3 * v], normal->values[3 * v + 1], normal->values[3 * v + 2]};
+            n = Vec3{normal->values[3 * v], normal->values[3 * v + 1], normal->values[3 * v + 2]};
         } else {
             // Normals transform by the inverse transpose: object normal = Mᵀ · world normal.
-            n = D3{M[0] * n.x + M[1] * n.y + M[2] * n.z, M[4] * n.x + M[5] * n.y + M[6] * n.z, M[8] * n.x + M[9] * n.y + M[10] * n.z};
+            n = Vec3{M[0] * n.x + M[1] * n.y + M[2] * n.z, M[4] * n.x + M[5] * n.y + M[6] * n.z, M[8] * n.x + M[9] * n.y + M[10] * n.z};
         }
         const double l = norm(n);
-        n = l > 0 && std::isfinite(l) ? n * (1.0 / l) : D3{0, 1, 0};
+        n = l > 0 && std::isfinite(l) ? n * (1.0 / l) : Vec3{0, 1, 0};
         N[3 * v] = float(n.x), N[3 * v + 1] = float(n.y), N[3 * v + 2] = float(n.z);
     }
 }
@@ -467,7 +468,7 @@ void rebuild_primitives(Mesh& mesh, const Gathered& g, const WorkMesh& w, const 
 }
 
 // Deforms one mesh drawn with world matrix M; the field works relative to the world point O.
-Status deform_mesh(Scene& scene, int mesh_index, const Mat& M, const D3& O, bool skinned, const SnowField& field,
+Status deform_mesh(Scene& scene, int mesh_index, const Mat& M, const Vec3& O, bool skinned, const SnowField& field,
                    const StampOptions& o, StampReport& rep) {
     Mesh& mesh = scene.meshes[size_t(mesh_index)];
     Mat inv;
@@ -551,118 +552,122 @@ Status check_ground(const Scene& scene) {
 } // namespace
 
 Status stamp_scene(Scene& scene, const ColliderSet& colliders, const StampOptions& o, StampReport* report, Heightmap* heightmap_out) {
-    StampReport rep;
-    auto bad = [](const std::string& m) { return Status::error(StatusCode::invalid_argument, m); };
-    if (!(o.max_error >= 0) || !std::isfinite(o.max_error)) return bad("max error must be a finite number >= 0");
-    if (o.max_rate < 1 || o.max_rate > 4096) return bad("max rate must be in 1..4096");
-    if (o.time && !std::isfinite(*o.time)) return bad("time must be finite");
-    if (o.camera) {
-        if (!(o.camera->fov_degrees > 0 && o.camera->fov_degrees < 180)) return bad("camera field of view must be in (0, 180)");
-        if (o.camera->viewport_height < 1) return bad("camera viewport height must be >= 1");
-        if (!(o.camera->pixel_error > 0) || !std::isfinite(o.camera->pixel_error)) return bad("pixel error must be > 0");
-    }
-    if (Status st = check_ground(scene); !st.ok()) return st;
-    const auto t0 = Clock::now();
-    std::vector<float> gp;
-    std::vector<uint32_t> gi;
-    // Everything below works relative to the ground's origin O (ground_origin): float32 positions keep
-    // their precision at 1e5..1e7 m, and the world-space inputs (colliders, camera, base map) move with it.
-    const std::array<double, 3> origin = ground_origin(scene);
-    const D3 O = d3(origin);
-    scene_triangles(gp, gi, scene, origin);
-    if (gi.empty()) return Status::error(StatusCode::invalid_input, "the ground has no triangles");
-    const ColliderSet local = shifted(colliders, O);
-    StampOptions lo = o;
-    if (lo.camera) lo.camera->eye = arr(d3(lo.camera->eye) - O);
-    Heightmap base;
-    if (o.base) {
-        base = *o.base;
-        base.frame.origin = arr(d3(base.frame.origin) - O);
-        lo.base = &base;
-    }
-    SnowOptions so = o.snow;
-    so.up = colliders.up;
-    SnowField field;
-    Status s = field.create(gp.data(), gp.size() / 3, gi.data(), gi.size(), so);
-    if (!s.ok()) return s;
-    rep.frame = field.frame();
-    rep.frame.origin = arr(d3(rep.frame.origin) + O);
-    rep.overhang_triangles = field.overhang_triangles();
-    if (rep.overhang_triangles)
-        rep.warnings.push_back(std::to_string(rep.overhang_triangles) +
-                               " ground triangles face away from up (overhangs or undersides): the snow follows the top surface "
-                               "only, and points below it are not displaced");
-    if (lo.base) {
-        s = field.set_base(*lo.base);
-        if (!s.ok()) return s;
-    }
-    double T = 0;
-    for (const Collider& c : colliders.colliders)
-        for (double t : c.time) T = std::max(T, t);
-    if (o.time) T = *o.time;
-    field.set_time(T);
-    s = field.add_colliders(local, &rep.stats);
-    if (!s.ok()) return s;
-    field.update();
-    rep.removed_volume = field.removed_volume();
-    rep.raised_volume = field.raised_volume();
-    const Heightmap& hm = field.heightmap();
-    bool changed = false;
-    for (float v : hm.values) {
-        rep.max_depth = std::max(rep.max_depth, double(-v));
-        rep.max_rim = std::max(rep.max_rim, double(v));
-        changed = changed || v != 0.0f;
-    }
-    if (rep.stats.missed_rays)
-        rep.warnings.push_back(std::to_string(rep.stats.missed_rays) + " contact rays found no ground below their collider");
-    rep.stamp_seconds = seconds_since(t0);
-    if (heightmap_out) {
-        *heightmap_out = hm;
-        heightmap_out->frame.origin = arr(d3(hm.frame.origin) + O);
-    }
-    rep.changed = changed;
-    if (changed) {
-        const auto world = scene.world_matrices();
-        // Each drawing node gets its own mesh (copied from the undeformed original), then each is deformed.
-        std::vector<int> mesh_user(scene.meshes.size(), -1);
-        std::vector<std::pair<int, int>> work; // node, mesh
-        const size_t originals = scene.meshes.size();
-        for (int n : scene.drawn_nodes()) {
-            Node& node = scene.nodes[size_t(n)];
-            if (node.mesh < 0 || size_t(node.mesh) >= originals) continue;
-            int m = node.mesh;
-            if (mesh_user[size_t(m)] >= 0) {
-                scene.meshes.push_back(scene.meshes[size_t(m)]);
-                m = int(scene.meshes.size() - 1);
-                node.mesh = m;
-                rep.warnings.push_back("mesh '" + scene.meshes[size_t(m)].name + "' is drawn by several nodes: copied for node '" +
-                                       node.name + "'");
-            } else {
-                mesh_user[size_t(m)] = n;
-            }
-            work.push_back({n, m});
+    return kernel::no_throw("stamping the scene", [&]() -> Status {
+        StampReport rep;
+        auto bad = [](const std::string& m) { return Status::error(StatusCode::invalid_argument, m); };
+        if (!(o.max_error >= 0) || !std::isfinite(o.max_error)) return bad("max error must be a finite number >= 0");
+        if (o.max_rate < 1 || o.max_rate > 4096) return bad("max rate must be in 1..4096");
+        if (o.time && !std::isfinite(*o.time)) return bad("time must be finite");
+        if (o.camera) {
+            if (!(o.camera->fov_degrees > 0 && o.camera->fov_degrees < 180)) return bad("camera field of view must be in (0, 180)");
+            if (o.camera->viewport_height < 1) return bad("camera viewport height must be >= 1");
+            if (!(o.camera->pixel_error > 0) || !std::isfinite(o.camera->pixel_error)) return bad("pixel error must be > 0");
         }
-        for (const auto& [n, m] : work) {
-            s = deform_mesh(scene, m, scene.mesh_placement(n, world), O, scene.nodes[size_t(n)].skin >= 0, field, lo, rep);
+        if (Status st = check_ground(scene); !st.ok()) return st;
+        const auto t0 = Clock::now();
+        std::vector<float> gp;
+        std::vector<uint32_t> gi;
+        // Everything below works relative to the ground's origin O (ground_origin): float32 positions keep
+        // their precision at 1e5..1e7 m, and the world-space inputs (colliders, camera, base map) move with it.
+        const std::array<double, 3> origin = ground_origin(scene);
+        const Vec3 O = d3(origin);
+        scene_triangles(gp, gi, scene, origin);
+        if (gi.empty()) return Status::error(StatusCode::invalid_input, "the ground has no triangles");
+        const ColliderSet local = shifted(colliders, O);
+        StampOptions lo = o;
+        if (lo.camera) lo.camera->eye = arr(d3(lo.camera->eye) - O);
+        Heightmap base;
+        if (o.base) {
+            base = *o.base;
+            base.frame.origin = arr(d3(base.frame.origin) - O);
+            lo.base = &base;
+        }
+        SnowOptions so = o.snow;
+        so.up = colliders.up;
+        SnowField field;
+        Status s = field.create(gp.data(), gp.size() / 3, gi.data(), gi.size(), so);
+        if (!s.ok()) return s;
+        rep.frame = field.frame();
+        rep.frame.origin = arr(d3(rep.frame.origin) + O);
+        rep.overhang_triangles = field.overhang_triangles();
+        if (rep.overhang_triangles)
+            rep.warnings.push_back(std::to_string(rep.overhang_triangles) +
+                                   " ground triangles face away from up (overhangs or undersides): the snow follows the top surface "
+                                   "only, and points below it are not displaced");
+        if (lo.base) {
+            s = field.set_base(*lo.base);
             if (!s.ok()) return s;
         }
-    }
-    if (report) *report = std::move(rep);
-    return Status::success();
+        double T = 0;
+        for (const Collider& c : colliders.colliders)
+            for (double t : c.time) T = std::max(T, t);
+        if (o.time) T = *o.time;
+        field.set_time(T);
+        s = field.add_colliders(local, &rep.stats);
+        if (!s.ok()) return s;
+        field.update();
+        rep.removed_volume = field.removed_volume();
+        rep.raised_volume = field.raised_volume();
+        const Heightmap& hm = field.heightmap();
+        bool changed = false;
+        for (float v : hm.values) {
+            rep.max_depth = std::max(rep.max_depth, double(-v));
+            rep.max_rim = std::max(rep.max_rim, double(v));
+            changed = changed || v != 0.0f;
+        }
+        if (rep.stats.missed_rays)
+            rep.warnings.push_back(std::to_string(rep.stats.missed_rays) + " contact rays found no ground below their collider");
+        rep.stamp_seconds = seconds_since(t0);
+        if (heightmap_out) {
+            *heightmap_out = hm;
+            heightmap_out->frame.origin = arr(d3(hm.frame.origin) + O);
+        }
+        rep.changed = changed;
+        if (changed) {
+            const auto world = scene.world_matrices();
+            // Each drawing node gets its own mesh (copied from the undeformed original), then each is deformed.
+            std::vector<int> mesh_user(scene.meshes.size(), -1);
+            std::vector<std::pair<int, int>> work; // node, mesh
+            const size_t originals = scene.meshes.size();
+            for (int n : scene.drawn_nodes()) {
+                Node& node = scene.nodes[size_t(n)];
+                if (node.mesh < 0 || size_t(node.mesh) >= originals) continue;
+                int m = node.mesh;
+                if (mesh_user[size_t(m)] >= 0) {
+                    scene.meshes.push_back(scene.meshes[size_t(m)]);
+                    m = int(scene.meshes.size() - 1);
+                    node.mesh = m;
+                    rep.warnings.push_back("mesh '" + scene.meshes[size_t(m)].name + "' is drawn by several nodes: copied for node '" +
+                                           node.name + "'");
+                } else {
+                    mesh_user[size_t(m)] = n;
+                }
+                work.push_back({n, m});
+            }
+            for (const auto& [n, m] : work) {
+                s = deform_mesh(scene, m, scene.mesh_placement(n, world), O, scene.nodes[size_t(n)].skin >= 0, field, lo, rep);
+                if (!s.ok()) return s;
+            }
+        }
+        if (report) *report = std::move(rep);
+        return Status::success();
+    });
 }
 
 Status stamp_files(Scene& out, const std::string& ground_path, const std::string& colliders_path, const StampOptions& o,
                    StampReport* report) {
-    Scene scene;
-    Status s = load_scene(scene, ground_path);
-    if (!s.ok()) return Status::error(s.code, ground_path + ": " + s.message);
-    ColliderSet set;
-    s = load_colliders(set, colliders_path);
-    if (!s.ok()) return Status::error(s.code, colliders_path + ": " + s.message);
-    s = stamp_scene(scene, set, o, report);
-    if (!s.ok()) return s;
-    out = std::move(scene);
-    return Status::success();
+    return kernel::no_throw("stamping the scene", [&]() -> Status {
+        Scene scene;
+        Status s = load_scene(scene, ground_path);
+        if (!s.ok()) return Status::error(s.code, ground_path + ": " + s.message);
+        ColliderSet set;
+        s = load_colliders(set, colliders_path);
+        if (!s.ok()) return Status::error(s.code, colliders_path + ": " + s.message);
+        s = stamp_scene(scene, set, o, report);
+        if (!s.ok()) return s;
+        out = std::move(scene);
+        return Status::success();
+    });
 }
 
 } // namespace furrow

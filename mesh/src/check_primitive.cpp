@@ -29,6 +29,10 @@ namespace {
 constexpr double pi = std::numbers::pi;
 using kernel::DisjointSets;
 using V3 = kernel::Vec3;
+using kernel::cross;
+using kernel::dot;
+using kernel::finite;
+using kernel::norm;
 
 size_t count_non_finite(const std::vector<float>& values) {
     size_t n = 0;
@@ -284,7 +288,7 @@ size_t count_self_intersecting(const Primitive& prim, std::vector<std::array<uin
             }
             v = compact[v];
         }
-    return detail::count_self_intersections(xyz, si_triangles);
+    return mesh_detail::count_self_intersections(xyz, si_triangles);
 }
 
 } // namespace

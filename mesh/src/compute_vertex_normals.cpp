@@ -20,6 +20,9 @@
 namespace furrow {
 
 using kernel::Vec3;
+using kernel::cross;
+using kernel::dot;
+using kernel::norm;
 
 void compute_vertex_normals(float* normals_out, const float* positions, size_t vertex_count,
                             const uint32_t* indices, size_t index_count) {

@@ -5,7 +5,7 @@
 #include <furrow/mesh.h>
 #include <tiny_gltf.h>
 
-namespace furrow::detail {
+namespace furrow::mesh_detail {
 
 struct Document {
     tinygltf::Model model; // as loaded (buffers kept: animation samplers are re-encoded from them on save)
@@ -17,7 +17,7 @@ Status read_accessor_floats(std::vector<float>& out, const tinygltf::Model& mode
 // Reads an index or joint accessor (unsigned integer types) as uint32.
 Status read_accessor_uints(std::vector<uint32_t>& out, const tinygltf::Model& model, int index, int& components);
 
-} // namespace furrow::detail
+} // namespace furrow::mesh_detail
 
 namespace furrow {
 // Format loaders behind load_scene (gltf_load.cpp, openmesh_load.cpp).

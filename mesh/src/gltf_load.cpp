@@ -11,7 +11,7 @@
 #include <set>
 
 namespace furrow {
-namespace detail {
+namespace mesh_detail {
 
 namespace {
 
@@ -195,12 +195,12 @@ Status read_accessor_uints(std::vector<uint32_t>& out, const tinygltf::Model& mo
     return s;
 }
 
-} // namespace detail
+} // namespace mesh_detail
 
 namespace {
 
-using detail::read_accessor_floats;
-using detail::read_accessor_uints;
+using mesh_detail::read_accessor_floats;
+using mesh_detail::read_accessor_uints;
 
 std::string prim_name(size_t mesh, size_t prim) {
     return "mesh " + std::to_string(mesh) + " primitive " + std::to_string(prim);
@@ -626,7 +626,7 @@ Status convert_model(Scene& out, tinygltf::Model&& model, const LoadOptions& opt
                 ch.target_node >= int(model.nodes.size()))
                 return Status::error(StatusCode::invalid_input, "animation " + std::to_string(a) + ": channel references a missing sampler or node");
     }
-    auto doc = std::make_shared<detail::Document>();
+    auto doc = std::make_shared<mesh_detail::Document>();
     doc->model = std::move(model);
     scene.document = std::move(doc);
     if (options.recentre) recentre(scene, options.recentre_threshold);

@@ -4,6 +4,7 @@
 #include "document.h"
 
 #include <furrow_kernel/atomic_file.h>
+#include <furrow_kernel/no_throw.h>
 
 #include <nlohmann/json.hpp>
 
@@ -477,7 +478,7 @@ Status write_animations(tinygltf::Model& m, const Scene& scene, const tinygltf::
                 }
                 std::vector<float> v;
                 int comps = 0;
-                Status s = detail::read_accessor_floats(v, src, *acc, comps);
+                Status s = mesh_detail::read_accessor_floats(v, src, *acc, comps);
                 if (!s.ok()) return s;
                 int out = w.add_floats(v, comps, acc == &smp.input, 0);
                 remap[*acc] = out;
@@ -533,72 +534,74 @@ std::string lower_ext(const std::string& path) {
 } // namespace
 
 Status save_scene(const Scene& scene, const std::string& path, const SaveOptions& options) {
-    const std::string ext = lower_ext(path);
-    if (ext != ".glb" && ext != ".gltf")
-        return Status::error(StatusCode::unsupported, "cannot write '" + ext + "' (furrow writes .glb or .gltf)");
-    tinygltf::Model m;
-    Status s = build_model(m, scene);
-    if (!s.ok()) return s;
-    tinygltf::TinyGLTF writer;
-    writer.SetImageWriter(nullptr, nullptr); // images are embedded (or kept as references); never write files
-    // Serialise the JSON without the binary buffer (tinygltf would base64 it), then finish it ourselves.
-    std::vector<unsigned char> bin;
-    if (!m.buffers.empty()) {
-        bin = std::move(m.buffers[0].data);
-        m.buffers.clear();
-    }
-    std::ostringstream out;
-    if (!writer.WriteGltfSceneToStream(&m, out, false, false))
-        return Status::error(StatusCode::io_error, "serialising the glTF failed");
-    nlohmann::json j = nlohmann::json::parse(out.str(), nullptr, false);
-    if (j.is_discarded()) return Status::error(StatusCode::io_error, "internal: serialised glTF is not JSON");
-    // tinygltf writes an object with no properties (a bare `{}` node, say) as null; glTF wants `{}`.
-    for (auto& [key, value] : j.items())
-        if (value.is_array())
-            for (auto& e : value)
-                if (e.is_null()) e = nlohmann::json::object();
-    const std::string bin_name = std::filesystem::path(path).stem().string() + ".bin";
-    if (ext == ".glb") {
-        if (!bin.empty()) j["buffers"] = nlohmann::json::array({{{"byteLength", bin.size()}}});
-        std::string text = j.dump();
-        while (text.size() % 4) text.push_back(' ');
-        while (bin.size() % 4) bin.push_back(0);
-        // The GLB header stores the file's length in 32 bits: a larger file cannot be written as GLB at all
-        // (it used to be truncated silently into a corrupt file).
-        const uint64_t size = 12 + 8 + uint64_t(text.size()) + (bin.empty() ? 0 : 8 + uint64_t(bin.size()));
-        if (size > UINT32_MAX)
-            return Status::error(StatusCode::invalid_argument,
-                                 "the GLB would be " + std::to_string(size) + " bytes, over the format's limit of " +
-                                     std::to_string(UINT32_MAX) + " (4 GiB); write .gltf with a .bin, or less geometry");
-        const uint32_t total = uint32_t(size);
-        std::vector<uint8_t> glb;
-        glb.reserve(total);
-        auto u32 = [&glb](uint32_t v) {
-            for (int k = 0; k < 4; ++k) glb.push_back(uint8_t(v >> (8 * k)));
-        };
-        glb.insert(glb.end(), {'g', 'l', 'T', 'F'});
-        u32(2);
-        u32(total);
-        u32(uint32_t(text.size()));
-        u32(0x4E4F534A); // JSON
-        glb.insert(glb.end(), text.begin(), text.end());
-        if (!bin.empty()) {
-            u32(uint32_t(bin.size()));
-            u32(0x004E4942); // BIN
-            glb.insert(glb.end(), bin.begin(), bin.end());
+    return kernel::no_throw("writing the scene", [&]() -> Status {
+        const std::string ext = lower_ext(path);
+        if (ext != ".glb" && ext != ".gltf")
+            return Status::error(StatusCode::unsupported, "cannot write '" + ext + "' (furrow writes .glb or .gltf)");
+        tinygltf::Model m;
+        Status s = build_model(m, scene);
+        if (!s.ok()) return s;
+        tinygltf::TinyGLTF writer;
+        writer.SetImageWriter(nullptr, nullptr); // images are embedded (or kept as references); never write files
+        // Serialise the JSON without the binary buffer (tinygltf would base64 it), then finish it ourselves.
+        std::vector<unsigned char> bin;
+        if (!m.buffers.empty()) {
+            bin = std::move(m.buffers[0].data);
+            m.buffers.clear();
         }
-        return kernel::atomic_write(path, glb.data(), glb.size());
-    }
-    if (!bin.empty()) {
-        j["buffers"] = nlohmann::json::array({{{"byteLength", bin.size()}, {"uri", bin_name}}});
-        const std::string bin_path = (std::filesystem::path(path).parent_path() / bin_name).string();
+        std::ostringstream out;
+        if (!writer.WriteGltfSceneToStream(&m, out, false, false))
+            return Status::error(StatusCode::io_error, "serialising the glTF failed");
+        nlohmann::json j = nlohmann::json::parse(out.str(), nullptr, false);
+        if (j.is_discarded()) return Status::error(StatusCode::io_error, "internal: serialised glTF is not JSON");
+        // tinygltf writes an object with no properties (a bare `{}` node, say) as null; glTF wants `{}`.
+        for (auto& [key, value] : j.items())
+            if (value.is_array())
+                for (auto& e : value)
+                    if (e.is_null()) e = nlohmann::json::object();
+        const std::string bin_name = std::filesystem::path(path).stem().string() + ".bin";
+        if (ext == ".glb") {
+            if (!bin.empty()) j["buffers"] = nlohmann::json::array({{{"byteLength", bin.size()}}});
+            std::string text = j.dump();
+            while (text.size() % 4) text.push_back(' ');
+            while (bin.size() % 4) bin.push_back(0);
+            // The GLB header stores the file's length in 32 bits: a larger file cannot be written as GLB at all
+            // (it used to be truncated silently into a corrupt file).
+            const uint64_t size = 12 + 8 + uint64_t(text.size()) + (bin.empty() ? 0 : 8 + uint64_t(bin.size()));
+            if (size > UINT32_MAX)
+                return Status::error(StatusCode::invalid_argument,
+                                     "the GLB would be " + std::to_string(size) + " bytes, over the format's limit of " +
+                                         std::to_string(UINT32_MAX) + " (4 GiB); write .gltf with a .bin, or less geometry");
+            const uint32_t total = uint32_t(size);
+            std::vector<uint8_t> glb;
+            glb.reserve(total);
+            auto u32 = [&glb](uint32_t v) {
+                for (int k = 0; k < 4; ++k) glb.push_back(uint8_t(v >> (8 * k)));
+            };
+            glb.insert(glb.end(), {'g', 'l', 'T', 'F'});
+            u32(2);
+            u32(total);
+            u32(uint32_t(text.size()));
+            u32(0x4E4F534A); // JSON
+            glb.insert(glb.end(), text.begin(), text.end());
+            if (!bin.empty()) {
+                u32(uint32_t(bin.size()));
+                u32(0x004E4942); // BIN
+                glb.insert(glb.end(), bin.begin(), bin.end());
+            }
+            return kernel::atomic_write(path, glb.data(), glb.size());
+        }
+        if (!bin.empty()) {
+            j["buffers"] = nlohmann::json::array({{{"byteLength", bin.size()}, {"uri", bin_name}}});
+            const std::string bin_path = (std::filesystem::path(path).parent_path() / bin_name).string();
+            const std::string text = j.dump(options.pretty_json ? 2 : -1);
+            // Both files or neither (the .bin used to be renamed into place before the .gltf was tried, so an
+            // unwritable .gltf path left a stray .bin behind).
+            return kernel::atomic_write_pair(bin_path, bin.data(), bin.size(), path, text.data(), text.size());
+        }
         const std::string text = j.dump(options.pretty_json ? 2 : -1);
-        // Both files or neither (the .bin used to be renamed into place before the .gltf was tried, so an
-        // unwritable .gltf path left a stray .bin behind).
-        return kernel::atomic_write_pair(bin_path, bin.data(), bin.size(), path, text.data(), text.size());
-    }
-    const std::string text = j.dump(options.pretty_json ? 2 : -1);
-    return kernel::atomic_write(path, text.data(), text.size());
+        return kernel::atomic_write(path, text.data(), text.size());
+    });
 }
 
 } // namespace furrow

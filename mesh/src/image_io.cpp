@@ -1,6 +1,7 @@
 // PNG/JPEG decoding and PNG encoding with stb_image / stb_image_write (compiled in tinygltf_impl.cpp).
 #include <furrow/mesh.h>
 #include <furrow_kernel/atomic_file.h>
+#include <furrow_kernel/no_throw.h>
 #include <stb_image.h>
 #include <stb_image_write.h>
 
@@ -56,7 +57,8 @@ bool jpeg_huffman_tables_ok(const uint8_t* p, size_t n) {
 
 } // namespace
 
-Status decode_image(ImageF& out, const uint8_t* data, size_t size) {
+namespace {
+Status decode_image_unguarded(ImageF& out, const uint8_t* data, size_t size) {
     if (size == 0 || size > size_t(INT32_MAX)) return Status::error(StatusCode::invalid_input, "image is empty or too large");
     // JPEG as stb_image recognises it: SOI after any number of 0xFF fill bytes (fuzz_heightmap got past a
     // check that wanted FF D8 at byte 0).
@@ -89,8 +91,14 @@ Status decode_image(ImageF& out, const uint8_t* data, size_t size) {
     out = std::move(img);
     return Status::success();
 }
+} // namespace
 
-Status load_png(ImageF& out, const std::string& path) {
+Status decode_image(ImageF& out, const uint8_t* data, size_t size) {
+    return kernel::no_throw("decoding the image", [&] { return decode_image_unguarded(out, data, size); });
+}
+
+namespace {
+Status load_png_unguarded(ImageF& out, const std::string& path) {
     // A folder opens as an ifstream on Linux and then throws from the read (basic_filebuf::underflow), which
     // reached the CLI as an internal error (exit 3) for `--mask some_folder`: refuse it up front.
     std::error_code ec;
@@ -99,6 +107,11 @@ Status load_png(ImageF& out, const std::string& path) {
     if (!in) return Status::error(StatusCode::io_error, "cannot open image");
     std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(in)), {});
     return decode_image(out, bytes.data(), bytes.size());
+}
+} // namespace
+
+Status load_png(ImageF& out, const std::string& path) {
+    return kernel::no_throw("reading the image", [&] { return load_png_unguarded(out, path); });
 }
 
 std::vector<uint8_t> encode_png_rgba8(const uint8_t* rgba, int width, int height) {
@@ -112,7 +125,8 @@ std::vector<uint8_t> encode_png_rgba8(const uint8_t* rgba, int width, int height
     return out;
 }
 
-Status save_png(const std::string& path, const ImageF& image, bool srgb_encode) {
+namespace {
+Status save_png_unguarded(const ImageF& image, const std::string& path, bool srgb_encode) {
     if (image.width <= 0 || image.height <= 0 || image.channels < 1 || image.channels > 4 ||
         image.pixels.size() != size_t(image.width) * size_t(image.height) * size_t(image.channels))
         return Status::error(StatusCode::invalid_argument, "image has inconsistent size");
@@ -135,6 +149,11 @@ Status save_png(const std::string& path, const ImageF& image, bool srgb_encode) 
         &out, image.width, image.height, image.channels, px.data(), image.width * image.channels);
     if (out.empty()) return Status::error(StatusCode::io_error, "PNG encoding failed");
     return kernel::atomic_write(path, out.data(), out.size());
+}
+} // namespace
+
+Status save_png(const ImageF& image, const std::string& path, bool srgb_encode) {
+    return kernel::no_throw("writing the image", [&] { return save_png_unguarded(image, path, srgb_encode); });
 }
 
 } // namespace furrow

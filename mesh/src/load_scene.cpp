@@ -1,5 +1,6 @@
 // load_scene: reads the file once (with a size guard) and dispatches on the extension.
 #include "document.h"
+#include <furrow_kernel/no_throw.h>
 
 #include <algorithm>
 #include <cerrno>
@@ -31,7 +32,8 @@ Status dispatch(Scene& out, const uint8_t* data, size_t size, const std::string&
 }
 } // namespace
 
-Status load_scene(Scene& out, const std::string& path, const LoadOptions& options) {
+namespace {
+Status load_scene_unguarded(Scene& out, const std::string& path, const LoadOptions& options) {
     namespace fs = std::filesystem;
     std::error_code ec;
     if (!fs::exists(path, ec)) return Status::error(StatusCode::io_error, "file not found");
@@ -56,14 +58,26 @@ Status load_scene(Scene& out, const std::string& path, const LoadOptions& option
     if (base_dir.empty()) base_dir = "."; // a file in the working directory; "" means "from memory" below
     return dispatch(out, bytes.data(), bytes.size(), ext, base_dir, options);
 }
+} // namespace
 
-Status load_scene_from_memory(Scene& out, const uint8_t* data, size_t size, const std::string& extension,
+Status load_scene(Scene& out, const std::string& path, const LoadOptions& options) {
+    return kernel::no_throw("loading the scene", [&] { return load_scene_unguarded(out, path, options); });
+}
+
+namespace {
+Status load_scene_from_memory_unguarded(Scene& out, const uint8_t* data, size_t size, const std::string& extension,
                               const LoadOptions& options) {
     std::string ext = extension;
     std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
     if (!ext.empty() && ext[0] != '.') ext = "." + ext;
     if (size > options.max_file_bytes) return Status::error(StatusCode::out_of_memory, "input above the size limit");
     return dispatch(out, data, size, ext, "", options);
+}
+} // namespace
+
+Status load_scene_from_memory(Scene& out, const uint8_t* data, size_t size, const std::string& extension,
+                              const LoadOptions& options) {
+    return kernel::no_throw("loading the scene", [&] { return load_scene_from_memory_unguarded(out, data, size, extension, options); });
 }
 
 } // namespace furrow

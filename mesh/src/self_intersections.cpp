@@ -25,7 +25,7 @@
 #include <exception>
 #include <iterator>
 
-namespace furrow::detail {
+namespace furrow::mesh_detail {
 namespace {
 
 using Kernel = CGAL::Exact_predicates_inexact_constructions_kernel;
@@ -112,4 +112,4 @@ long long count_self_intersections(const std::vector<double>& xyz,
     }
 }
 
-} // namespace furrow::detail
+} // namespace furrow::mesh_detail

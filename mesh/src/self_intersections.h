@@ -6,7 +6,7 @@
 #include <cstdint>
 #include <vector>
 
-namespace furrow::detail {
+namespace furrow::mesh_detail {
 
 enum class SelfIntersectionMethod {
     automatic,    // surface_mesh when every triangle fits a manifold Surface_mesh, soup otherwise
@@ -23,4 +23,4 @@ long long count_self_intersections(const std::vector<double>& points,
                                    const std::vector<std::array<uint32_t, 3>>& triangles,
                                    SelfIntersectionMethod method = SelfIntersectionMethod::automatic);
 
-} // namespace furrow::detail
+} // namespace furrow::mesh_detail

@@ -5,6 +5,7 @@
 // merely should be equal (sin(2*pi) != sin(0) in floating point) — that is what makes the shapes close
 // under exact welding.
 #include <furrow/shapes.h>
+#include <furrow_kernel/vec3.h>
 
 #include <algorithm>
 #include <cmath>
@@ -17,16 +18,9 @@ namespace {
 constexpr double pi = std::numbers::pi;
 constexpr int max_grid = 16384;
 
-struct V3 {
-    double x = 0, y = 0, z = 0;
-};
-V3 operator+(V3 a, V3 b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
-V3 operator-(V3 a, V3 b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
-V3 operator*(V3 a, double s) { return {a.x * s, a.y * s, a.z * s}; }
-V3 mul(V3 a, V3 b) { return {a.x * b.x, a.y * b.y, a.z * b.z}; }
-V3 div(V3 a, V3 b) { return {a.x / b.x, a.y / b.y, a.z / b.z}; }
-double dot(V3 a, V3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
-double length(V3 a) { return std::sqrt(dot(a, a)); }
+using V3 = kernel::Vec3; // component-wise a * b and a / b are GLM's
+using kernel::dot;
+double length(V3 a) { return kernel::norm(a); }
 V3 normalize(V3 a) {
     double l = length(a);
     return l > 0 ? a * (1.0 / l) : V3{0, 1, 0};
@@ -234,7 +228,7 @@ Primitive box(float size_x, float size_y, float size_z, bool split_faces) {
             size_t base = p.vertex_count();
             for (const auto& c : corner_uv) {
                 V3 s = f.n + f.r * double(2 * c[0] - 1) + f.d * double(2 * c[1] - 1);
-                push3(p.positions, mul(s, half));
+                push3(p.positions, s * half);
                 push3(p.normals, f.n);
                 push2(p.uv0, c[0], c[1]);
             }
@@ -246,7 +240,7 @@ Primitive box(float size_x, float size_y, float size_z, bool split_faces) {
     reserve(p, 8, 36, false);
     for (int i = 0; i < 8; ++i) {
         V3 s{(i & 1) ? 1.0 : -1.0, (i & 2) ? 1.0 : -1.0, (i & 4) ? 1.0 : -1.0};
-        push3(p.positions, mul(s, half));
+        push3(p.positions, s * half);
         push3(p.normals, normalize(s));
     }
     for (const Face& f : faces) {
@@ -299,8 +293,8 @@ double sd_sphere(V3 p, V3 c, double r) { return length(p - c) - r; }
 
 double sd_ellipsoid(V3 p, V3 c, V3 radii) {
     V3 q = p - c;
-    double k0 = length(div(q, radii));
-    double k1 = length(div(q, mul(radii, radii)));
+    double k0 = length(q / radii);
+    double k1 = length(q / (radii * radii));
     if (k1 == 0) return -std::min({radii.x, radii.y, radii.z});
     return k0 * (k0 - 1.0) / k1;
 }

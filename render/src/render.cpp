@@ -10,6 +10,8 @@
 #include "render_internal.h"
 
 #include <furrow_kernel/affine.h>
+#include <furrow_kernel/vec3.h>
+#include <furrow_kernel/no_throw.h>
 
 #include <algorithm>
 #include <chrono>
@@ -29,21 +31,16 @@ using namespace render_detail;
 
 namespace {
 
-using Vec3 = std::array<double, 3>;
-
-Vec3 sub(const Vec3& a, const Vec3& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
-Vec3 add(const Vec3& a, const Vec3& b) { return {a[0] + b[0], a[1] + b[1], a[2] + b[2]}; }
-Vec3 scale(const Vec3& a, double s) { return {a[0] * s, a[1] * s, a[2] * s}; }
-double dot(const Vec3& a, const Vec3& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
-Vec3 cross(const Vec3& a, const Vec3& b) {
-    return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
-}
-double length(const Vec3& a) { return std::sqrt(dot(a, a)); }
+using Vec3 = kernel::Vec3; // GLM's dvec3: a + b, a - b, a * s are GLM's operators
+using kernel::cross;
+using kernel::dot;
+double length(const Vec3& a) { return kernel::norm(a); }
 Vec3 normalize(const Vec3& a) {
     double l = length(a);
-    return l > 0 ? scale(a, 1 / l) : Vec3{0, 0, 0};
+    return l > 0 ? a * (1 / l) : Vec3{0, 0, 0};
 }
-bool finite3(const Vec3& a) { return std::isfinite(a[0]) && std::isfinite(a[1]) && std::isfinite(a[2]); }
+// The public camera's std::array<double, 3> as the kernel's vector.
+Vec3 v3(const std::array<double, 3>& a) { return kernel::vec3_of(a); }
 
 Vec3 transform_point(const Mat4& m, double x, double y, double z) {
     return {m[0] * x + m[4] * y + m[8] * z + m[12], m[1] * x + m[5] * y + m[9] * z + m[13],
@@ -251,8 +248,8 @@ Status world_vertices(Instance& inst, const Scene& scene, const std::vector<Mat4
                 size_t s = inst.source[t + size_t(k)];
                 v[k] = {wpos[3 * s], wpos[3 * s + 1], wpos[3 * s + 2]};
             }
-            Vec3 fn = cross(sub(v[1], v[0]), sub(v[2], v[0]));
-            if (inst.flip) fn = scale(fn, -1);
+            Vec3 fn = cross((v[1] - v[0]), (v[2] - v[0]));
+            if (inst.flip) fn = (fn * -1.0);
             for (int k = 0; k < 3; ++k) {
                 inst.tris[t + size_t(k)] = uint32_t(t + size_t(k));
                 for (int c = 0; c < 3; ++c) {
@@ -264,7 +261,7 @@ Status world_vertices(Instance& inst, const Scene& scene, const std::vector<Mat4
     }
     for (size_t i = 0; i < inst.position.size(); i += 3) {
         Vec3 w{inst.position[i], inst.position[i + 1], inst.position[i + 2]};
-        if (!finite3(w)) continue;
+        if (!kernel::finite(w)) continue;
         for (int c = 0; c < 3; ++c) {
             inst.lo[size_t(c)] = std::min(inst.lo[size_t(c)], w[size_t(c)]);
             inst.hi[size_t(c)] = std::max(inst.hi[size_t(c)], w[size_t(c)]);
@@ -284,44 +281,44 @@ struct View {
 // `reserve_right`: pixels at the right edge that the default framing leaves free (for the legend).
 Status make_view(View& v, const RenderCamera& cam, const Vec3& lo, const Vec3& hi, int width, int height,
                  int reserve_right, std::vector<std::string>& warnings) {
-    Vec3 centre = scale(add(lo, hi), 0.5);
-    double radius = 0.5 * length(sub(hi, lo));
+    Vec3 centre = ((lo + hi) * 0.5);
+    double radius = 0.5 * length((hi - lo));
     if (!(radius > 0)) radius = 1; // a single point: frame a unit sphere around it
     double aspect = double(width) / height;
     if (cam.eye) reserve_right = 0; // a camera the user placed is not moved
     reserve_right = std::min(reserve_right, width / 3);
     double fit_aspect = double(width - reserve_right) / height, shift = -double(reserve_right) / width; // NDC
     double half_fov = cam.fov_degrees * std::numbers::pi / 360;
-    Vec3 up = normalize(cam.up);
+    Vec3 up = normalize(v3(cam.up));
     // The default views are built on a frame of the up axis: front = +Z (or −Y when up is Z).
     Vec3 front = std::abs(up[2]) < 0.9 ? Vec3{0, 0, 1} : Vec3{0, -1, 0};
-    front = normalize(sub(front, scale(up, dot(front, up))));
+    front = normalize((front - (up * dot(front, up))));
     Vec3 right = cross(up, front);
 
-    Vec3 target = cam.target ? *cam.target : centre;
+    Vec3 target = cam.target ? v3(*cam.target) : centre;
     Vec3 eye, image_up = up;
     if (cam.eye) {
-        eye = *cam.eye;
+        eye = v3(*cam.eye);
     } else if (cam.orthographic) {
-        eye = add(target, scale(up, 2 * radius + length(sub(target, centre))));
-        image_up = scale(front, -1);
+        eye = (target + (up * (2 * radius + length((target - centre)))));
+        image_up = (front * -1.0);
     } else {
         // Back off along the 3/4 direction until every bounding-box corner is inside the frustum (with 4% to
         // spare): corner p (relative to the target) at view coordinates x, y, depth z needs distance
         // d >= |x| / tan(half angle) − z.
-        Vec3 dir = normalize(add(add(front, right), scale(up, 0.8)));
-        Vec3 cr = normalize(cross(scale(dir, -1), up)), cu = cross(cr, scale(dir, -1));
+        Vec3 dir = normalize(((front + right) + (up * 0.8)));
+        Vec3 cr = normalize(cross((dir * -1.0), up)), cu = cross(cr, (dir * -1.0));
         double tv = 0.96 * std::tan(half_fov), th = tv * fit_aspect, distance = 0;
         for (int c = 0; c < 8; ++c) {
-            Vec3 p = sub(Vec3{(c & 1) ? hi[0] : lo[0], (c & 2) ? hi[1] : lo[1], (c & 4) ? hi[2] : lo[2]}, target);
+            Vec3 p = ((Vec3{(c & 1) ? hi[0] : lo[0], (c & 2) ? hi[1] : lo[1], (c & 4) ? hi[2] : lo[2]}) - target);
             double z = -dot(p, dir);
             distance = std::max({distance, std::abs(dot(p, cr)) / th - z, std::abs(dot(p, cu)) / tv - z});
         }
         if (!(distance > 0)) distance = radius / std::sin(half_fov);
-        eye = add(target, scale(dir, distance));
+        eye = (target + (dir * distance));
     }
-    Vec3 f = normalize(sub(target, eye));
-    if (length(sub(target, eye)) == 0)
+    Vec3 f = normalize((target - eye));
+    if (length((target - eye)) == 0)
         return Status::error(StatusCode::invalid_argument, "camera position and target coincide");
     Vec3 r = cross(f, image_up);
     if (length(r) < 1e-9 * length(image_up)) {
@@ -336,11 +333,11 @@ Status make_view(View& v, const RenderCamera& cam, const Vec3& lo, const Vec3& h
     double dmin = HUGE_VAL, dmax = -HUGE_VAL, hx = 0, hy = 0;
     for (int c = 0; c < 8; ++c) {
         Vec3 corner{(c & 1) ? hi[0] : lo[0], (c & 2) ? hi[1] : lo[1], (c & 4) ? hi[2] : lo[2]};
-        Vec3 d = sub(corner, eye);
+        Vec3 d = (corner - eye);
         dmin = std::min(dmin, dot(d, f));
         dmax = std::max(dmax, dot(d, f));
-        hx = std::max(hx, std::abs(dot(sub(corner, target), r)));
-        hy = std::max(hy, std::abs(dot(sub(corner, target), u)));
+        hx = std::max(hx, std::abs(dot((corner - target), r)));
+        hy = std::max(hy, std::abs(dot((corner - target), u)));
     }
     double pad = 1e-6 * std::max(radius, dmax - dmin);
     Mat4 proj{};
@@ -452,11 +449,11 @@ Status validate(const RenderOptions& o) {
     const RenderCamera& cam = o.camera;
     if (!cam.orthographic && !(cam.fov_degrees > 0 && cam.fov_degrees < 180))
         return Status::error(StatusCode::invalid_argument, "field of view must be in (0, 180) degrees");
-    bool camera_finite = std::isfinite(cam.ortho_height) && std::isfinite(cam.near_plane) && finite3(cam.up) &&
-                         length(cam.up) > 0 && (!cam.eye || finite3(*cam.eye)) && (!cam.target || finite3(*cam.target));
+    bool camera_finite = std::isfinite(cam.ortho_height) && std::isfinite(cam.near_plane) && kernel::finite(v3(cam.up)) &&
+                         length(v3(cam.up)) > 0 && (!cam.eye || kernel::finite(v3(*cam.eye))) && (!cam.target || kernel::finite(v3(*cam.target)));
     if (!camera_finite) return Status::error(StatusCode::invalid_argument, "camera values must be finite, up non-zero");
     const Vec3 light{o.light_direction[0], o.light_direction[1], o.light_direction[2]};
-    if (!finite3(light) || length(light) == 0)
+    if (!kernel::finite(light) || length(light) == 0)
         return Status::error(StatusCode::invalid_argument, "light direction must be finite and non-zero");
     if (o.mode == RenderMode::attribute && o.attribute.empty())
         return Status::error(StatusCode::invalid_argument, "attribute mode needs an attribute name");
@@ -575,8 +572,8 @@ Status make_draw(Draw& draw, double& sort_depth, Instance& inst, DrawContext& ct
         out.warnings.push_back("some primitives lack '" + o.attribute + "'; they are drawn grey");
         missing_attribute_warned = true;
     }
-    Vec3 centre = scale(add(inst.lo, inst.hi), 0.5);
-    sort_depth = finite3(centre) ? dot(sub(centre, view.eye), view.forward) : 0;
+    Vec3 centre = ((inst.lo + inst.hi) * 0.5);
+    sort_depth = kernel::finite(centre) ? dot((centre - view.eye), view.forward) : 0;
 
     const auto& R = view.view_rotation;
     bool view_normals = o.mode != RenderMode::normals;
@@ -631,73 +628,75 @@ std::vector<Draw> draw_order(std::vector<Draw>& draws, const std::vector<double>
 } // namespace
 
 Status render_scene(RenderResult& out, const Scene& scene, const RenderOptions& o) {
-    auto t0 = std::chrono::steady_clock::now();
-    out = RenderResult{};
-    if (Status s = validate(o); !s.ok()) return s;
-    const RenderCamera& cam = o.camera;
-    const std::vector<Mat4> world = scene.world_matrices();
-    if (world.size() != scene.nodes.size())
-        return Status::error(StatusCode::invalid_input, "world matrices do not match the node count");
-    std::vector<Instance> instances;
-    if (Status s = collect_instances(instances, out, scene, world); !s.ok()) return s;
-    Vec3 lo{HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi{-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
-    for (const Instance& inst : instances)
-        for (int c = 0; c < 3; ++c) {
-            lo[size_t(c)] = std::min(lo[size_t(c)], inst.lo[size_t(c)]);
-            hi[size_t(c)] = std::max(hi[size_t(c)], inst.hi[size_t(c)]);
+    return kernel::no_throw("rendering", [&]() -> Status {
+        auto t0 = std::chrono::steady_clock::now();
+        out = RenderResult{};
+        if (Status s = validate(o); !s.ok()) return s;
+        const RenderCamera& cam = o.camera;
+        const std::vector<Mat4> world = scene.world_matrices();
+        if (world.size() != scene.nodes.size())
+            return Status::error(StatusCode::invalid_input, "world matrices do not match the node count");
+        std::vector<Instance> instances;
+        if (Status s = collect_instances(instances, out, scene, world); !s.ok()) return s;
+        Vec3 lo{HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi{-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
+        for (const Instance& inst : instances)
+            for (int c = 0; c < 3; ++c) {
+                lo[size_t(c)] = std::min(lo[size_t(c)], inst.lo[size_t(c)]);
+                hi[size_t(c)] = std::max(hi[size_t(c)], inst.hi[size_t(c)]);
+            }
+        if (!(lo[0] <= hi[0]))
+            return Status::error(StatusCode::invalid_input, "nothing to render: no vertex position is finite");
+
+        if (Status s = attribute_range(out, instances, o); !s.ok()) return s;
+        const float amin = out.attribute_min, amax = out.attribute_max;
+
+        bool legend = o.mode == RenderMode::attribute && o.legend && o.width >= 64 && o.height >= 48;
+        View view;
+        int reserve = legend ? legend_width(o.height, amin, amax) : 0;
+        if (Status s = make_view(view, cam, lo, hi, o.width, o.height, reserve, out.warnings); !s.ok()) return s;
+
+        // Pass 2: one Draw per instance.
+        DrawContext ctx{scene, o, view, amin, amax, {}, {}, false};
+        std::vector<Draw> draws(instances.size());
+        std::vector<double> sort_depth(instances.size());
+        for (size_t d = 0; d < instances.size(); ++d)
+            if (Status s = make_draw(draws[d], sort_depth[d], instances[d], ctx, out); !s.ok()) return s;
+        out.timing.vertices = ms_since(t0);
+        std::vector<Draw> sorted = draw_order(draws, sort_depth);
+
+        Frame frame;
+        frame.width = o.width;
+        frame.height = o.height;
+        frame.ssaa = o.ssaa;
+        frame.subpixel_bits = o.subpixel_bits;
+        frame.mode = o.mode;
+        frame.orthographic = cam.orthographic;
+        frame.near_plane = view.near_plane;
+        frame.far_plane = view.far_plane;
+        const Vec3 l = normalize(Vec3{o.light_direction[0], o.light_direction[1], o.light_direction[2]});
+        frame.light = {float(l[0]), float(l[1]), float(l[2])};
+        frame.ambient = o.ambient;
+        frame.background = o.background;
+        RasterStats stats = rasterize(out, sorted, frame);
+        out.nan_triangles = stats.nan_triangles;
+        out.culled = stats.culled;
+        out.timing.setup = stats.setup_ms;
+        out.timing.raster = stats.raster_ms;
+        if (out.nan_triangles)
+            out.warnings.push_back(std::to_string(out.nan_triangles) + " triangles with NaN or infinite positions skipped");
+
+        if (legend)
+            draw_legend(out.color, amin, amax);
+        else if (o.mode == RenderMode::attribute && o.legend)
+            out.warnings.push_back("image too small for the legend");
+        size_t pixels = size_t(o.width) * size_t(o.height);
+        out.rgba8.resize(4 * pixels);
+        for (size_t i = 0; i < 4 * pixels; ++i) {
+            float v = out.color.pixels[i];
+            out.rgba8[i] = uint8_t((v >= 0 ? (v <= 1 ? v : 1.0f) : 0.0f) * 255.0f + 0.5f); // NaN -> 0
         }
-    if (!(lo[0] <= hi[0]))
-        return Status::error(StatusCode::invalid_input, "nothing to render: no vertex position is finite");
-
-    if (Status s = attribute_range(out, instances, o); !s.ok()) return s;
-    const float amin = out.attribute_min, amax = out.attribute_max;
-
-    bool legend = o.mode == RenderMode::attribute && o.legend && o.width >= 64 && o.height >= 48;
-    View view;
-    int reserve = legend ? legend_width(o.height, amin, amax) : 0;
-    if (Status s = make_view(view, cam, lo, hi, o.width, o.height, reserve, out.warnings); !s.ok()) return s;
-
-    // Pass 2: one Draw per instance.
-    DrawContext ctx{scene, o, view, amin, amax, {}, {}, false};
-    std::vector<Draw> draws(instances.size());
-    std::vector<double> sort_depth(instances.size());
-    for (size_t d = 0; d < instances.size(); ++d)
-        if (Status s = make_draw(draws[d], sort_depth[d], instances[d], ctx, out); !s.ok()) return s;
-    out.timing.vertices = ms_since(t0);
-    std::vector<Draw> sorted = draw_order(draws, sort_depth);
-
-    Frame frame;
-    frame.width = o.width;
-    frame.height = o.height;
-    frame.ssaa = o.ssaa;
-    frame.subpixel_bits = o.subpixel_bits;
-    frame.mode = o.mode;
-    frame.orthographic = cam.orthographic;
-    frame.near_plane = view.near_plane;
-    frame.far_plane = view.far_plane;
-    const Vec3 l = normalize(Vec3{o.light_direction[0], o.light_direction[1], o.light_direction[2]});
-    frame.light = {float(l[0]), float(l[1]), float(l[2])};
-    frame.ambient = o.ambient;
-    frame.background = o.background;
-    RasterStats stats = rasterize(out, sorted, frame);
-    out.nan_triangles = stats.nan_triangles;
-    out.culled = stats.culled;
-    out.timing.setup = stats.setup_ms;
-    out.timing.raster = stats.raster_ms;
-    if (out.nan_triangles)
-        out.warnings.push_back(std::to_string(out.nan_triangles) + " triangles with NaN or infinite positions skipped");
-
-    if (legend)
-        draw_legend(out.color, amin, amax);
-    else if (o.mode == RenderMode::attribute && o.legend)
-        out.warnings.push_back("image too small for the legend");
-    size_t pixels = size_t(o.width) * size_t(o.height);
-    out.rgba8.resize(4 * pixels);
-    for (size_t i = 0; i < 4 * pixels; ++i) {
-        float v = out.color.pixels[i];
-        out.rgba8[i] = uint8_t((v >= 0 ? (v <= 1 ? v : 1.0f) : 0.0f) * 255.0f + 0.5f); // NaN -> 0
-    }
-    out.timing.total = ms_since(t0);
-    return Status::success();
+        out.timing.total = ms_since(t0);
+        return Status::success();
+    });
 }
 } // namespace furrow

@@ -5,6 +5,8 @@
 
 #include <furrow/render.h>
 
+#include <furrow_kernel/affine.h>
+
 #include <array>
 #include <cstdint>
 #include <string>
@@ -12,7 +14,7 @@
 
 namespace furrow::render_detail {
 
-using Mat4 = std::array<double, 16>; // column-major, like glTF
+using kernel::Mat4; // column-major, like glTF (furrow_kernel/affine.h)
 
 // A decoded base-colour texture with its sampler (render_texture.cpp): linear RGBA floats (sRGB decoded once,
 // so filtering is linear), and the mip chain when the sampler's minFilter asks for one.

@@ -121,8 +121,8 @@ bool may_hit(const double* o, const double* d, const Triangle& tri) {
     return !(t < -tol * (sl + l1 + l2));
 }
 
-detail::Box3 box_of(const Point& a, const Point& b, const Point& c) {
-    detail::Box3 box;
+shells_detail::Box3 box_of(const Point& a, const Point& b, const Point& c) {
+    shells_detail::Box3 box;
     for (const Point* p : {&a, &b, &c}) {
         const double x[3] = {p->x(), p->y(), p->z()};
         box.add(x);
@@ -132,7 +132,7 @@ detail::Box3 box_of(const Point& a, const Point& b, const Point& c) {
 
 } // namespace
 
-namespace detail {
+namespace shells_detail {
 
 struct SurfaceIndex::Impl {
     const std::vector<double>& points;
@@ -550,7 +550,7 @@ void bend_limits(double* out, const SurfaceIndex& index, const uint32_t* ring_st
     });
 }
 
-} // namespace detail
+} // namespace shells_detail
 
 void distances_to_mesh(double* out, const float* points, size_t point_count, const float* positions, size_t vertex_count,
                        const uint32_t* indices, size_t index_count) {

@@ -17,6 +17,7 @@
 
 #include <furrow/shells.h>
 #include <furrow_kernel/affine.h>
+#include <furrow_kernel/no_throw.h>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -32,7 +33,7 @@
 namespace furrow {
 namespace {
 
-using Mat4 = std::array<double, 16>; // column-major
+using kernel::Mat4; // column-major, as glTF stores it
 
 using kernel::det3;
 
@@ -171,7 +172,7 @@ std::vector<float> vertex_albedo(const Scene& scene, const Primitive& p, Texture
             float x = factor[size_t(c)];
             if (image) {
                 int ch = image->channels >= 3 ? c : 0;
-                x *= srgb_to_linear(detail::sample_bilinear(*image, ch, (*uv)[2 * v], (*uv)[2 * v + 1], wrap_s, wrap_t));
+                x *= srgb_to_linear(shells_detail::sample_bilinear(*image, ch, (*uv)[2 * v], (*uv)[2 * v + 1], wrap_s, wrap_t));
             }
             if (p.colors.size() == 4 * n) x *= p.colors[4 * v + size_t(c)];
             rgb[3 * v + size_t(c)] = std::clamp(x, 0.0f, 1.0f);
@@ -346,7 +347,7 @@ Status grow_frame(ShellFrame& frame, const Primitive& p, const std::vector<uint3
     if (has_mask) {
         mask.resize(n);
         parallel(n, 2048, [&](size_t v) {
-            mask[v] = detail::sample_bilinear(opt.mask, opt.mask_channel, p.uv0[2 * v], p.uv0[2 * v + 1]);
+            mask[v] = shells_detail::sample_bilinear(opt.mask, opt.mask_channel, p.uv0[2 * v], p.uv0[2 * v + 1]);
         });
     }
     if (has_comb) {
@@ -370,8 +371,8 @@ Status grow_frame(ShellFrame& frame, const Primitive& p, const std::vector<uint3
         }
         comb.resize(3 * n);
         for (size_t v = 0; v < n; ++v) {
-            double cx = 2.0 * detail::sample_bilinear(opt.comb, 0, p.uv0[2 * v], p.uv0[2 * v + 1]) - 1.0;
-            double cy = 2.0 * detail::sample_bilinear(opt.comb, 1, p.uv0[2 * v], p.uv0[2 * v + 1]) - 1.0;
+            double cx = 2.0 * shells_detail::sample_bilinear(opt.comb, 0, p.uv0[2 * v], p.uv0[2 * v + 1]) - 1.0;
+            double cy = 2.0 * shells_detail::sample_bilinear(opt.comb, 1, p.uv0[2 * v], p.uv0[2 * v + 1]) - 1.0;
             double lu = std::sqrt(du[3 * v] * du[3 * v] + du[3 * v + 1] * du[3 * v + 1] + du[3 * v + 2] * du[3 * v + 2]);
             double lv = std::sqrt(dv[3 * v] * dv[3 * v] + dv[3 * v + 1] * dv[3 * v + 1] + dv[3 * v + 2] * dv[3 * v + 2]);
             for (int k = 0; k < 3; ++k) {
@@ -426,7 +427,7 @@ void fill_shell(const ShellSource& r, const FurOptions& opt, int layer, int laye
     for (size_t i = 0; i < r.m; ++i) {
         const double h = r.len[i];
         // Same expression as shell_positions: copies of a position land on the same float.
-        const auto o = detail::strand_offset(&r.dir[3 * i], &r.lean[3 * i], &r.sag[3 * i], s);
+        const auto o = shells_detail::strand_offset(&r.dir[3 * i], &r.lean[3 * i], &r.sag[3 * i], s);
         for (size_t k = 0; k < 3; ++k) {
             const size_t j = 3 * i + k;
             positions[j] = float(double(r.root[j]) + h * o[k]);
@@ -570,7 +571,7 @@ std::optional<Primitive> fins_of(const Grown& g, const Primitive& base, const Fu
     for (size_t i = 0; i < fm; ++i) {
         const uint32_t v = src[i];
         const double h = is_tip[i] ? g.frame.length[v] : 0.0;
-        const auto tip = detail::strand_offset(&g.frame.direction[3 * v], &g.frame.lean[3 * v], &g.frame.sag[3 * v], 1.0);
+        const auto tip = shells_detail::strand_offset(&g.frame.direction[3 * v], &g.frame.lean[3 * v], &g.frame.sag[3 * v], 1.0);
         for (int k = 0; k < 3; ++k) {
             const size_t j = 3 * size_t(v) + size_t(k);
             fins.positions[3 * i + k] = float(double(base.positions[j]) + h * tip[size_t(k)]);
@@ -614,7 +615,7 @@ Status grow_base(Grown& g, const Scene& scene, const Placement& pl, const FurOpt
         // primitive is then replaced by its refinement, committed with the shells).
         Primitive q = p;
         size_t split = 0;
-        s = detail::refine_starved_faces(q, g.tris, g.frame, o.length,
+        s = shells_detail::refine_starved_faces(q, g.tris, g.frame, o.length,
                                          [&](const Primitive& r, const std::vector<uint32_t>& t, ShellFrame& f) { return grow_frame(f, r, t, opt, o); },
                                          refine_budget(g.tris.size() / 3, all_base, opt), split);
         if (s.ok() && split > 0) {
@@ -809,59 +810,61 @@ Status validate(const FurOptions& opt) {
 }
 
 Status add_fur_shells(Scene& scene, const FurOptions& opt, FurReport* report) {
-    const auto started = std::chrono::steady_clock::now();
-    FurReport local;
-    FurReport& rep = report ? *report : local;
-    rep = FurReport{};
-    // --- options and input, checked before anything is added to the scene
-    if (Status s = validate(opt); !s.ok()) return s;
-    const std::vector<Mat4> world = scene.world_matrices();
-    const std::vector<int> mesh_node = drawn_mesh_nodes(scene);
-    std::vector<std::pair<size_t, size_t>> work;
-    if (Status s = collect_work(work, scene, mesh_node, opt); !s.ok()) return s;
-    const size_t all_base = base_triangles(scene, work);
+    return kernel::no_throw("adding fur shells", [&]() -> Status {
+        const auto started = std::chrono::steady_clock::now();
+        FurReport local;
+        FurReport& rep = report ? *report : local;
+        rep = FurReport{};
+        // --- options and input, checked before anything is added to the scene
+        if (Status s = validate(opt); !s.ok()) return s;
+        const std::vector<Mat4> world = scene.world_matrices();
+        const std::vector<int> mesh_node = drawn_mesh_nodes(scene);
+        std::vector<std::pair<size_t, size_t>> work;
+        if (Status s = collect_work(work, scene, mesh_node, opt); !s.ok()) return s;
+        const size_t all_base = base_triangles(scene, work);
 
-    // The strand textures depend on the options alone: drawn and encoded (or found in the cache) on another
-    // core while the frames are computed, as are the base-colour textures (below). Waited for on every way
-    // out.
-    std::shared_ptr<const std::vector<uint8_t>> density_png, fin_png;
-    TextureCache cache; // before the task group: its tasks write into it until they are waited for
-    tbb::task_group texture_task;
-    struct Join {
-        tbb::task_group& g;
-        ~Join() { g.wait(); }
-    } join_textures{texture_task};
-    texture_task.run([&] {
-        density_png = detail::strand_texture_png(opt.strands, false);
-        if (opt.fins) fin_png = detail::strand_texture_png(opt.strands, true);
+        // The strand textures depend on the options alone: drawn and encoded (or found in the cache) on another
+        // core while the frames are computed, as are the base-colour textures (below). Waited for on every way
+        // out.
+        std::shared_ptr<const std::vector<uint8_t>> density_png, fin_png;
+        TextureCache cache; // before the task group: its tasks write into it until they are waited for
+        tbb::task_group texture_task;
+        struct Join {
+            tbb::task_group& g;
+            ~Join() { g.wait(); }
+        } join_textures{texture_task};
+        texture_task.run([&] {
+            density_png = shells_detail::strand_texture_png(opt.strands, false);
+            if (opt.fins) fin_png = shells_detail::strand_texture_png(opt.strands, true);
+        });
+
+        // --- grow: the frame and the vertex set per base primitive
+        std::vector<Grown> grown(work.size());
+        std::vector<Placement> placement(scene.meshes.size());
+        for (size_t mi = 0; mi < scene.meshes.size(); ++mi)
+            if (mesh_node[mi] >= 0) placement[mi] = placement_of(scene, world, mesh_node[mi], opt.shells.gravity);
+        for (const auto& [mi, pi] : work) cache.prefetch(scene, scene.meshes[mi].primitives[pi], texture_task);
+        for (size_t wi = 0; wi < work.size(); ++wi) {
+            Grown& g = grown[wi];
+            g.mesh = work[wi].first;
+            g.prim = work[wi].second;
+            if (Status s = grow_base(g, scene, placement[g.mesh], opt, all_base, rep); !s.ok()) return s;
+        }
+        texture_task.wait();
+        for (Grown& g : grown) g.albedo = vertex_albedo(scene, base_of(scene, g), cache);
+        // --- textures and materials (appended: existing indices stay valid)
+        const ShellMaterials mat = add_fur_materials(scene, opt, *density_png, fin_png.get());
+
+        // --- emit the primitives of every level, then attach them
+        const auto setup_done = std::chrono::steady_clock::now();
+        rep.setup_seconds = std::chrono::duration<double>(setup_done - started).count();
+        const size_t original_meshes = scene.meshes.size();
+        std::vector<std::vector<Primitive>> added(size_t(opt.shells.lod_levels) * original_meshes); // [level][mesh]
+        for (const Grown& g : grown) emit_grown(g, base_of(scene, g), opt, mat, placement[g.mesh].scale, original_meshes, added, rep);
+        attach(scene, grown, added, mesh_node, world, opt.shells.lod_levels, original_meshes, rep);
+        rep.emit_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - setup_done).count();
+        return Status::success();
     });
-
-    // --- grow: the frame and the vertex set per base primitive
-    std::vector<Grown> grown(work.size());
-    std::vector<Placement> placement(scene.meshes.size());
-    for (size_t mi = 0; mi < scene.meshes.size(); ++mi)
-        if (mesh_node[mi] >= 0) placement[mi] = placement_of(scene, world, mesh_node[mi], opt.shells.gravity);
-    for (const auto& [mi, pi] : work) cache.prefetch(scene, scene.meshes[mi].primitives[pi], texture_task);
-    for (size_t wi = 0; wi < work.size(); ++wi) {
-        Grown& g = grown[wi];
-        g.mesh = work[wi].first;
-        g.prim = work[wi].second;
-        if (Status s = grow_base(g, scene, placement[g.mesh], opt, all_base, rep); !s.ok()) return s;
-    }
-    texture_task.wait();
-    for (Grown& g : grown) g.albedo = vertex_albedo(scene, base_of(scene, g), cache);
-    // --- textures and materials (appended: existing indices stay valid)
-    const ShellMaterials mat = add_fur_materials(scene, opt, *density_png, fin_png.get());
-
-    // --- emit the primitives of every level, then attach them
-    const auto setup_done = std::chrono::steady_clock::now();
-    rep.setup_seconds = std::chrono::duration<double>(setup_done - started).count();
-    const size_t original_meshes = scene.meshes.size();
-    std::vector<std::vector<Primitive>> added(size_t(opt.shells.lod_levels) * original_meshes); // [level][mesh]
-    for (const Grown& g : grown) emit_grown(g, base_of(scene, g), opt, mat, placement[g.mesh].scale, original_meshes, added, rep);
-    attach(scene, grown, added, mesh_node, world, opt.shells.lod_levels, original_meshes, rep);
-    rep.emit_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - setup_done).count();
-    return Status::success();
 }
 
 } // namespace furrow

@@ -25,7 +25,7 @@
 #include <map>
 #include <unordered_map>
 
-namespace furrow::detail {
+namespace furrow::shells_detail {
 namespace {
 
 constexpr int kMaxRounds = 16;
@@ -190,4 +190,4 @@ Status refine_starved_faces(Primitive& p, std::vector<uint32_t>& tris, ShellFram
     return Status::success();
 }
 
-} // namespace furrow::detail
+} // namespace furrow::shells_detail

@@ -31,7 +31,7 @@
 //     this is repeated until nothing folds (a vertex's reduction changes its neighbours' triangles).
 //   - Droop and comb only move the shells along the surface (their normal component is removed): the
 //     classic P += g·t³ pushes the tips into the skin wherever gravity points into it. Droop bends the
-//     strand instead of shifting its tip (detail::bend_integrals): its length is kept, so the fold clamp
+//     strand instead of shifting its tip (shells_detail::bend_integrals): its length is kept, so the fold clamp
 //     has nothing to undo where the surface is smooth (the shifted tips stretched strands up to 4×, and
 //     the clamp cut 6861 of the creature's 8066 vertices to a quarter of their length at droop 2). The bend
 //     stays short of the tangent plane (70° at droop 4, on a wall): past it the layers of a shell stack
@@ -45,6 +45,7 @@
 
 #include <furrow_kernel/angle_weighted_normal.h>
 #include <furrow_kernel/welded_ids.h>
+#include <furrow_kernel/no_throw.h>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -69,6 +70,10 @@ constexpr double kSweepRatio = 0.05;
 constexpr double kMaxDroopRadians = 70.0 * std::numbers::pi / 180.0;
 
 using V3 = kernel::Vec3;
+using kernel::cross;
+using kernel::dot;
+using kernel::finite;
+using kernel::norm;
 
 template <class F>
 void parallel(size_t n, size_t grain, F&& f) {
@@ -206,7 +211,7 @@ struct Growth {
     // Where a strand of unit length reaches at height fraction s (comb lean and droop bend included).
     V3 chord(size_t w, double s) const {
         const double d[3] = {D[w].x, D[w].y, D[w].z}, l[3] = {lean[w].x, lean[w].y, lean[w].z}, g3[3] = {sag[w].x, sag[w].y, sag[w].z};
-        const auto c = detail::strand_offset(d, l, g3, s);
+        const auto c = shells_detail::strand_offset(d, l, g3, s);
         return V3{c[0], c[1], c[2]};
     }
 };
@@ -304,7 +309,7 @@ void initial_growth(Growth& gr, const WeldedSurface& s, const ShellOptions& o) {
         };
         if (!combw.empty()) lean[w] = o.comb_strength * along_surface(combw[w]);
         // Droop: the tip's bend angle θ_tip = droop/4 · 70° × (how much gravity lies along the surface), toward
-        // gravity's surface direction (detail::bend_integrals): droop 4 hangs a wall's tips 20° short of
+        // gravity's surface direction (shells_detail::bend_integrals): droop 4 hangs a wall's tips 20° short of
         // straight down. A stack of shells cannot show a strand bent past its surface's tangent plane (the
         // upper layers would pass below the lower ones, and the sweep clamp would cut the fur instead), so
         // the bend stays short of 90°.
@@ -315,7 +320,7 @@ void initial_growth(Growth& gr, const WeldedSurface& s, const ShellOptions& o) {
 // Feature clamp: rays along the direction, and along the bent tip when comb or droop bend it (free space in
 // front), the medial axis (two walls at an inner corner), and the bend limit (a bent tip never nearer to
 // the mesh than a straight strand at the same height).
-void feature_clamp(Growth& gr, const WeldedSurface& s, const detail::SurfaceIndex& index, const ShellOptions& o) {
+void feature_clamp(Growth& gr, const WeldedSurface& s, const shells_detail::SurfaceIndex& index, const ShellOptions& o) {
     const size_t W = s.W;
     const auto& start = s.start;
     const auto& vf = s.vf;
@@ -341,7 +346,7 @@ void feature_clamp(Growth& gr, const WeldedSurface& s, const detail::SurfaceInde
         }
     }
     std::vector<double> dist(qv.size());
-    detail::free_distances(dist.data(), index, qv.data(), qd.data(), qv.size());
+    shells_detail::free_distances(dist.data(), index, qv.data(), qd.data(), qv.size());
     for (size_t q = 0; q < qv.size(); ++q) {
         uint32_t w = qv[q];
         double allowed = o.safe_fraction * dist[q] / qneed[q];
@@ -365,7 +370,7 @@ void feature_clamp(Growth& gr, const WeldedSurface& s, const detail::SurfaceInde
     }
     // 2 % slack: on a curved surface the offset point's nearest point drifts off the 1-ring a little.
     std::vector<double> owned(qv.size());
-    detail::owned_lengths(owned.data(), index, start.data(), vf.data(), qv.data(), qd.data(), ql.data(), 0.98, qv.size());
+    shells_detail::owned_lengths(owned.data(), index, start.data(), vf.data(), qv.data(), qd.data(), ql.data(), 0.98, qv.size());
     for (size_t q = 0; q < qv.size(); ++q) {
         uint32_t w = qv[q];
         double allowed = 2.0 * o.safe_fraction * owned[q];
@@ -389,7 +394,7 @@ void feature_clamp(Growth& gr, const WeldedSurface& s, const detail::SurfaceInde
         bent.insert(bent.end(), {b.x, b.y, b.z});
     }
     std::vector<double> sigma(qv.size());
-    detail::bend_limits(sigma.data(), index, start.data(), vf.data(), qv.data(), straight.data(), bent.data(), 0.995, qv.size());
+    shells_detail::bend_limits(sigma.data(), index, start.data(), vf.data(), qv.data(), straight.data(), bent.data(), 0.995, qv.size());
     for (size_t q = 0; q < qv.size(); ++q)
         if (sigma[q] < 1.0) {
             const uint32_t w = qv[q];
@@ -540,13 +545,13 @@ void FoldClamp::pass(const std::vector<uint8_t>* seed) {
 // sides of a thin ear, fur across a crevice). The outermost shell is intersected with itself and with the base
 // (exact predicates); the fur at every vertex of an offending shell triangle is shortened, and the fold clamp
 // runs again around what changed, for up to 8 rounds.
-void verify_crossings(Growth& gr, const WeldedSurface& s, const detail::SurfaceIndex& index, FoldClamp& fold) {
+void verify_crossings(Growth& gr, const WeldedSurface& s, const shells_detail::SurfaceIndex& index, FoldClamp& fold) {
     const size_t W = s.W;
     const auto& P = s.P;
     auto& H = gr.H;
     auto& flags = gr.flags;
     std::vector<double> top(3 * W);
-    detail::CrossingTest crossing(index);
+    shells_detail::CrossingTest crossing(index);
     std::vector<double> last_h(H);
     std::vector<uint8_t> changed;
     for (int round = 0; round < 8; ++round) {
@@ -606,41 +611,43 @@ void copy_back(ShellFrame& out, const WeldedSurface& s, Growth& gr, const ShellO
 
 Status compute_shell_frame(ShellFrame& out, const float* positions, size_t vertex_count, const uint32_t* indices,
                            size_t index_count, const float* mask, const float* comb, const ShellOptions& o) {
-    out = ShellFrame{};
-    if (Status s = validate(o); !s.ok()) return s;
-    if (index_count % 3 != 0) return Status::error(StatusCode::invalid_argument, "index count is not a multiple of 3");
-    if (vertex_count > 0 && !positions) return Status::error(StatusCode::invalid_argument, "no positions");
-    for (size_t i = 0; i < index_count; ++i)
-        if (indices[i] >= vertex_count)
-            return Status::error(StatusCode::invalid_argument, "index " + std::to_string(indices[i]) + " out of range");
-    const size_t n = vertex_count;
-    out.direction.assign(3 * n, 0.0f);
-    out.length.assign(n, 0.0f);
-    out.requested.assign(n, 0.0f);
-    out.lean.assign(3 * n, 0.0f);
-    out.sag.assign(3 * n, 0.0f);
-    out.flags.assign(n, 0);
-    if (n == 0) return Status::success();
+    return kernel::no_throw("computing the shell frame", [&]() -> Status {
+        out = ShellFrame{};
+        if (Status s = validate(o); !s.ok()) return s;
+        if (index_count % 3 != 0) return Status::error(StatusCode::invalid_argument, "index count is not a multiple of 3");
+        if (vertex_count > 0 && !positions) return Status::error(StatusCode::invalid_argument, "no positions");
+        for (size_t i = 0; i < index_count; ++i)
+            if (indices[i] >= vertex_count)
+                return Status::error(StatusCode::invalid_argument, "index " + std::to_string(indices[i]) + " out of range");
+        const size_t n = vertex_count;
+        out.direction.assign(3 * n, 0.0f);
+        out.length.assign(n, 0.0f);
+        out.requested.assign(n, 0.0f);
+        out.lean.assign(3 * n, 0.0f);
+        out.sag.assign(3 * n, 0.0f);
+        out.flags.assign(n, 0);
+        if (n == 0) return Status::success();
 
 
-    const WeldedSurface s = welded_surface(positions, n, indices, index_count);
-    out.welded_vertices = s.W;
-    Growth gr;
-    reconcile_mask_and_comb(gr, s, n, mask, comb);
-    initial_growth(gr, s, o);
-    if (s.T > 0) {
-        // One hierarchy over the welded triangles, built once, serves every clamp query and the final
-        // intersection test: building one per query kind cost as much as the queries on small meshes.
-        std::vector<double> base_pts(3 * s.W);
-        for (size_t w = 0; w < s.W; ++w) base_pts[3 * w] = s.P[w].x, base_pts[3 * w + 1] = s.P[w].y, base_pts[3 * w + 2] = s.P[w].z;
-        const detail::SurfaceIndex index(base_pts, s.tri);
-        if (o.feature_clamp) feature_clamp(gr, s, index, o);
-        FoldClamp fold(gr, s, o);
-        fold.pass(nullptr);
-        verify_crossings(gr, s, index, fold);
-    }
-    copy_back(out, s, gr, o, n);
-    return Status::success();
+        const WeldedSurface s = welded_surface(positions, n, indices, index_count);
+        out.welded_vertices = s.W;
+        Growth gr;
+        reconcile_mask_and_comb(gr, s, n, mask, comb);
+        initial_growth(gr, s, o);
+        if (s.T > 0) {
+            // One hierarchy over the welded triangles, built once, serves every clamp query and the final
+            // intersection test: building one per query kind cost as much as the queries on small meshes.
+            std::vector<double> base_pts(3 * s.W);
+            for (size_t w = 0; w < s.W; ++w) base_pts[3 * w] = s.P[w].x, base_pts[3 * w + 1] = s.P[w].y, base_pts[3 * w + 2] = s.P[w].z;
+            const shells_detail::SurfaceIndex index(base_pts, s.tri);
+            if (o.feature_clamp) feature_clamp(gr, s, index, o);
+            FoldClamp fold(gr, s, o);
+            fold.pass(nullptr);
+            verify_crossings(gr, s, index, fold);
+        }
+        copy_back(out, s, gr, o, n);
+        return Status::success();
+    });
 }
 
 void shell_positions(float* out, const ShellFrame& frame, const float* positions, size_t vertex_count, int layer,
@@ -649,7 +656,7 @@ void shell_positions(float* out, const ShellFrame& frame, const float* positions
     parallel(vertex_count, 4096, [&](size_t v) {
         const double h = frame.length[v];
         // In double, from per-copy inputs that are bit-identical: every copy lands on the same float.
-        const auto o = detail::strand_offset(&frame.direction[3 * v], &frame.lean[3 * v], &frame.sag[3 * v], s);
+        const auto o = shells_detail::strand_offset(&frame.direction[3 * v], &frame.lean[3 * v], &frame.sag[3 * v], s);
         for (size_t k = 0; k < 3; ++k) out[3 * v + k] = float(double(positions[3 * v + k]) + h * o[k]);
     });
 }

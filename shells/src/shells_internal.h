@@ -12,7 +12,7 @@
 #include <memory>
 #include <vector>
 
-namespace furrow::detail {
+namespace furrow::shells_detail {
 
 // ---- refine_starved_faces.cpp: bisects the triangles of p whose corners the clamps starve (see the file),
 // recomputing `frame` with `regrow` after each round; p gains the new vertices (every attribute at the mean
@@ -121,4 +121,4 @@ std::shared_ptr<const std::vector<uint8_t>> strand_texture_png(const StrandTextu
 // (x + 0.5) / width; wrap: 10497 REPEAT, 33648 MIRRORED_REPEAT, 33071 CLAMP_TO_EDGE.
 float sample_bilinear(const ImageF& image, int channel, float u, float v, int wrap_s = 10497, int wrap_t = 10497);
 
-} // namespace furrow::detail
+} // namespace furrow::shells_detail

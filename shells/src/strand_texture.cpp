@@ -124,7 +124,7 @@ std::vector<uint8_t> make_fin_texture(const StrandTextureOptions& options) {
     return rgba;
 }
 
-namespace detail {
+namespace shells_detail {
 
 std::shared_ptr<const std::vector<uint8_t>> strand_texture_png(const StrandTextureOptions& options, bool fin) {
     const StrandTextureOptions o = sane(options);
@@ -158,5 +158,5 @@ std::shared_ptr<const std::vector<uint8_t>> strand_texture_png(const StrandTextu
     return png;
 }
 
-} // namespace detail
+} // namespace shells_detail
 } // namespace furrow

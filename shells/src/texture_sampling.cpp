@@ -6,7 +6,7 @@
 #include <algorithm>
 #include <cmath>
 
-namespace furrow::detail {
+namespace furrow::shells_detail {
 namespace {
 
 int wrap_index(long long i, int n, int mode) {
@@ -38,4 +38,4 @@ float sample_bilinear(const ImageF& image, int channel, float u, float v, int wr
     return float(top * (1 - ay) + bottom * ay);
 }
 
-} // namespace furrow::detail
+} // namespace furrow::shells_detail

@@ -31,7 +31,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
-namespace furrow::detail {
+namespace furrow::shells_detail {
 
 struct Box3 {
     double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL};
@@ -337,4 +337,4 @@ private:
     std::vector<Box3> boxes_;     // their grown boxes, same order
 };
 
-} // namespace furrow::detail
+} // namespace furrow::shells_detail

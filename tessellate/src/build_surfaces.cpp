@@ -19,7 +19,7 @@
 #include <mutex>
 #include <string>
 
-namespace furrow::tess {
+namespace furrow::tessellate_detail {
 namespace {
 
 // OpenSubdiv reports topology errors through a global callback that prints by default; our contract is one
@@ -222,4 +222,4 @@ void choose_owners(PreparedMesh& m) {
     for (size_t f = 0; f < m.face_count(); ++f) m.stats.linear_faces += m.face_linear[f];
 }
 
-} // namespace furrow::tess
+} // namespace furrow::tessellate_detail

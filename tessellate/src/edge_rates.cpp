@@ -28,7 +28,7 @@
 #include <numbers>
 #include <string>
 
-namespace furrow::tess {
+namespace furrow::tessellate_detail {
 namespace {
 
 constexpr double pi = std::numbers::pi;
@@ -136,7 +136,7 @@ const float* point_pos(const PreparedMesh& m, uint32_t p) { return &m.welded_dat
 
 std::array<double, 3> world(const Mat4& M, const float* p) {
     double d[3] = {p[0], p[1], p[2]};
-    return M.point(d);
+    return kernel::transform_point(M, d);
 }
 
 // The criteria measured on the control mesh alone: uniform rate, distance, focus points, per-vertex rates
@@ -206,8 +206,8 @@ Probes make_probes(const PreparedMesh& m, const RateOptions& r, const std::vecto
     double scale = 1.0; // largest instance scale, for the near clamp
     for (const auto& M : inst)
         for (int c = 0; c < 3; ++c)
-            scale = std::max(scale, std::sqrt(M.m[size_t(4 * c)] * M.m[size_t(4 * c)] + M.m[size_t(4 * c + 1)] * M.m[size_t(4 * c + 1)] +
-                                              M.m[size_t(4 * c + 2)] * M.m[size_t(4 * c + 2)]));
+            scale = std::max(scale, std::sqrt(M[size_t(4 * c)] * M[size_t(4 * c)] + M[size_t(4 * c + 1)] * M[size_t(4 * c + 1)] +
+                                              M[size_t(4 * c + 2)] * M[size_t(4 * c + 2)]));
     // An eye on the surface would ask for infinite rates; the cap takes them anyway, this keeps them finite.
     const double min_distance = std::max(1e-4 * diag * scale, 1e-12);
     return Probes{m, r, inst, probe_curvature, focal, eye, min_distance, std::vector<SideProbe>(m.side_corner.size())};
@@ -275,7 +275,7 @@ void FaceProbe::edge_lengths() {
             double len = 0;
             for (int j = 0; j < segments; ++j) {
                 double a[3] = {P[j][0], P[j][1], P[j][2]}, b[3] = {P[j + 1][0], P[j + 1][1], P[j + 1][2]};
-                auto wa = M.point(a), wb = M.point(b);
+                auto wa = kernel::transform_point(M, a), wb = kernel::transform_point(M, b);
                 std::array<double, 3> mid{0.5 * (wa[0] + wb[0]), 0.5 * (wa[1] + wb[1]), 0.5 * (wa[2] + wb[2])};
                 len += distance3(wa, wb) * pr.focal / std::max(distance3(mid, pr.eye), pr.min_distance);
             }
@@ -301,9 +301,9 @@ void FaceProbe::curvature(std::vector<float>& coords, std::vector<CurvatureSampl
             double p[3] = {P[0], P[1], P[2]};
             auto w = [&](const float* v) {
                 double d[3] = {v[0], v[1], v[2]};
-                return M.vector(d);
+                return kernel::transform_vector(M, d);
             };
-            const double dist = std::max(distance3(M.point(p), pr.eye), pr.min_distance);
+            const double dist = std::max(distance3(kernel::transform_point(M, p), pr.eye), pr.min_distance);
             samples.push_back({tile, w(Duu), w(Duv), w(Dvv), pr.focal / dist});
         }
     }
@@ -375,8 +375,8 @@ void probed_criteria(std::vector<double>& out, const Probes& pr) {
 
 std::vector<Mat4> instance_matrices(const RateOptions& r) {
     std::vector<Mat4> out;
-    for (const auto& m : r.instances) out.push_back(Mat4{m});
-    if (out.empty()) out.push_back(Mat4{});
+    for (const auto& m : r.instances) out.push_back(m);
+    if (out.empty()) out.push_back(kernel::kIdentity);
     return out;
 }
 
@@ -454,7 +454,7 @@ size_t count_triangles(const PreparedMesh& m, const std::vector<int>& rates) {
     tbb::parallel_for(tbb::blocked_range<size_t>(0, F, 512), [&](const tbb::blocked_range<size_t>& range) {
         std::vector<int> face_rates;
         for (size_t f = range.begin(); f != range.end(); ++f) {
-            const int n = tess::face_rates(m, f, rates, face_rates);
+            const int n = tessellate_detail::face_rates(m, f, rates, face_rates);
             osd::Bfr::Tessellation t(m.parameterization(f), n, face_rates.data());
             per_face[f] = uint32_t(t.GetNumFacets());
         }
@@ -464,4 +464,4 @@ size_t count_triangles(const PreparedMesh& m, const std::vector<int>& rates) {
     return total;
 }
 
-} // namespace furrow::tess
+} // namespace furrow::tessellate_detail

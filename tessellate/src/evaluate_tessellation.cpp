@@ -22,7 +22,7 @@
 
 #include <algorithm>
 
-namespace furrow::tess {
+namespace furrow::tessellate_detail {
 namespace {
 
 void normalise(float* n) {
@@ -502,4 +502,4 @@ Status evaluate_tessellation(TessellateOutput& out, const PreparedMesh& m, const
     return Status::success();
 }
 
-} // namespace furrow::tess
+} // namespace furrow::tessellate_detail

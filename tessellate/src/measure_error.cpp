@@ -14,7 +14,7 @@
 #include <algorithm>
 #include <numbers>
 
-namespace furrow::tess {
+namespace furrow::tessellate_detail {
 namespace {
 
 struct FaceError {
@@ -35,7 +35,7 @@ Status measure_tessellation(ErrorReport& out, const PreparedMesh& m, const Tesse
         for (int corner = 0; corner < 8; ++corner) {
             double p[3] = {(corner & 1) ? m.bbox_max[0] : m.bbox_min[0], (corner & 2) ? m.bbox_max[1] : m.bbox_min[1],
                            (corner & 4) ? m.bbox_max[2] : m.bbox_min[2]};
-            auto w = M.point(p);
+            auto w = kernel::transform_point(M, p);
             for (int k = 0; k < 3; ++k) {
                 lo[size_t(k)] = corner ? std::min(lo[size_t(k)], w[size_t(k)]) : w[size_t(k)];
                 hi[size_t(k)] = corner ? std::max(hi[size_t(k)], w[size_t(k)]) : w[size_t(k)];
@@ -86,11 +86,11 @@ Status measure_tessellation(ErrorReport& out, const PreparedMesh& m, const Tesse
                     double d[3] = {q[0] - P[0], q[1] - P[1], q[2] - P[2]};
                     double worst = 0, worst_px = 0;
                     for (const auto& M : inst) {
-                        const double e = length3(M.vector(d));
+                        const double e = length3(kernel::transform_vector(M, d));
                         worst = std::max(worst, e);
                         if (camera) {
                             double p[3] = {P[0], P[1], P[2]};
-                            worst_px = std::max(worst_px, e * focal / std::max(distance3(M.point(p), view.camera->eye), min_distance));
+                            worst_px = std::max(worst_px, e * focal / std::max(distance3(kernel::transform_point(M, p), view.camera->eye), min_distance));
                         }
                     }
                     fe.max_world = std::max(fe.max_world, worst);
@@ -117,4 +117,4 @@ Status measure_tessellation(ErrorReport& out, const PreparedMesh& m, const Tesse
     return Status::success();
 }
 
-} // namespace furrow::tess
+} // namespace furrow::tessellate_detail

@@ -16,7 +16,7 @@
 
 #include <algorithm>
 
-namespace furrow::tess {
+namespace furrow::tessellate_detail {
 
 using osd::Bfr::Parameterization;
 
@@ -129,4 +129,4 @@ void chart_to_coord(const Parameterization& p, int tile, const float chart[2], f
     p.ConvertSubFaceToCoord(sub, local, uv);
 }
 
-} // namespace furrow::tess
+} // namespace furrow::tessellate_detail

@@ -27,7 +27,7 @@
 #include <numeric>
 #include <string>
 
-namespace furrow::tess {
+namespace furrow::tessellate_detail {
 namespace {
 
 using kernel::DisjointSets;
@@ -705,4 +705,4 @@ Status prepare_mesh(PreparedMesh& m, const TessellateInput& in, const SurfaceOpt
     return Status::success();
 }
 
-} // namespace furrow::tess
+} // namespace furrow::tessellate_detail

@@ -9,7 +9,7 @@
 #include <algorithm>
 #include <numeric>
 
-namespace furrow::tess {
+namespace furrow::tessellate_detail {
 
 void SkinAccumulator::add(const uint16_t* joints, const float* weights, float w) {
     for (int j = 0; j < 4; ++j) {
@@ -49,4 +49,4 @@ void SkinAccumulator::finish(uint16_t* joints_out, float* weights_out) const {
     if (keep == 0 || !(sum > 0.0f)) weights_out[0] = 1.0f; // no influence at all: bind to joint 0
 }
 
-} // namespace furrow::tess
+} // namespace furrow::tessellate_detail

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <furrow/tessellate.h>
+#include <furrow_kernel/affine.h>
 
 #include <opensubdiv/bfr/parameterization.h>
 #include <opensubdiv/bfr/refinerSurfaceFactory.h>
@@ -18,7 +19,7 @@
 #include <shared_mutex>
 #include <vector>
 
-namespace furrow::tess {
+namespace furrow::tessellate_detail {
 
 namespace osd = OpenSubdiv;
 
@@ -162,18 +163,8 @@ struct SkinAccumulator {
     void finish(uint16_t* joints_out, float* weights_out) const;
 };
 
-// Small vector helpers.
-struct Mat4 {
-    std::array<double, 16> m{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
-    std::array<double, 3> point(const double* p) const {
-        return {m[0] * p[0] + m[4] * p[1] + m[8] * p[2] + m[12], m[1] * p[0] + m[5] * p[1] + m[9] * p[2] + m[13],
-                m[2] * p[0] + m[6] * p[1] + m[10] * p[2] + m[14]};
-    }
-    std::array<double, 3> vector(const double* v) const {
-        return {m[0] * v[0] + m[4] * v[1] + m[8] * v[2], m[1] * v[0] + m[5] * v[1] + m[9] * v[2],
-                m[2] * v[0] + m[6] * v[1] + m[10] * v[2]};
-    }
-};
+// Instance placements: the kernel's column-major 4×4 (furrow_kernel/affine.h).
+using Mat4 = kernel::Mat4;
 std::vector<Mat4> instance_matrices(const RateOptions& r);
 
 // verify_rates.cpp: raises the wanted rates of faces whose measured chordal error exceeds the target.
@@ -185,4 +176,4 @@ inline double distance3(const std::array<double, 3>& a, const std::array<double,
     return length3({a[0] - b[0], a[1] - b[1], a[2] - b[2]});
 }
 
-} // namespace furrow::tess
+} // namespace furrow::tessellate_detail

@@ -9,6 +9,7 @@
 // View criteria are in world space, so each mesh gets the placements of the nodes that draw it
 // (Scene::mesh_placement: glTF ignores the node transform of a skinned mesh and places it by its joints).
 #include "tessellate_internal.h"
+#include <furrow_kernel/no_throw.h>
 
 #include <algorithm>
 #include <map>
@@ -16,7 +17,7 @@
 
 namespace furrow {
 
-using namespace tess;
+using namespace tessellate_detail;
 
 namespace {
 
@@ -298,7 +299,7 @@ Status tessellate_scene(Scene& scene, const TessellateOptions& options, SceneTes
         TessellateOutput out;
     };
     std::vector<std::unique_ptr<Job>> jobs;
-    try {
+    const Status done = kernel::no_throw("tessellating the scene", [&]() -> Status {
         for (size_t mi = 0; mi < scene.meshes.size(); ++mi) {
             auto job = std::make_unique<Job>();
             job->mesh = mi;
@@ -357,9 +358,9 @@ Status tessellate_scene(Scene& scene, const TessellateOptions& options, SceneTes
             first = false;
             j->out = TessellateOutput{};
         }
-    } catch (const std::bad_alloc&) {
-        return Status::error(StatusCode::out_of_memory, "out of memory while tessellating the scene");
-    }
+        return Status::success();
+    });
+    if (!done.ok()) return done;
     rep.totals.warnings = rep.warnings;
     return Status::success();
 }

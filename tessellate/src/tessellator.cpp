@@ -5,6 +5,8 @@
 // distribution the criteria asked for (what Cycles' and Nanite's budgets do with their dicing rate), and the
 // count is exact, so the output never exceeds the budget.
 #include "tessellate_internal.h"
+#include <furrow_kernel/no_throw.h>
+
 
 #include <algorithm>
 #include <chrono>
@@ -12,7 +14,7 @@
 
 namespace furrow {
 
-using namespace tess;
+using namespace tessellate_detail;
 
 struct Tessellator::Impl {
     PreparedMesh mesh;
@@ -71,17 +73,16 @@ Status final_rates(std::vector<int>& rates, TessellateStats& stats, const Prepar
 Status Tessellator::prepare(const TessellateInput& in, const SurfaceOptions& options) {
     const auto t0 = std::chrono::steady_clock::now();
     impl_->ready = false;
-    try {
+    const Status done = kernel::no_throw("preparing the mesh", [&]() -> Status {
         PreparedMesh& m = impl_->mesh;
         if (Status s = prepare_mesh(m, in, options); !s.ok()) return s;
         if (Status s = build_surfaces(m); !s.ok()) return s;
         choose_owners(m);
         m.stats.prepare_seconds = seconds_since(t0);
-    } catch (const std::bad_alloc&) {
-        return Status::error(StatusCode::out_of_memory, "out of memory while preparing the mesh");
-    }
-    impl_->ready = true;
-    return Status::success();
+        return Status::success();
+    });
+    impl_->ready = done.ok();
+    return done;
 }
 
 const TessellateStats& Tessellator::topology() const { return impl_->mesh.stats; }
@@ -91,48 +92,48 @@ Status Tessellator::tessellate(TessellateOutput& out, const RateOptions& r, bool
     const PreparedMesh& m = impl_->mesh;
     out = TessellateOutput{};
     out.stats = m.stats;
-    try {
+    const Status done = kernel::no_throw("tessellating", [&]() -> Status {
         auto t0 = std::chrono::steady_clock::now();
         std::vector<int> rates;
         if (Status s = final_rates(rates, out.stats, m, r); !s.ok()) return s;
         out.stats.rate_seconds = seconds_since(t0);
         t0 = std::chrono::steady_clock::now();
         const TessellateStats keep = out.stats;
-        if (Status s = evaluate_tessellation(out, m, rates, keep_parameters); !s.ok()) {
-            out = TessellateOutput{};
-            return s;
-        }
+        if (Status s = evaluate_tessellation(out, m, rates, keep_parameters); !s.ok()) return s;
         const size_t vertices = out.stats.vertices, triangles = out.stats.triangles;
         out.stats = keep;
         out.stats.vertices = vertices;
         out.stats.triangles = triangles;
         out.stats.evaluate_seconds = seconds_since(t0);
-    } catch (const std::bad_alloc&) {
-        out = TessellateOutput{};
-        return Status::error(StatusCode::out_of_memory, "out of memory while tessellating");
-    }
-    return Status::success();
+        return Status::success();
+    });
+    if (!done.ok()) out = TessellateOutput{};
+    return done;
 }
 
 Status Tessellator::edge_rates(std::vector<EdgeRate>& out, const RateOptions& r) const {
-    if (!impl_->ready) return Status::error(StatusCode::invalid_argument, "tessellator not prepared");
-    const PreparedMesh& m = impl_->mesh;
-    std::vector<int> rates;
-    TessellateStats stats;
-    if (Status s = final_rates(rates, stats, m, r); !s.ok()) return s;
-    out.resize(rates.size());
-    for (size_t e = 0; e < rates.size(); ++e)
-        out[e] = {m.welded_input[m.point_welded[m.edges[e][0]]], m.welded_input[m.point_welded[m.edges[e][1]]], rates[e]};
-    return Status::success();
+    return kernel::no_throw("computing edge rates", [&]() -> Status {
+        if (!impl_->ready) return Status::error(StatusCode::invalid_argument, "tessellator not prepared");
+        const PreparedMesh& m = impl_->mesh;
+        std::vector<int> rates;
+        TessellateStats stats;
+        if (Status s = final_rates(rates, stats, m, r); !s.ok()) return s;
+        out.resize(rates.size());
+        for (size_t e = 0; e < rates.size(); ++e)
+            out[e] = {m.welded_input[m.point_welded[m.edges[e][0]]], m.welded_input[m.point_welded[m.edges[e][1]]], rates[e]};
+        return Status::success();
+    });
 }
 
 Status Tessellator::count_triangles(size_t& out, const RateOptions& r) const {
-    if (!impl_->ready) return Status::error(StatusCode::invalid_argument, "tessellator not prepared");
-    std::vector<int> rates;
-    TessellateStats stats;
-    if (Status s = final_rates(rates, stats, impl_->mesh, r); !s.ok()) return s;
-    out = tess::count_triangles(impl_->mesh, rates);
-    return Status::success();
+    return kernel::no_throw("counting triangles", [&]() -> Status {
+        if (!impl_->ready) return Status::error(StatusCode::invalid_argument, "tessellator not prepared");
+        std::vector<int> rates;
+        TessellateStats stats;
+        if (Status s = final_rates(rates, stats, impl_->mesh, r); !s.ok()) return s;
+        out = tessellate_detail::count_triangles(impl_->mesh, rates);
+        return Status::success();
+    });
 }
 
 Status tessellate(TessellateOutput& out, const TessellateInput& in, const TessellateOptions& options) {
@@ -145,8 +146,10 @@ Status tessellate(TessellateOutput& out, const TessellateInput& in, const Tessel
 }
 
 Status Tessellator::measure(ErrorReport& out, const TessellateOutput& t, const RateOptions& view) const {
-    if (!impl_->ready) return Status::error(StatusCode::invalid_argument, "tessellator not prepared");
-    return tess::measure_tessellation(out, impl_->mesh, t, view);
+    return kernel::no_throw("measuring the error", [&]() -> Status {
+        if (!impl_->ready) return Status::error(StatusCode::invalid_argument, "tessellator not prepared");
+        return tessellate_detail::measure_tessellation(out, impl_->mesh, t, view);
+    });
 }
 
 } // namespace furrow

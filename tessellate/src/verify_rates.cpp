@@ -16,7 +16,7 @@
 
 #include <algorithm>
 
-namespace furrow::tess {
+namespace furrow::tessellate_detail {
 
 void verify_error(std::vector<double>& wanted, const PreparedMesh& m, const RateOptions& r, const std::vector<Mat4>& inst,
                   const std::array<double, 3>& eye, double focal, double min_distance) {
@@ -64,10 +64,10 @@ void verify_error(std::vector<double>& wanted, const PreparedMesh& m, const Rate
                         surface.Evaluate(uv, patch.data(), 3, P);
                         double d[3] = {q[0] - P[0], q[1] - P[1], q[2] - P[2]}, p[3] = {P[0], P[1], P[2]};
                         for (const auto& M : inst) {
-                            const double err = length3(M.vector(d));
+                            const double err = length3(kernel::transform_vector(M, d));
                             if (r.max_error > 0) ratio = std::max(ratio, err / r.max_error);
                             if (r.screen_error > 0)
-                                ratio = std::max(ratio, err * focal / std::max(distance3(M.point(p), eye), min_distance) / r.screen_error);
+                                ratio = std::max(ratio, err * focal / std::max(distance3(kernel::transform_point(M, p), eye), min_distance) / r.screen_error);
                         }
                     }
                 }
@@ -90,4 +90,4 @@ void verify_error(std::vector<double>& wanted, const PreparedMesh& m, const Rate
     }
 }
 
-} // namespace furrow::tess
+} // namespace furrow::tessellate_detail

@@ -20,9 +20,9 @@ execute_process(COMMAND ${CMAKE_COMMAND} --build "${WORK_DIR}/build" RESULT_VARI
 if(rc)
   message(FATAL_ERROR "building the consumer failed: ${rc}")
 endif()
-execute_process(COMMAND "${WORK_DIR}/build/consumer" "${WORK_DIR}/triangle.glb" RESULT_VARIABLE rc OUTPUT_VARIABLE out)
-if(rc OR NOT out MATCHES "consumer ok" OR NOT EXISTS "${WORK_DIR}/triangle.glb")
-  message(FATAL_ERROR "the consumer failed: ${rc} ${out}")
+execute_process(COMMAND "${WORK_DIR}/build/consumer" "${WORK_DIR}" RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+if(rc OR NOT out MATCHES "consumer ok" OR NOT EXISTS "${WORK_DIR}/furry_sphere.glb")
+  message(FATAL_ERROR "the consumer failed: ${rc} ${out} ${err}")
 endif()
 message(STATUS "consumer built against the installed package and ran: ${out}")
 

@@ -100,7 +100,7 @@ TEST(LoadHeightmap, RejectsAPngWithoutScaleAndBadFiles) {
     ImageF im;
     im.width = 4, im.height = 4, im.channels = 1;
     im.pixels.assign(16, 0.5f);
-    ASSERT_TRUE(save_png((dir / "plain.png").string(), im).ok());
+    ASSERT_TRUE(save_png(im, (dir / "plain.png").string()).ok());
     Heightmap h;
     Status s = load_heightmap(h, (dir / "plain.png").string());
     EXPECT_EQ(s.code, StatusCode::invalid_input);

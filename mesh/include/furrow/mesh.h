@@ -26,7 +26,7 @@ enum class StatusCode : int {
     out_of_memory,    // a size guard refused the request
 };
 
-struct Status {
+struct [[nodiscard]] Status {
     StatusCode code = StatusCode::ok;
     std::string message; // one line, no trailing newline; says what is wrong (the CLI prefixes "Error: <file>: ")
 
@@ -171,7 +171,7 @@ struct Image {
     std::string source_uri;       // where it came from (informational; output always embeds the bytes)
 };
 
-namespace detail { struct Document; }
+namespace mesh_detail { struct Document; }
 
 struct Scene {
     std::vector<Mesh> meshes;
@@ -183,7 +183,7 @@ struct Scene {
     std::vector<Image> images;
     std::vector<Skin> skins;
     std::vector<std::string> warnings; // non-fatal findings of the loader (e.g. a missing texture file)
-    std::shared_ptr<const detail::Document> document; // the rest of the source; null for non-glTF sources
+    std::shared_ptr<const mesh_detail::Document> document; // the rest of the source; null for non-glTF sources
 
     // The one traversal every module uses (render, shells, tessellate, stamp):
     // The nodes the default scene draws: depth first from `roots` (from every parentless node when `roots` is
@@ -239,7 +239,7 @@ struct ImageF {
 Status load_png(ImageF& out, const std::string& path);
 Status decode_image(ImageF& out, const uint8_t* data, size_t size); // PNG or JPEG bytes
 // Writes 8-bit PNG (channels 1..4) from floats in [0,1] (clamped), atomically (temp + rename).
-Status save_png(const std::string& path, const ImageF& image, bool srgb_encode = false);
+Status save_png(const ImageF& image, const std::string& path, bool srgb_encode = false);
 // Encodes 8-bit RGBA bytes (width*height*4) to PNG bytes, deterministic.
 std::vector<uint8_t> encode_png_rgba8(const uint8_t* rgba, int width, int height);
 

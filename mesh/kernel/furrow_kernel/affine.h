@@ -29,10 +29,17 @@ inline double det3(const Mat4& m) {
     return m[0] * (m[5] * m[10] - m[9] * m[6]) - m[4] * (m[1] * m[10] - m[9] * m[2]) + m[8] * (m[1] * m[6] - m[5] * m[2]);
 }
 
-// m × (p, 1).
-inline std::array<double, 3> transform_point(const Mat4& m, const std::array<double, 3>& p) {
+// m × (p, 1), p three doubles.
+inline std::array<double, 3> transform_point(const Mat4& m, const double* p) {
     return {m[0] * p[0] + m[4] * p[1] + m[8] * p[2] + m[12], m[1] * p[0] + m[5] * p[1] + m[9] * p[2] + m[13],
             m[2] * p[0] + m[6] * p[1] + m[10] * p[2] + m[14]};
+}
+inline std::array<double, 3> transform_point(const Mat4& m, const std::array<double, 3>& p) { return transform_point(m, p.data()); }
+
+// m × (v, 0): a direction or a difference of points, v three doubles.
+inline std::array<double, 3> transform_vector(const Mat4& m, const double* v) {
+    return {m[0] * v[0] + m[4] * v[1] + m[8] * v[2], m[1] * v[0] + m[5] * v[1] + m[9] * v[2],
+            m[2] * v[0] + m[6] * v[1] + m[10] * v[2]};
 }
 
 } // namespace furrow::kernel
