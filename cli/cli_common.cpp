@@ -1,6 +1,7 @@
 #include "cli_common.h"
 
 #include <cctype>
+#include <cmath>
 #include <chrono>
 #include <condition_variable>
 #include <cstdio>
@@ -223,5 +224,49 @@ Progress::~Progress() {
     std::fprintf(stderr, "\r\033[K");
     std::fflush(stderr);
 }
+
+namespace {
+
+// Parses the whole of s as a double (std::stod accepts "nan", "inf" and trailing junk; the latter is refused).
+bool parse_number(const std::string& s, double& v) {
+    size_t used = 0;
+    try {
+        v = std::stod(s, &used);
+    } catch (...) {
+        return false;
+    }
+    return used == s.size();
+}
+
+CLI::Validator bounded_below(bool strictly, const char* name) {
+    return CLI::Validator(
+        [strictly](std::string& s) -> std::string {
+            double x = 0;
+            if (!parse_number(s, x) || !std::isfinite(x) || (strictly ? !(x > 0) : !(x >= 0)))
+                return std::string("must be a finite number ") + (strictly ? "> 0" : ">= 0") + ", got '" + s + "'";
+            return {};
+        },
+        name);
+}
+
+template <class T>
+CLI::Validator range_then_finite(T lo, T hi) {
+    const CLI::Range range(lo, hi);
+    return CLI::Validator(
+        [range](std::string& s) -> std::string {
+            if (std::string e = range(s); !e.empty()) return e;
+            double x = 0;
+            if (parse_number(s, x) && !std::isfinite(x)) return "must be a finite number, got '" + s + "'";
+            return {};
+        },
+        range.get_description());
+}
+
+} // namespace
+
+CLI::Validator positive() { return bounded_below(true, "POSITIVE"); }
+CLI::Validator non_negative() { return bounded_below(false, "NONNEGATIVE"); }
+CLI::Validator finite_range(int lo, int hi) { return range_then_finite(lo, hi); }
+CLI::Validator finite_range(double lo, double hi) { return range_then_finite(lo, hi); }
 
 } // namespace furrow::cli

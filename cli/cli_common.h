@@ -30,6 +30,15 @@ struct InputError : std::runtime_error {
 // Throws InputError(file, status.message) if status is not ok.
 void require_ok(const Status& status, const std::string& file);
 
+// Number checks for options. CLI11's own (PositiveNumber, NonNegativeNumber, Range) accept "nan" (every
+// comparison with NaN is false) and "inf", and PositiveNumber's message printed its bound as 300 digits
+// (`check --sliver-angle nan` was accepted silently). These refuse non-finite values as a usage error (exit 2)
+// and say what they want: "must be a finite number > 0, got 'nan'".
+CLI::Validator positive();     // finite and > 0 (shown as POSITIVE in --help)
+CLI::Validator non_negative(); // finite and >= 0 (NONNEGATIVE)
+CLI::Validator finite_range(int lo, int hi);       // CLI::Range(lo, hi), then finite
+CLI::Validator finite_range(double lo, double hi); // CLI::Range(lo, hi), then finite
+
 struct GlobalFlags {
     bool quiet = false;
     int threads = 0; // 0 = all cores
@@ -88,14 +97,5 @@ private:
     std::unique_ptr<State> state_; // null when not on a terminal
 };
 
-// Registration of the commands, one file each (cli/cmd_<name>.cpp).
-void register_check(CLI::App& app, GlobalFlags& g);
-void register_convert(CLI::App& app, GlobalFlags& g);
-void register_render(CLI::App& app, GlobalFlags& g);
-void register_shells(CLI::App& app, GlobalFlags& g);
-void register_tessellate(CLI::App& app, GlobalFlags& g);
-void register_stamp(CLI::App& app, GlobalFlags& g);
-void register_demo(CLI::App& app, GlobalFlags& g);
-void register_bench(CLI::App& app, GlobalFlags& g);
 
 } // namespace furrow::cli

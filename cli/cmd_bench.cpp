@@ -4,20 +4,13 @@
 // inputs (the bundled models and ../shared/corpus when present), with one JSON document and the SVG plots of all of
 // them on request.
 #include "bench_common.h"
+#include "commands.h"
 
 #include <algorithm>
 
 namespace furrow::cli {
 
-namespace {
-
-struct AllArgs {
-    BenchRun run;
-    BenchOutput out;
-    std::vector<std::string> only; // tool names; empty = all
-};
-
-void run_all(const AllArgs& a, const GlobalFlags& g) {
+void run_bench_all(const BenchAllArgs& a, const GlobalFlags& g) {
     using Fn = nlohmann::json (*)(const BenchRun&, const GlobalFlags&);
     const std::vector<std::pair<std::string, Fn>> tools = {{"io", bench_io_default},
                                                           {"render", bench_render_default},
@@ -43,16 +36,14 @@ void run_all(const AllArgs& a, const GlobalFlags& g) {
     finish_bench(all, a.out, g);
 }
 
-} // namespace
-
 void register_bench(CLI::App& app, GlobalFlags& g) {
-    auto a = std::make_shared<AllArgs>();
+    auto a = std::make_shared<BenchAllArgs>();
     CLI::App* bench = app.add_subcommand("bench", "Benchmarks: time against an error measure and an in-run baseline "
                                                   "(no tool: all of them)");
     bench->require_subcommand(0, 1);
     bench->add_flag("--quick", a->run.quick, "Fewer inputs and settings (bundled models only; under a minute)");
     bench->add_option("--repeat", a->run.repeat, "Runs per measurement; the median is reported (default: each benchmark's own)")
-        ->check(CLI::Range(1, 1000));
+        ->check(finite_range(1, 1000));
     bench->add_option("--only", a->only, "Run only these benchmarks (io render shells tessellate stamp)")->delimiter(',');
     add_bench_output_flags(*bench, a->out);
     bench->footer("Examples:\n  furrow bench --quick\n  furrow bench --json --plots bench-plots > bench.json\n"
@@ -63,7 +54,7 @@ void register_bench(CLI::App& app, GlobalFlags& g) {
     register_bench_shells(*bench, g);
     register_bench_stamp(*bench, g);
     bench->callback([a, bench, &g] {
-        if (bench->get_subcommands().empty()) run_all(*a, g);
+        if (bench->get_subcommands().empty()) run_bench_all(*a, g);
     });
 }
 

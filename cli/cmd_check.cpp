@@ -1,5 +1,5 @@
 // `furrow check`: mesh validity report (text or JSON) and --require gates for pipelines.
-#include "cli_common.h"
+#include "commands.h"
 
 #include <nlohmann/json.hpp>
 
@@ -253,13 +253,7 @@ std::string footer() {
     return s;
 }
 
-struct CheckArgs {
-    std::string input;
-    bool json = false;
-    bool self_intersections = false;
-    double sliver_angle = CheckOptions{}.sliver_angle_degrees;
-    std::vector<std::string> require;
-};
+} // namespace
 
 void run_check(const CheckArgs& a, const GlobalFlags& g) {
     CheckOptions options;
@@ -343,8 +337,6 @@ void run_check(const CheckArgs& a, const GlobalFlags& g) {
     }
 }
 
-} // namespace
-
 void register_check(CLI::App& app, GlobalFlags& g) {
     auto args = std::make_shared<CheckArgs>();
     CLI::App* cmd = app.add_subcommand("check", "Report mesh validity: topology, degeneracies, NaNs, UVs, "
@@ -356,7 +348,7 @@ void register_check(CLI::App& app, GlobalFlags& g) {
     cmd->add_option("--sliver-angle", args->sliver_angle,
                     "A triangle with an angle below DEG degrees is a sliver (default 1)")
         ->type_name("DEG")
-        ->check(CLI::Range(0.0, 180.0));
+        ->check(finite_range(0.0, 180.0));
     std::vector<std::string> names;
     for (const auto& r : requirements()) names.push_back(r.name);
     cmd->add_option("--require", args->require,

@@ -1,6 +1,6 @@
 // `furrow demo`: the main job on the bundled default scene (models/scene.json). Writes glTF files and PNG
 // previews into one folder and prints where they are.
-#include "cli_common.h"
+#include "commands.h"
 #include "data_dirs.h"
 
 #include <furrow/render.h>
@@ -19,13 +19,6 @@ namespace furrow::cli {
 namespace fs = std::filesystem;
 
 namespace {
-
-struct DemoArgs {
-    std::string models = bundled_models_dir().string();
-    std::string out = "furrow-demo";
-    int width = 960, height = 720;
-    int ssaa = 2;
-};
 
 RenderCamera camera_from_json(const nlohmann::json& j) {
     RenderCamera c;
@@ -49,7 +42,7 @@ RenderOptions preview_options(const RenderCamera& cam, const DemoArgs& a) {
 void write_render(const Scene& scene, const RenderOptions& ro, const fs::path& png, std::vector<std::string>& outputs) {
     RenderResult r;
     require_ok(render_scene(r, scene, ro), png.string());
-    require_ok(save_png(png.string(), r.color, false), png.string());
+    require_ok(save_png(r.color, png.string(), false), png.string());
     outputs.push_back(png.string());
 }
 
@@ -227,60 +220,62 @@ void demo_combined(const nlohmann::json& d, const nlohmann::json& snow, const fs
 
 } // namespace
 
+void run_demo(const DemoArgs& a, const GlobalFlags& g) {
+    const fs::path models(a.models);
+    const fs::path scene_file = models / "scene.json";
+    std::ifstream in(scene_file);
+    if (!in) throw InputError(scene_file.string(), "cannot open the demo scene description");
+    nlohmann::json desc = nlohmann::json::parse(in, nullptr, false);
+    if (desc.is_discarded() || !desc.is_object())
+        throw InputError(scene_file.string(), "not a valid JSON object");
+    std::error_code ec;
+    fs::create_directories(a.out, ec);
+    if (ec) throw InputError(a.out, "cannot create the output folder: " + ec.message());
+    const fs::path out(a.out);
+    std::vector<std::string> outputs;
+    std::optional<Scene> fur; // the furred creature, placed again in the combined scene
+    Progress progress(g, "furrow demo");
+    try {
+        if (desc.contains("creature")) {
+            const auto& c = desc["creature"];
+            const auto cam = camera_from_json(c.value("camera", nlohmann::json::object()));
+            progress.stage("creature");
+            demo_model("creature", models / c.at("model").get<std::string>(), cam, a, out, outputs, g);
+            progress.stage("creature fur");
+            fur = demo_fur(models / c.at("model").get<std::string>(),
+                           c.contains("fur_mask") ? models / c["fur_mask"].get<std::string>() : fs::path(), cam, a, out,
+                           outputs, g);
+        }
+        if (desc.contains("snow")) {
+            const auto& s = desc["snow"];
+            const auto cam = camera_from_json(s.value("camera", nlohmann::json::object()));
+            progress.stage("ground");
+            demo_model("ground", models / s.at("ground").get<std::string>(), cam, a, out, outputs, g);
+            progress.stage("snow field");
+            if (s.contains("colliders"))
+                demo_snow(models / s["ground"].get<std::string>(), models / s["colliders"].get<std::string>(), cam, a,
+                          out, outputs, g);
+        }
+        progress.stage("terrain");
+        if (desc.contains("terrain")) demo_terrain(desc["terrain"], models, a, out, outputs, g);
+        progress.stage("scene");
+        if (desc.contains("scene") && desc.contains("snow") && fur)
+            demo_combined(desc["scene"], desc["snow"], models, std::move(*fur), a, out, outputs, g);
+    } catch (const nlohmann::json::exception& e) {
+        throw InputError(scene_file.string(), std::string("bad scene description: ") + e.what());
+    }
+    std::printf("furrow demo wrote %zu files to %s:\n", outputs.size(), fs::absolute(out).string().c_str());
+    for (const auto& o : outputs) std::printf("  %s\n", o.c_str());
+}
+
 void register_demo(CLI::App& app, GlobalFlags& g) {
     auto a = std::make_shared<DemoArgs>();
     CLI::App* cmd = app.add_subcommand("demo", "Run the main job on the bundled default scene (models/scene.json)");
     cmd->add_option("--models", a->models, "Folder with scene.json and the sample assets (default: the bundled models/)");
     cmd->add_option("-o,--output", a->out, "Output folder, created if missing (default: furrow-demo)");
-    cmd->add_option("--ssaa", a->ssaa, "Supersampling of the previews (default 2)")->check(CLI::Range(1, 8));
+    cmd->add_option("--ssaa", a->ssaa, "Supersampling of the previews (default 2)")->check(finite_range(1, 8));
     cmd->footer("Examples:\n  furrow demo\n  furrow demo -o /tmp/demo");
-    cmd->callback([a, &g] {
-        const fs::path models(a->models);
-        const fs::path scene_file = models / "scene.json";
-        std::ifstream in(scene_file);
-        if (!in) throw InputError(scene_file.string(), "cannot open the demo scene description");
-        nlohmann::json desc = nlohmann::json::parse(in, nullptr, false);
-        if (desc.is_discarded() || !desc.is_object())
-            throw InputError(scene_file.string(), "not a valid JSON object");
-        std::error_code ec;
-        fs::create_directories(a->out, ec);
-        if (ec) throw InputError(a->out, "cannot create the output folder: " + ec.message());
-        const fs::path out(a->out);
-        std::vector<std::string> outputs;
-        std::optional<Scene> fur; // the furred creature, placed again in the combined scene
-        Progress progress(g, "furrow demo");
-        try {
-            if (desc.contains("creature")) {
-                const auto& c = desc["creature"];
-                const auto cam = camera_from_json(c.value("camera", nlohmann::json::object()));
-                progress.stage("creature");
-                demo_model("creature", models / c.at("model").get<std::string>(), cam, *a, out, outputs, g);
-                progress.stage("creature fur");
-                fur = demo_fur(models / c.at("model").get<std::string>(),
-                               c.contains("fur_mask") ? models / c["fur_mask"].get<std::string>() : fs::path(), cam, *a, out,
-                               outputs, g);
-            }
-            if (desc.contains("snow")) {
-                const auto& s = desc["snow"];
-                const auto cam = camera_from_json(s.value("camera", nlohmann::json::object()));
-                progress.stage("ground");
-                demo_model("ground", models / s.at("ground").get<std::string>(), cam, *a, out, outputs, g);
-                progress.stage("snow field");
-                if (s.contains("colliders"))
-                    demo_snow(models / s["ground"].get<std::string>(), models / s["colliders"].get<std::string>(), cam, *a,
-                              out, outputs, g);
-            }
-            progress.stage("terrain");
-            if (desc.contains("terrain")) demo_terrain(desc["terrain"], models, *a, out, outputs, g);
-            progress.stage("scene");
-            if (desc.contains("scene") && desc.contains("snow") && fur)
-                demo_combined(desc["scene"], desc["snow"], models, std::move(*fur), *a, out, outputs, g);
-        } catch (const nlohmann::json::exception& e) {
-            throw InputError(scene_file.string(), std::string("bad scene description: ") + e.what());
-        }
-        std::printf("furrow demo wrote %zu files to %s:\n", outputs.size(), fs::absolute(out).string().c_str());
-        for (const auto& o : outputs) std::printf("  %s\n", o.c_str());
-    });
+    cmd->callback([a, &g] { run_demo(*a, g); });
 }
 
 } // namespace furrow::cli

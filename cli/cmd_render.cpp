@@ -1,5 +1,5 @@
 // `furrow render IN -o OUT.png`: the verification rasterizer (furrow/render.h) on the command line.
-#include "cli_common.h"
+#include "commands.h"
 
 #include <furrow/render.h>
 
@@ -67,13 +67,7 @@ std::array<float, 3> parse_colour(const std::string& s) {
     return c;
 }
 
-struct RenderArgs {
-    std::string in, out, mode, attribute, background, depth_out;
-    bool ortho = false, no_legend = false, no_mipmaps = false;
-    double ortho_height = 0, ambient = 0.25, near_plane = 0;
-    int ssaa = 1, subpixel_bits = 8;
-    CameraFlags camera;
-};
+} // namespace
 
 // Validates the arguments, renders, and writes the PNG (and the depth) atomically.
 void run_render(const RenderArgs& a, const GlobalFlags& g) {
@@ -159,8 +153,6 @@ void run_render(const RenderArgs& a, const GlobalFlags& g) {
                 ", " + std::to_string(r.triangles) + " triangles, " + timing + ")");
 }
 
-} // namespace
-
 void register_render(CLI::App& app, GlobalFlags& g) {
     auto args = std::make_shared<RenderArgs>();
     CLI::App* cmd = app.add_subcommand("render", "Render a scene to a PNG with the verification rasterizer");
@@ -175,9 +167,9 @@ void register_render(CLI::App& app, GlobalFlags& g) {
                     "Scalar vertex attribute for the heat map, e.g. _FUR_LENGTH (implies --mode attribute)");
     cmd->add_flag("--ortho", args->ortho, "Orthographic view (default view: top-down along the up axis)");
     cmd->add_option("--ortho-height", args->ortho_height, "World units visible vertically with --ortho (default: fit)")
-        ->check(CLI::PositiveNumber);
+        ->check(positive());
     cmd->add_option("--ssaa", args->ssaa, "Supersampling: N×N samples per pixel, 1..8 (default 1)")
-        ->check(CLI::Range(1, 8));
+        ->check(finite_range(1, 8));
     cmd->add_option("--background", args->background, "Opaque background colour R,G,B in 0..1 (sRGB; default transparent)");
     cmd->add_option("--depth-out", args->depth_out,
                     "Also write the depth (view-axis distance, +inf where empty) as a float PFM image");
@@ -187,13 +179,13 @@ void register_render(CLI::App& app, GlobalFlags& g) {
                   "as real-time viewers do)");
     cmd->add_option("--ambient", args->ambient,
                     "Ambient share of the Lambert shading, 0..1 (default 0.25; 1 = unlit material colour)")
-        ->check(CLI::Range(0.0, 1.0));
+        ->check(finite_range(0.0, 1.0));
     cmd->add_option("--subpixel-bits", args->subpixel_bits,
                     "Vertex snapping precision, 1/2^N of a pixel: 8 (default) as Direct3D and desktop GPUs, 4 as "
                     "SwiftShader (Chromium's software GL)")
-        ->check(CLI::Range(1, 8));
+        ->check(finite_range(1, 8));
     cmd->add_option("--near", args->near_plane, "Near clipping plane distance (default: from the bounding box)")
-        ->check(CLI::PositiveNumber);
+        ->check(positive());
     add_camera_flags(*cmd, args->camera);
     cmd->footer("Examples:\n"
                 "  furrow render fox.glb -o fox.png\n"

@@ -1,5 +1,5 @@
 // `furrow shells IN -o OUT --layers N --length L …`: fur shells (furrow/shells.h) on the command line.
-#include "cli_common.h"
+#include "commands.h"
 
 #include <furrow/shells.h>
 
@@ -45,18 +45,52 @@ std::string plural(size_t n, const char* word) { return std::to_string(n) + " " 
 
 } // namespace
 
+void run_shells(const ShellsArgs& a, const GlobalFlags& g) {
+    require_extension(a.out, "--output", {".glb", ".gltf"});
+    if (same_file(a.out, a.in)) throw InputError(a.out, "output path is the input file; refusing to overwrite the input");
+    FurOptions fur = a.fur; // with the mask, comb and layout the flags name
+    fur.layout = a.layout == "engine" ? ShellLayout::engine : ShellLayout::viewer;
+    if (!a.mask.empty()) {
+        auto [file, letter] = split_channel(a.mask);
+        fur.mask = load_image_or_throw(file, "mask");
+        fur.mask_channel = channel_index(fur.mask, letter, file);
+    }
+    if (!a.comb.empty()) {
+        fur.comb = load_image_or_throw(a.comb, "comb map");
+        if (fur.comb.channels < 3) throw InputError(a.comb, "a comb map needs colour channels (r = along u, g = up)");
+    }
+    Progress progress(g, "furrow shells");
+    progress.stage("loading " + a.in);
+    Scene scene = load_or_throw(a.in);
+    for (const auto& w : scene.warnings) info(g, "Warning: " + a.in + ": " + w);
+    FurReport r;
+    progress.stage("growing " + plural(size_t(fur.shells.layers), "shell"));
+    require_ok(add_fur_shells(scene, fur, &r), a.in);
+    for (const auto& w : r.warnings) info(g, "Warning: " + a.in + ": " + w);
+    progress.stage("writing " + a.out);
+    save_or_throw(scene, a.out, a.in);
+    std::string line = "Wrote " + a.out + ": " + plural(size_t(fur.shells.layers), "shell") + " on " +
+                       plural(r.primitives, "primitive") + ", " + std::to_string(r.shell_triangles) + " triangles added";
+    if (r.dropped_triangles) line += " (" + std::to_string(r.dropped_triangles) + " bald shell triangles dropped)";
+    if (r.fin_quads) line += ", " + plural(r.fin_quads, "fin");
+    if (fur.shells.lod_levels > 1) line += ", " + std::to_string(fur.shells.lod_levels) + " LOD levels";
+    if (r.refined_faces)
+        line += "; " + plural(r.refined_faces, "base face") + " split where clamped corners starved the fur";
+    info(g, line);
+    info(g, "  " + std::to_string(r.clamped_vertices) + " of " + std::to_string(r.welded_vertices) +
+                " vertices clamped (" + std::to_string(r.clamped_by_ray) + " by free space, " + std::to_string(r.clamped_by_fold) +
+                " by folds, " + std::to_string(r.clamped_by_even_cap) + " at sharp corners), " + std::to_string(r.bald_vertices) +
+                " bald");
+}
+
 void register_shells(CLI::App& app, GlobalFlags& g) {
-    struct Args {
-        std::string in, out, mask, comb, layout = "viewer";
-        FurOptions fur;
-    };
-    auto a = std::make_shared<Args>();
+    auto a = std::make_shared<ShellsArgs>();
     a->fur.shells.length = NAN; // required
     a->fur.max_triangles = kDefaultTriangleBudget;
     CLI::App* cmd = app.add_subcommand("shells", "Grow fur shells (and fins, LOD levels) on a mesh; writes glTF any viewer shows");
     cmd->add_option("input", a->in, "Input file (.gltf .glb .obj .ply .off .stl)")->required();
     cmd->add_option("-o,--output", a->out, "Output .glb or .gltf")->required();
-    cmd->add_option("--layers", a->fur.shells.layers, "Number of shells N, 1..256 (default 16)")->check(CLI::Range(1, 256));
+    cmd->add_option("--layers", a->fur.shells.layers, "Number of shells N, 1..256 (default 16)")->check(finite_range(1, 256));
     cmd->add_option_function<std::string>(
            "--length",
            [a](const std::string& s) {
@@ -78,13 +112,13 @@ void register_shells(CLI::App& app, GlobalFlags& g) {
                     "a channel (default: grey / red)");
     cmd->add_option("--spacing-power", a->fur.shells.spacing_power,
                     "Shell i at height (i/N)^p: 1 = even (default), > 1 packs shells near the skin")
-        ->check(CLI::Range(0.1, 10.0));
+        ->check(finite_range(0.1, 10.0));
     cmd->add_option("--droop", a->fur.shells.droop, "Gravity bends the strands, keeping their length: the tips turn toward gravity by droop x 17.5 degrees "
                     "(4 hangs a wall's tips down); 0..4 (default 0)")
-        ->check(CLI::Range(0.0, 4.0));
+        ->check(finite_range(0.0, 4.0));
     cmd->add_option("--comb", a->comb, "Comb map PNG (flow-map style: r = lean along +u, g = lean up the image, 0.5 = none)");
     cmd->add_option("--comb-strength", a->fur.shells.comb_strength, "Tip lean per unit comb vector, as a fraction of the length (default 1)")
-        ->check(CLI::Range(0.0, 10.0));
+        ->check(finite_range(0.0, 10.0));
     cmd->add_option("--layout", a->layout,
                     "viewer (default): one MASK material per shell, works in any glTF viewer; engine: one primitive with "
                     "_FUR_LAYER, _FUR_LENGTH, _FUR_DIRECTION")
@@ -93,18 +127,18 @@ void register_shells(CLI::App& app, GlobalFlags& g) {
     cmd->add_option("--lod", a->fur.shells.lod_levels,
                     "LOD levels K, 1..8 (default 1): N, N/2, N/4, ... shells; levels >= 1 on nodes '<node>_fur_lod<k>' "
                     "outside the default scene")
-        ->check(CLI::Range(1, 8));
-    cmd->add_option("--density", a->fur.strands.strands, "Strands per strand-texture tile (default 1400)")->check(CLI::Range(1, 1 << 22));
-    cmd->add_option("--strand-radius", a->fur.strands.radius, "Strand root radius in texels (default 2.2)")->check(CLI::Range(0.25, 64.0));
-    cmd->add_option("--texture-size", a->fur.strands.size, "Strand texture size in pixels, 16..4096 (default 256)")->check(CLI::Range(16, 4096));
-    cmd->add_option("--tile", a->fur.tile_size, "World size of one strand-texture tile (default 4 × length)")->check(CLI::PositiveNumber);
+        ->check(finite_range(1, 8));
+    cmd->add_option("--density", a->fur.strands.strands, "Strands per strand-texture tile (default 1400)")->check(finite_range(1, 1 << 22));
+    cmd->add_option("--strand-radius", a->fur.strands.radius, "Strand root radius in texels (default 2.2)")->check(finite_range(0.25, 64.0));
+    cmd->add_option("--texture-size", a->fur.strands.size, "Strand texture size in pixels, 16..4096 (default 256)")->check(finite_range(16, 4096));
+    cmd->add_option("--tile", a->fur.tile_size, "World size of one strand-texture tile (default 4 × length)")->check(positive());
     cmd->add_option("--seed", a->fur.strands.seed, "Seed of the strand textures (default 1)");
     cmd->add_option("--root-shade", a->fur.root_shade, "Brightness at the roots relative to the tips, 0..1 (default 0.45)")
-        ->check(CLI::Range(0.0, 1.0));
+        ->check(finite_range(0.0, 1.0));
     cmd->add_option("--max-triangles", a->fur.max_triangles,
                     "Refuse, before growing anything, when the shells could add more triangles than this "
                     "(default 20000000)")
-        ->check(CLI::PositiveNumber);
+        ->check(positive());
     cmd->footer("Examples:\n"
                 "  furrow shells models/creature.glb -o furry.glb --layers 32 --length 0.04 --mask models/creature_fur_mask.png\n"
                 "  furrow shells Fox.glb -o fox_fur.glb --layers 16 --length 3 --fins --lod 3\n"
@@ -112,42 +146,7 @@ void register_shells(CLI::App& app, GlobalFlags& g) {
                 "  furrow shells bunny.obj -o bunny_fur.glb --layers 64 --length 0.004 --spacing-power 1.5 --seed 7\n"
                 "Lengths are in world units; each vertex's length is reduced where the fur would otherwise run into the\n"
                 "mesh (thin gaps, concave corners); the summary says how many vertices were clamped.");
-    cmd->callback([a, &g] {
-        require_extension(a->out, "--output", {".glb", ".gltf"});
-        if (same_file(a->out, a->in)) throw InputError(a->out, "output path is the input file; refusing to overwrite the input");
-        a->fur.layout = a->layout == "engine" ? ShellLayout::engine : ShellLayout::viewer;
-        if (!a->mask.empty()) {
-            auto [file, letter] = split_channel(a->mask);
-            a->fur.mask = load_image_or_throw(file, "mask");
-            a->fur.mask_channel = channel_index(a->fur.mask, letter, file);
-        }
-        if (!a->comb.empty()) {
-            a->fur.comb = load_image_or_throw(a->comb, "comb map");
-            if (a->fur.comb.channels < 3) throw InputError(a->comb, "a comb map needs colour channels (r = along u, g = up)");
-        }
-        Progress progress(g, "furrow shells");
-        progress.stage("loading " + a->in);
-        Scene scene = load_or_throw(a->in);
-        for (const auto& w : scene.warnings) info(g, "Warning: " + a->in + ": " + w);
-        FurReport r;
-        progress.stage("growing " + plural(size_t(a->fur.shells.layers), "shell"));
-        require_ok(add_fur_shells(scene, a->fur, &r), a->in);
-        for (const auto& w : r.warnings) info(g, "Warning: " + a->in + ": " + w);
-        progress.stage("writing " + a->out);
-        save_or_throw(scene, a->out, a->in);
-        std::string line = "Wrote " + a->out + ": " + plural(size_t(a->fur.shells.layers), "shell") + " on " +
-                           plural(r.primitives, "primitive") + ", " + std::to_string(r.shell_triangles) + " triangles added";
-        if (r.dropped_triangles) line += " (" + std::to_string(r.dropped_triangles) + " bald shell triangles dropped)";
-        if (r.fin_quads) line += ", " + plural(r.fin_quads, "fin");
-        if (a->fur.shells.lod_levels > 1) line += ", " + std::to_string(a->fur.shells.lod_levels) + " LOD levels";
-        if (r.refined_faces)
-            line += "; " + plural(r.refined_faces, "base face") + " split where clamped corners starved the fur";
-        info(g, line);
-        info(g, "  " + std::to_string(r.clamped_vertices) + " of " + std::to_string(r.welded_vertices) +
-                    " vertices clamped (" + std::to_string(r.clamped_by_ray) + " by free space, " + std::to_string(r.clamped_by_fold) +
-                    " by folds, " + std::to_string(r.clamped_by_even_cap) + " at sharp corners), " + std::to_string(r.bald_vertices) +
-                    " bald");
-    });
+    cmd->callback([a, &g] { run_shells(*a, g); });
 }
 
 } // namespace furrow::cli

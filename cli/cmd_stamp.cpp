@@ -1,5 +1,5 @@
 // `furrow stamp GROUND -o OUT --colliders FILE.json …`: deformable snow (furrow/deform.h) on the command line.
-#include "cli_common.h"
+#include "commands.h"
 
 #include <furrow/deform.h>
 
@@ -22,16 +22,6 @@ bool ends_with_ci(const std::string& s, const std::string& suffix) {
         if (std::tolower(static_cast<unsigned char>(s[s.size() - suffix.size() + k])) != suffix[k]) return false;
     return true;
 }
-
-struct StampArgs {
-    std::string in, out, colliders, heightmap_out, heightmap_in;
-    StampOptions opt;
-    CameraFlags camera;
-    double pixel_error = 1.0;
-    double time = NAN;
-    double max_heightmap_mb = 1024;
-    bool no_tessellate = false;
-};
 
 // The output checks, before anything is read: extensions, and no output that is an input.
 void check_outputs(const StampArgs& a) {
@@ -97,6 +87,8 @@ void report_stamp(const StampArgs& a, const GlobalFlags& g, const StampReport& r
     if (!a.heightmap_out.empty()) info(g, "Wrote " + a.heightmap_out);
 }
 
+} // namespace
+
 // Validates the arguments, stamps the colliders into the ground, writes the outputs and prints the report.
 void run_stamp(const StampArgs& a, const GlobalFlags& g) {
     check_outputs(a);
@@ -119,8 +111,6 @@ void run_stamp(const StampArgs& a, const GlobalFlags& g) {
     report_stamp(a, g, r);
 }
 
-} // namespace
-
 void register_stamp(CLI::App& app, GlobalFlags& g) {
     auto a = std::make_shared<StampArgs>();
     CLI::App* cmd = app.add_subcommand("stamp", "Stamp colliders (footprints, a rolling ball, ...) into snow and displace the ground");
@@ -128,50 +118,50 @@ void register_stamp(CLI::App& app, GlobalFlags& g) {
     cmd->add_option("-o,--output", a->out, "Output .glb or .gltf")->required();
     cmd->add_option("--colliders", a->colliders, "Colliders JSON (schema: deform/README.md; example: models/colliders.json)")->required();
     auto* texel = cmd->add_option("--texel", a->opt.snow.texel, "Heightmap texel size in metres (default: from --resolution)")
-                      ->check(CLI::PositiveNumber);
+                      ->check(positive());
     auto* res = cmd->add_option("--resolution", a->opt.snow.resolution,
                                 "Heightmap texels along the ground's longer side, 2..1000000 (default 1024)")
-                    ->check(CLI::Range(2, 1000000));
+                    ->check(finite_range(2, 1000000));
     texel->excludes(res);
     cmd->add_option("--snow-depth", a->opt.snow.snow_depth, "Deepest imprint in metres; 0 = unlimited (default 0)")
-        ->check(CLI::NonNegativeNumber);
+        ->check(non_negative());
     cmd->add_option("--rim", a->opt.snow.rim_width, "Rim width in metres: snow heaped around imprints (default 0 = none)")
-        ->check(CLI::NonNegativeNumber);
+        ->check(non_negative());
     cmd->add_option("--rim-height", a->opt.snow.rim_height,
                     "Cosmetic rim height as a fraction of the nearby depth, 0..10 (default 0.5; ignored with --conserve-volume)")
-        ->check(CLI::Range(0.0, 10.0));
+        ->check(finite_range(0.0, 10.0));
     cmd->add_flag("--conserve-volume", a->opt.snow.conserve_volume,
                   "Rim volume = removed volume x (1 - compaction), exactly (rim width defaults to 8 texels)");
     cmd->add_option("--rim-max-height", a->opt.snow.rim_max_height,
                     "With --conserve-volume: the rim never rises above this x the local print depth; it widens instead "
                     "(default 1; 0 = no limit)")
-        ->check(CLI::NonNegativeNumber);
+        ->check(non_negative());
     cmd->add_option("--repose", a->opt.snow.repose_degrees,
                     "With --conserve-volume: the snow's angle of repose in degrees, the steepest rim slope; the rim widens "
                     "instead (default 40; 0 or 90 = no limit)")
-        ->check(CLI::Range(0.0, 90.0));
+        ->check(finite_range(0.0, 90.0));
     cmd->add_option("--compaction", a->opt.snow.compaction,
                     "With --conserve-volume: fraction of the removed snow compacted, 0..1 (default 0.3)")
-        ->check(CLI::Range(0.0, 1.0));
+        ->check(finite_range(0.0, 1.0));
     cmd->add_option("--refill", a->opt.snow.refill_rate, "Refill rate in 1/s: a stamp of age a keeps exp(-rate a) of its depth (default 0)")
-        ->check(CLI::NonNegativeNumber);
+        ->check(non_negative());
     cmd->add_option("--time", a->time, "Evaluation time in seconds for timed paths (default: the latest path time)")
-        ->check(CLI::NonNegativeNumber);
+        ->check(non_negative());
     cmd->add_option("--max-error", a->opt.max_error,
                     "Allowed deviation of the displaced mesh from the heightmap surface, metres (default: texel / 4)")
-        ->check(CLI::NonNegativeNumber);
+        ->check(non_negative());
     cmd->add_option("--max-rate", a->opt.max_rate, "Most segments per ground edge in one tessellation pass, 1..4096 (default 64)")
-        ->check(CLI::Range(1, 4096));
+        ->check(finite_range(1, 4096));
     cmd->add_option("--max-triangles", a->opt.max_triangles,
                     "Scale tessellation down to fit this many triangles per pass (default: no limit)");
     cmd->add_flag("--no-tessellate", a->no_tessellate, "Displace the ground's own vertices only");
     cmd->add_flag("--along-up", a->opt.along_up, "Displace along up instead of along the ground's normals");
     cmd->add_option("--pixel-error", a->pixel_error, "With --camera: allowed error in pixels; far snow gets coarser (default 1)")
-        ->check(CLI::PositiveNumber);
+        ->check(positive());
     cmd->add_option("--margin", a->opt.snow.margin, "Extra heightmap extent around the ground, metres (default 0)")
-        ->check(CLI::NonNegativeNumber);
+        ->check(non_negative());
     cmd->add_option("--max-heightmap-mb", a->max_heightmap_mb, "Memory guard: refuse heightmaps needing more MiB (default 1024)")
-        ->check(CLI::PositiveNumber);
+        ->check(positive());
     cmd->add_option("--heightmap-out", a->heightmap_out, "Write the heightmap: .pfm (float32) or .png (16-bit, scale recorded)");
     cmd->add_option("--heightmap-in", a->heightmap_in, "Start from a heightmap written by --heightmap-out (new stamps are min-composited)");
     add_camera_flags(*cmd, a->camera, CameraUse::eye);

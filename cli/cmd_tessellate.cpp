@@ -1,5 +1,5 @@
 // `furrow tessellate IN -o OUT`: adaptive, crack-free tessellation of the scene's meshes (furrow/tessellate.h).
-#include "cli_common.h"
+#include "commands.h"
 
 #include <furrow/tessellate.h>
 
@@ -28,18 +28,6 @@ FocusPoint parse_focus(const std::string& s) {
         throw CLI::ValidationError("--focus", "centre must be finite and radius > 0, got '" + s + "'");
     return f;
 }
-
-struct TessellateArgs {
-    std::string in, out;
-    std::string scheme = "catmark", boundary = "corner", uv = "corners";
-    CameraFlags camera;
-    int uniform = 0, max_rate = 0, accuracy = 2;
-    std::optional<double> near, far;
-    double pixel_error = 0, screen_error = 0, max_error = 0, crease_angle = 180;
-    std::vector<FocusPoint> focus;
-    size_t max_triangles = 0;
-    bool strict = false;
-};
 
 // --scheme, --boundary, --uv, --crease-angle, --accuracy and --strict as SurfaceOptions.
 void set_surface_options(SurfaceOptions& s, const TessellateArgs& a) {
@@ -110,6 +98,8 @@ void report_tessellation(const TessellateArgs& a, const GlobalFlags& g, const Sc
                 number(ms) + " ms)" + (repairs.empty() ? "" : "; " + repairs));
 }
 
+} // namespace
+
 // Validates the arguments, tessellates the scene, writes it and prints the report.
 void run_tessellate(const TessellateArgs& a, const GlobalFlags& g) {
     TessellateOptions o;
@@ -137,8 +127,6 @@ void run_tessellate(const TessellateArgs& a, const GlobalFlags& g) {
     report_tessellation(a, g, rep, ms);
 }
 
-} // namespace
-
 void register_tessellate(CLI::App& app, GlobalFlags& g) {
     auto a = std::make_shared<TessellateArgs>();
     CLI::App* cmd = app.add_subcommand(
@@ -148,33 +136,33 @@ void register_tessellate(CLI::App& app, GlobalFlags& g) {
     cmd->add_option("--scheme", a->scheme, "Subdivision scheme: catmark (default), loop (triangles only) or bilinear "
                                            "(keeps the shape: terrain)")
         ->check(CLI::IsMember({"catmark", "loop", "bilinear"}));
-    cmd->add_option("--uniform", a->uniform, "Criterion: this many segments on every edge")->check(CLI::Range(1, 32767));
+    cmd->add_option("--uniform", a->uniform, "Criterion: this many segments on every edge")->check(finite_range(1, 32767));
     add_camera_flags(*cmd, a->camera, CameraUse::eye);
     cmd->add_option("--near", a->near, "Criterion (with --far and --camera): Unity's distance-based factor, full rate "
                                        "up to this distance from the camera (>= 0) ...");
     cmd->add_option("--far", a->far, "... falling to 1% of --max-rate at this distance (> --near)");
     cmd->add_option("--pixel-error", a->pixel_error,
                     "Criterion (with --camera): projected segments of at most this many pixels (Cycles' dicing rate)")
-        ->check(CLI::PositiveNumber);
+        ->check(positive());
     cmd->add_option("--screen-error", a->screen_error,
                     "Criterion (with --camera): projected distance to the limit surface of at most this many pixels")
-        ->check(CLI::PositiveNumber);
+        ->check(positive());
     cmd->add_option("--max-error", a->max_error,
                     "Criterion: distance to the limit surface of at most this, in world units")
-        ->check(CLI::PositiveNumber);
+        ->check(positive());
     cmd->add_option_function<std::string>("--focus", [a](const std::string& s) { a->focus.push_back(parse_focus(s)); },
                                           "Criterion: full rate within radius of x,y,z, falling to 1 at twice the "
                                           "radius; repeatable")
         ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
     cmd->add_option("--max-rate", a->max_rate, "Most segments per edge (default 64, or the --uniform rate if larger)")
-        ->check(CLI::Range(1, 32767));
+        ->check(finite_range(1, 32767));
     cmd->add_option("--max-triangles", a->max_triangles,
                     "Scale every rate down until the whole scene has at most this many triangles (default: refuse, "
                     "before evaluating anything, an output the rates would make over 20000000 triangles)")
-        ->check(CLI::PositiveNumber);
+        ->check(positive());
     cmd->add_option("--crease-angle", a->crease_angle,
                     "Edges where faces meet at more than this angle (degrees) become sharp creases (default: none)")
-        ->check(CLI::Range(0.0, 180.0));
+        ->check(finite_range(0.0, 180.0));
     cmd->add_option("--boundary", a->boundary, "Open boundaries: corner (default: boundary curves, corners kept) or "
                                                "edge (boundary curves, corners smoothed)")
         ->check(CLI::IsMember({"edge", "corner"}));
@@ -183,7 +171,7 @@ void register_tessellate(CLI::App& app, GlobalFlags& g) {
         ->check(CLI::IsMember({"smooth", "corners", "corners1", "corners2", "boundaries", "linear"}));
     cmd->add_option("--accuracy", a->accuracy,
                     "Refinement levels near extraordinary vertices, 1..10 (default 2; each level ~8x closer)")
-        ->check(CLI::Range(1, 10));
+        ->check(finite_range(1, 10));
     cmd->add_flag("--strict", a->strict,
                   "Refuse input that needs repair (degenerate, flipped or non-manifold faces) "
                   "instead of repairing it or tessellating those faces linearly");

@@ -1,5 +1,5 @@
 // furrow — geometry tools for fur shells and deformable terrain.
-#include "cli_common.h"
+#include "commands.h"
 
 #include <cmath>
 #include <cstdio>
@@ -11,60 +11,6 @@
 #ifndef FURROW_VERSION
 #define FURROW_VERSION "0.0.0"
 #endif
-
-namespace {
-
-// CLI11's Range, PositiveNumber and NonNegativeNumber let "nan" through (every comparison with NaN is false), so
-// `--texel nan` reached the library and came back as an input error naming the mesh (exit 1), and
-// `check --sliver-angle nan` was silently accepted; PositiveNumber also printed "not in range 0.000000 to
-// 1797693...(300 digits)". Every option with such a check now refuses non-finite values as a usage error (exit
-// 2) and the open-ended ranges say what they want.
-void harden_number_checks(CLI::App& app) {
-    auto number = [](const std::string& s, double& v) {
-        size_t used = 0;
-        try {
-            v = std::stod(s, &used);
-        } catch (...) {
-            return false;
-        }
-        return used == s.size();
-    };
-    for (CLI::Option* opt : app.get_options()) {
-        bool ranged = false;
-        for (int i = 0;; ++i) {
-            CLI::Validator* v = nullptr;
-            try {
-                v = opt->get_validator(i);
-            } catch (const CLI::OptionNotFound&) {
-                break;
-            }
-            const std::string name = v->get_description(); // CLI11 stores "POSITIVE" etc. as the description
-            if (name == "POSITIVE" || name == "NONNEGATIVE") {
-                const bool positive = name == "POSITIVE";
-                v->operation([number, positive](std::string& s) -> std::string {
-                    double x = 0;
-                    if (!number(s, x) || !std::isfinite(x) || (positive ? !(x > 0) : !(x >= 0)))
-                        return std::string("must be a finite number ") + (positive ? "> 0" : ">= 0") + ", got '" + s + "'";
-                    return {};
-                });
-                ranged = true;
-            } else if (v->get_description().find(" in [") != std::string::npos) {
-                ranged = true; // CLI::Range(a, b)
-            }
-        }
-        if (ranged)
-            opt->check(CLI::Validator(
-                [number](std::string& s) -> std::string {
-                    double x = 0;
-                    if (number(s, x) && !std::isfinite(x)) return "must be a finite number, got '" + s + "'";
-                    return {};
-                },
-                "", "FINITE"));
-    }
-    for (CLI::App* sub : app.get_subcommands([](CLI::App*) { return true; })) harden_number_checks(*sub);
-}
-
-} // namespace
 
 int main(int argc, char** argv) {
     using namespace furrow::cli;
@@ -100,7 +46,7 @@ int main(int argc, char** argv) {
                                                                         size_t(n));
            },
            "Worker threads (default: all cores); output bytes are identical for any count")
-        ->check(CLI::Range(1, 1024));
+        ->check(finite_range(1, 1024));
     register_check(app, g);
     register_convert(app, g);
     register_render(app, g);
@@ -109,7 +55,6 @@ int main(int argc, char** argv) {
     register_tessellate(app, g);
     register_demo(app, g);
     register_bench(app, g);
-    harden_number_checks(app);
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {

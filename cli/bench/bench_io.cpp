@@ -142,7 +142,7 @@ void register_bench_io(CLI::App& bench, GlobalFlags& g) {
     CLI::App* io = bench.add_subcommand("io", "Load + save time per model, as a ratio to memcpy of its bytes");
     io->add_option("inputs", args->inputs, "Model files or folders (default: models/ and ../shared/corpus)");
     io->add_option("--repeat", args->repeat, "Runs per measurement; the median is reported (default 5)")
-        ->check(CLI::Range(1, 1000));
+        ->check(finite_range(1, 1000));
     add_bench_output_flags(*io, *out);
     io->footer("Examples:\n  furrow bench io\n  furrow bench io ../shared/corpus --repeat 9 --json --plots plots");
     io->callback([args, out, &g] { finish_bench(run_bench_io(*args, g, !out->json), *out, g); });

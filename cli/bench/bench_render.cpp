@@ -272,9 +272,9 @@ void register_bench_render(CLI::App& bench, GlobalFlags& g) {
     c->add_option("input", a->input, "Scene to render (default: models/creature.glb)");
     c->add_option("--layers", a->layers, "Fur shells grown on the input first (default 128, about 2M triangles "
                                          "on the creature; 0 = none)")
-        ->check(CLI::Range(0, 256));
+        ->check(finite_range(0, 256));
     c->add_option("--repeat", a->repeat, "Frames per measurement; the median is reported (default 3)")
-        ->check(CLI::Range(1, 100));
+        ->check(finite_range(1, 100));
     c->add_option("--three", a->three, "The furrow repository, for the three.js comparison of the fur views "
                                        "(tests/viewer, .cache/viewer; default: the current folder)");
     add_bench_output_flags(*c, *out);

@@ -296,10 +296,10 @@ void register_bench_shells(CLI::App& bench, GlobalFlags& g) {
     a->base.repeat = 3;
     CLI::App* cmd = bench.add_subcommand("shells", "Fur shells per model and N: time vs memcpy of the output, achieved offset");
     cmd->add_option("inputs", a->base.inputs, "Model files or folders (default: models/creature.glb and ../shared/corpus)");
-    cmd->add_option("--layers", a->layers, "Shell counts to run (default 8 32 64)")->check(CLI::Range(1, 256))->delimiter(',');
+    cmd->add_option("--layers", a->layers, "Shell counts to run (default 8 32 64)")->check(finite_range(1, 256))->delimiter(',');
     cmd->add_option("--relative-length", a->relative_length, "Fur length as a fraction of the bbox diagonal (default 0.02)")
-        ->check(CLI::Range(1e-6, 1.0));
-    cmd->add_option("--repeat", a->base.repeat, "Timed runs per row; the median is reported (default 3)")->check(CLI::Range(1, 1000));
+        ->check(finite_range(1e-6, 1.0));
+    cmd->add_option("--repeat", a->base.repeat, "Timed runs per row; the median is reported (default 3)")->check(finite_range(1, 1000));
     add_bench_output_flags(*cmd, *out);
     cmd->footer("Examples:\n  furrow bench shells\n  furrow bench shells models/creature.glb --layers 16,128 --repeat 5 --json");
     cmd->callback([a, out, &g] { finish_bench(run_bench_shells(*a, g, !out->json), *out, g); });

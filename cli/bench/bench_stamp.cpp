@@ -493,7 +493,7 @@ void register_bench_stamp(CLI::App& bench, GlobalFlags& g) {
     auto a = std::make_shared<Args>();
     auto out = std::make_shared<BenchOutput>();
     CLI::App* cmd = bench.add_subcommand("stamp", "Snow stamping: analytic-oracle error vs time, rays/s, stamps/s, a 256-collider frame");
-    cmd->add_option("--repeat", a->repeat, "Runs per measurement; the median is reported (default 3)")->check(CLI::Range(1, 1000));
+    cmd->add_option("--repeat", a->repeat, "Runs per measurement; the median is reported (default 3)")->check(finite_range(1, 1000));
     add_bench_output_flags(*cmd, *out);
     cmd->add_flag("--quick", a->quick, "Fewer sizes and samples (a smoke run)");
     cmd->footer("Examples:\n  furrow bench stamp\n  furrow bench stamp --quick --json\n  furrow bench stamp -j 1 --repeat 5");

@@ -334,9 +334,9 @@ void register_bench_tessellate(CLI::App& bench, GlobalFlags& g) {
     cmd->add_option("inputs", args->inputs,
                     "Model files or folders (default: a noise terrain patch, and spot's cage and the closed bunny "
                     "from ../shared/corpus, else the bundled creature)");
-    cmd->add_option("--repeat", args->repeat, "Runs per timing; the median is reported (default 3)")->check(CLI::Range(1, 1000));
+    cmd->add_option("--repeat", args->repeat, "Runs per timing; the median is reported (default 3)")->check(finite_range(1, 1000));
     cmd->add_option("--targets", *targets, "Max projected errors (pixels) for the matched comparison (default 1 0.5)")
-        ->check(CLI::PositiveNumber);
+        ->check(positive());
     add_bench_output_flags(*cmd, *out);
     cmd->footer("Examples:\n  furrow bench tessellate --plots plots\n  furrow bench tessellate --targets 2 1 0.5 --repeat 5\n"
                 "  furrow bench tessellate ../shared/corpus/duck/Duck.glb --json");

@@ -123,7 +123,7 @@ void write_png_grey(const fs::path& file, int channels) {
     im.width = im.height = 4;
     im.channels = channels;
     im.pixels.assign(size_t(16 * channels), 1.0f);
-    ASSERT_TRUE(save_png(file.string(), im).ok());
+    ASSERT_TRUE(save_png(im, file.string()).ok());
 }
 
 // What every row starts with: a good mesh with UVs, a ground, colliders, a grey mask, a far-from-perfect but

@@ -95,7 +95,7 @@ TEST(furrow_shells, BadInputFollowsTheErrorContract) {
                  (dir / "not_a.png").string(), "mask");
     ImageF mask;
     mask.width = mask.height = 4, mask.channels = 1, mask.pixels.assign(16, 1.0f);
-    ASSERT_TRUE(save_png((dir / "m.png").string(), mask).ok());
+    ASSERT_TRUE(save_png(mask, (dir / "m.png").string()).ok());
     expect_error({"shells", ico.string(), "-o", out, "--length", "0.05", "--mask", (dir / "m.png").string()}, ico.string(), "TEXCOORD_0");
     // An empty mesh and a mesh without triangles.
     test::write_text(dir / "empty.obj", "# nothing\n");
