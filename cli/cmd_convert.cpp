@@ -8,6 +8,7 @@ void register_convert(CLI::App& app, GlobalFlags& g) {
         std::string in, out;
         bool pretty = false;
         bool no_recentre = false;
+        LoadOptions load;
     };
     auto args = std::make_shared<Args>();
     CLI::App* cmd = app.add_subcommand("convert", "Convert a mesh or scene to .glb or .gltf (scene preserved)");
@@ -17,9 +18,10 @@ void register_convert(CLI::App& app, GlobalFlags& g) {
     cmd->add_flag("--no-recentre", args->no_recentre,
                   "Keep far-from-origin positions as they are (default: store them relative to the bounding-box "
                   "centre and move the centre into the node translation)");
+    add_load_flags(*cmd, args->load);
     cmd->footer("Examples:\n  furrow convert bunny.obj -o bunny.glb\n  furrow convert Duck.glb -o duck.gltf --pretty");
     cmd->callback([args, &g] {
-        LoadOptions lo;
+        LoadOptions lo = args->load;
         lo.recentre = !args->no_recentre;
         Scene scene = load_or_throw(args->in, lo);
         for (const auto& w : scene.warnings) info(g, "Warning: " + args->in + ": " + w);

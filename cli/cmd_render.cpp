@@ -68,6 +68,7 @@ std::array<float, 3> parse_colour(const std::string& s) {
 }
 
 struct RenderArgs {
+    LoadOptions load;
     std::string in, out, mode, attribute, background, depth_out;
     bool ortho = false, no_legend = false, no_mipmaps = false;
     double ortho_height = 0, ambient = 0.25, near_plane = 0;
@@ -117,7 +118,7 @@ void run_render(const RenderArgs& a, const GlobalFlags& g) {
 
     Progress progress(g, "furrow render");
     progress.stage("loading " + a.in);
-    Scene scene = load_or_throw(a.in);
+    Scene scene = load_or_throw(a.in, a.load);
     for (const auto& w : scene.warnings) info(g, "Warning: " + a.in + ": " + w);
     RenderResult r;
     progress.stage("rendering");
@@ -195,6 +196,7 @@ void register_render(CLI::App& app, GlobalFlags& g) {
     cmd->add_option("--near", args->near_plane, "Near clipping plane distance (default: from the bounding box)")
         ->check(CLI::PositiveNumber);
     add_camera_flags(*cmd, args->camera);
+    add_load_flags(*cmd, args->load);
     cmd->footer("Examples:\n"
                 "  furrow render fox.glb -o fox.png\n"
                 "  furrow render fox.glb -o fox.png --size 1920x1080 --ssaa 4 --background 1,1,1\n"
