@@ -59,7 +59,7 @@ void add_camera_flags(CLI::App& cmd, CameraFlags& f, CameraUse use) {
                                                "from it; where it looks does not matter)");
     if (use == CameraUse::eye) {
         cmd.add_option("--fov", f.fov_degrees, "Vertical field of view of that eye in degrees (default 45)")
-            ->check(CLI::Range(1.0, 179.0));
+            ->check(finite_range(1.0, 179.0));
         add_size_flag(cmd, f, "Image size WxH the pixel criteria refer to (only the height matters; default 1024x768)");
         return;
     }
@@ -75,8 +75,33 @@ void add_camera_flags(CLI::App& cmd, CameraFlags& f, CameraUse use) {
                                          },
                                          "Up direction x,y,z (default 0,1,0)");
     cmd.add_option("--fov", f.fov_degrees, "Vertical field of view in degrees (default 45)")
-        ->check(CLI::Range(1.0, 179.0));
+        ->check(finite_range(1.0, 179.0));
     add_size_flag(cmd, f, "Image size WxH in pixels, each 1..16384 (default 1024x768)");
+}
+
+void add_load_flags(CLI::App& cmd, LoadOptions& o) {
+    const LoadOptions d;
+    // An empty or missing folder is a bad option value (exit 2), before any input is read.
+    cmd.add_option("--resource-root", o.resource_root,
+                   "Folder a .gltf's external buffers and images must lie in, after '..' and symbolic links are "
+                   "resolved (default: the input's own folder and below)")
+        ->type_name("DIR")
+        ->check(CLI::ExistingDirectory.description(""));
+    cmd.add_option("--max-resource-bytes", o.max_resource_bytes,
+                   "Most bytes of external buffers and images, together (default " + std::to_string(d.max_resource_bytes) + ")")
+        ->type_name("N")
+        ->check(positive().description(""));
+    cmd.add_option("--max-image-pixels", o.max_image_pixels,
+                   "Largest width x height of an image, read from its header (default " + std::to_string(d.max_image_pixels) + ")")
+        ->type_name("N")
+        ->check(positive().description(""));
+    cmd.add_option("--max-nodes", o.max_nodes, "Most nodes in a glTF input (default " + std::to_string(d.max_nodes) + ")")
+        ->type_name("N")
+        ->check(positive().description(""));
+    cmd.add_option("--max-primitives", o.max_primitives,
+                   "Most primitives in a glTF input, over all meshes (default " + std::to_string(d.max_primitives) + ")")
+        ->type_name("N")
+        ->check(positive().description(""));
 }
 
 Scene load_or_throw(const std::string& path, const LoadOptions& options) {

@@ -62,6 +62,11 @@ void add_camera_flags(CLI::App& cmd, CameraFlags& flags, CameraUse use = CameraU
 // about 0.6 GB with normals and UVs, well inside the format's 4 GiB and a machine's memory.
 constexpr size_t kDefaultTriangleBudget = 20'000'000;
 
+// The flags of every command that reads a scene, into `options` (README "Threat model"): --resource-root DIR
+// (external buffers and images only from DIR and below; default: the input's folder), --max-resource-bytes,
+// --max-image-pixels, --max-nodes, --max-primitives (defaults: LoadOptions's).
+void add_load_flags(CLI::App& cmd, LoadOptions& options);
+
 // Loads a scene or throws InputError naming the file.
 Scene load_or_throw(const std::string& path, const LoadOptions& options = {});
 // Saves or throws InputError naming the output; refuses output == input.

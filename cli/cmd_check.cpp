@@ -262,7 +262,7 @@ void run_check(const CheckArgs& a, const GlobalFlags& g) {
     for (const auto& name : a.require)
         if (name == "no-self-intersections") options.self_intersections = true;
 
-    LoadOptions load;
+    LoadOptions load = a.load;
     load.recentre = false;        // check the coordinates the file holds
     load.allow_non_finite = true; // NaN/Inf is a finding to report, not a reason to refuse the file
     Scene scene = load_or_throw(a.input, load);
@@ -356,6 +356,7 @@ void register_check(CLI::App& app, GlobalFlags& g) {
         ->type_name("NAME,...")
         ->delimiter(',')
         ->check(CLI::IsMember(names).description("")); // the footer lists and explains them
+    add_load_flags(*cmd, args->load);
     cmd->footer(footer());
     cmd->callback([args, &g] { run_check(*args, g); });
 }

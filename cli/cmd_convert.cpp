@@ -4,7 +4,7 @@
 namespace furrow::cli {
 
 void run_convert(const ConvertArgs& a, const GlobalFlags& g) {
-    LoadOptions lo;
+    LoadOptions lo = a.load;
     lo.recentre = !a.no_recentre;
     Scene scene = load_or_throw(a.in, lo);
     for (const auto& w : scene.warnings) info(g, "Warning: " + a.in + ": " + w);
@@ -28,6 +28,7 @@ void register_convert(CLI::App& app, GlobalFlags& g) {
     cmd->add_flag("--no-recentre", args->no_recentre,
                   "Keep far-from-origin positions as they are (default: store them relative to the bounding-box "
                   "centre and move the centre into the node translation)");
+    add_load_flags(*cmd, args->load);
     cmd->footer("Examples:\n  furrow convert bunny.obj -o bunny.glb\n  furrow convert Duck.glb -o duck.gltf --pretty");
     cmd->callback([args, &g] { run_convert(*args, g); });
 }

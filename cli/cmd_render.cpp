@@ -111,7 +111,7 @@ void run_render(const RenderArgs& a, const GlobalFlags& g) {
 
     Progress progress(g, "furrow render");
     progress.stage("loading " + a.in);
-    Scene scene = load_or_throw(a.in);
+    Scene scene = load_or_throw(a.in, a.load);
     for (const auto& w : scene.warnings) info(g, "Warning: " + a.in + ": " + w);
     RenderResult r;
     progress.stage("rendering");
@@ -187,6 +187,7 @@ void register_render(CLI::App& app, GlobalFlags& g) {
     cmd->add_option("--near", args->near_plane, "Near clipping plane distance (default: from the bounding box)")
         ->check(positive());
     add_camera_flags(*cmd, args->camera);
+    add_load_flags(*cmd, args->load);
     cmd->footer("Examples:\n"
                 "  furrow render fox.glb -o fox.png\n"
                 "  furrow render fox.glb -o fox.png --size 1920x1080 --ssaa 4 --background 1,1,1\n"

@@ -61,7 +61,7 @@ void run_shells(const ShellsArgs& a, const GlobalFlags& g) {
     }
     Progress progress(g, "furrow shells");
     progress.stage("loading " + a.in);
-    Scene scene = load_or_throw(a.in);
+    Scene scene = load_or_throw(a.in, a.load);
     for (const auto& w : scene.warnings) info(g, "Warning: " + a.in + ": " + w);
     FurReport r;
     progress.stage("growing " + plural(size_t(fur.shells.layers), "shell"));
@@ -139,6 +139,7 @@ void register_shells(CLI::App& app, GlobalFlags& g) {
                     "Refuse, before growing anything, when the shells could add more triangles than this "
                     "(default 20000000)")
         ->check(positive());
+    add_load_flags(*cmd, a->load);
     cmd->footer("Examples:\n"
                 "  furrow shells models/creature.glb -o furry.glb --layers 32 --length 0.04 --mask models/creature_fur_mask.png\n"
                 "  furrow shells Fox.glb -o fox_fur.glb --layers 16 --length 3 --fins --lod 3\n"

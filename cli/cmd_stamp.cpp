@@ -98,7 +98,7 @@ void run_stamp(const StampArgs& a, const GlobalFlags& g) {
     if (!a.heightmap_in.empty()) require_ok(load_heightmap(base, a.heightmap_in), a.heightmap_in);
     Progress progress(g, "furrow stamp");
     progress.stage("loading " + a.in);
-    Scene scene = load_or_throw(a.in);
+    Scene scene = load_or_throw(a.in, a.load);
     for (const auto& w : scene.warnings) info(g, "Warning: " + a.in + ": " + w);
     const StampOptions opt = stamp_options(a, a.heightmap_in.empty() ? nullptr : &base);
     StampReport r;
@@ -165,6 +165,7 @@ void register_stamp(CLI::App& app, GlobalFlags& g) {
     cmd->add_option("--heightmap-out", a->heightmap_out, "Write the heightmap: .pfm (float32) or .png (16-bit, scale recorded)");
     cmd->add_option("--heightmap-in", a->heightmap_in, "Start from a heightmap written by --heightmap-out (new stamps are min-composited)");
     add_camera_flags(*cmd, a->camera, CameraUse::eye);
+    add_load_flags(*cmd, a->load);
     cmd->footer("Examples:\n"
                 "  furrow stamp models/ground.glb -o snow.glb --colliders models/colliders.json\n"
                 "  furrow stamp models/ground.glb -o snow.glb --colliders models/colliders.json --texel 0.01 --rim 0.08 --conserve-volume\n"

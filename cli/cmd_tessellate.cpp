@@ -109,7 +109,7 @@ void run_tessellate(const TessellateArgs& a, const GlobalFlags& g) {
 
     Progress progress(g, "furrow tessellate");
     progress.stage("loading " + a.in);
-    Scene scene = load_or_throw(a.in);
+    Scene scene = load_or_throw(a.in, a.load);
     for (const auto& w : scene.warnings) info(g, "Warning: " + a.in + ": " + w);
     if (same_file(a.out, a.in))
         throw InputError(a.out, "output path is the input file; refusing to overwrite the input");
@@ -175,6 +175,7 @@ void register_tessellate(CLI::App& app, GlobalFlags& g) {
     cmd->add_flag("--strict", a->strict,
                   "Refuse input that needs repair (degenerate, flipped or non-manifold faces) "
                   "instead of repairing it or tessellating those faces linearly");
+    add_load_flags(*cmd, a->load);
     cmd->footer("Criteria combine: each edge takes the largest rate any of them asks for, capped by --max-rate.\n"
                 "Only the camera's position, --fov and the height of --size matter (distances are measured from\n"
                 "the eye, so the result does not depend on where the camera looks).\n\n"

@@ -22,6 +22,7 @@ namespace furrow::cli {
 
 // `furrow check`
 struct CheckArgs {
+    LoadOptions load; // --resource-root and the input limits (add_load_flags)
     std::string input;
     bool json = false;
     bool self_intersections = false;
@@ -31,6 +32,7 @@ struct CheckArgs {
 
 // `furrow render`
 struct RenderArgs {
+    LoadOptions load; // --resource-root and the input limits (add_load_flags)
     std::string in, out, mode, attribute, background, depth_out;
     bool ortho = false, no_legend = false, no_mipmaps = false;
     double ortho_height = 0, ambient = 0.25, near_plane = 0;
@@ -40,6 +42,7 @@ struct RenderArgs {
 
 // `furrow stamp`
 struct StampArgs {
+    LoadOptions load; // --resource-root and the input limits (add_load_flags)
     std::string in, out, colliders, heightmap_out, heightmap_in;
     StampOptions opt;
     CameraFlags camera;
@@ -51,6 +54,7 @@ struct StampArgs {
 
 // `furrow tessellate`
 struct TessellateArgs {
+    LoadOptions load; // --resource-root and the input limits (add_load_flags)
     std::string in, out;
     std::string scheme = "catmark", boundary = "corner", uv = "corners";
     CameraFlags camera;
@@ -79,6 +83,7 @@ struct BenchAllArgs {
 
 // `furrow convert`
 struct ConvertArgs {
+    LoadOptions load; // --resource-root and the input limits (add_load_flags)
     std::string in, out;
     bool pretty = false;
     bool no_recentre = false;
@@ -86,6 +91,7 @@ struct ConvertArgs {
 
 // `furrow shells`
 struct ShellsArgs {
+    LoadOptions load; // --resource-root and the input limits (add_load_flags)
     std::string in, out;
     std::string mask; // FILE[:r|g|b|a]
     std::string comb;

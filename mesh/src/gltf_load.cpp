@@ -514,12 +514,42 @@ std::vector<int> scene_roots(const tinygltf::Model& model, int scene_index, std:
     return roots;
 }
 
+// Images keep their encoded bytes (moved out of the model: the writer embeds them from the scene).
+Status convert_images(Scene& scene, tinygltf::Model& model, const LoadOptions& options) {
+    for (auto& img : model.images) {
+        Image im;
+        im.name = img.name;
+        im.mime_type = img.mimeType;
+        im.source_uri = img.uri;
+        im.encoded = std::move(img.image);
+        img.image.clear();
+        // The decoders (render, shells) allocate width × height before they look at the pixels: a 1 KB PNG
+        // can claim 100000 × 100000. Refused here, from the header, before anything decodes it.
+        int w = 0, h = 0;
+        if (!im.encoded.empty() && mesh_detail::image_dimensions(im.encoded.data(), im.encoded.size(), w, h) &&
+            (w <= 0 || h <= 0 || size_t(w) * size_t(h) > options.max_image_pixels))
+            return Status::error(StatusCode::out_of_memory,
+                                 "image " + std::to_string(scene.images.size()) + " is " + std::to_string(w) + "x" +
+                                     std::to_string(h) + " pixels, above the limit of " +
+                                     std::to_string(options.max_image_pixels) + " (--max-image-pixels raises it)");
+        if (im.encoded.empty())
+            scene.warnings.push_back("image " + std::to_string(scene.images.size()) + " ('" + mesh_detail::printable_uri(img.uri) +
+                                     "') could not be read; its texture renders as the material factor");
+        scene.images.push_back(std::move(im));
+    }
+    return Status::success();
+}
+
 Status convert_model(Scene& out, tinygltf::Model&& model, const LoadOptions& options) {
     for (const auto& e : model.extensionsRequired) {
         if (!required_extension_supported(e))
             return Status::error(StatusCode::unsupported, "required extension " + e + " is not supported");
     }
-    Status s = check_node_graph(model);
+    size_t primitives = 0;
+    for (const auto& mesh : model.meshes) primitives += mesh.primitives.size();
+    Status s = mesh_detail::check_scene_counts(model.nodes.size(), primitives, options);
+    if (!s.ok()) return s;
+    s = check_node_graph(model);
     if (!s.ok()) return s;
     s = check_core_attribute_types(model);
     if (!s.ok()) return s;
@@ -581,18 +611,8 @@ Status convert_model(Scene& out, tinygltf::Model&& model, const LoadOptions& opt
         if (scene.materials[i].base_color_texture.texture >= int(scene.textures.size()))
             return Status::error(StatusCode::invalid_input, "material " + std::to_string(i) + ": texture does not exist");
     for (const auto& smp : model.samplers) scene.samplers.push_back({smp.magFilter, smp.minFilter, smp.wrapS, smp.wrapT});
-    for (auto& img : model.images) {
-        Image im;
-        im.name = img.name;
-        im.mime_type = img.mimeType;
-        im.source_uri = img.uri;
-        im.encoded = std::move(img.image);
-        img.image.clear();
-        if (im.encoded.empty())
-            scene.warnings.push_back("image " + std::to_string(scene.images.size()) + " ('" + img.uri +
-                                     "') could not be read; its texture renders as the material factor");
-        scene.images.push_back(std::move(im));
-    }
+    s = convert_images(scene, model, options);
+    if (!s.ok()) return s;
     for (size_t i = 0; i < model.skins.size(); ++i) {
         const auto& src = model.skins[i];
         Skin sk;
@@ -636,28 +656,41 @@ Status convert_model(Scene& out, tinygltf::Model&& model, const LoadOptions& opt
 
 } // namespace
 
-Status load_gltf_bytes(Scene& out, const uint8_t* data, size_t size, const std::string& base_dir,
+Status load_gltf_bytes(Scene& out, const uint8_t* data, size_t size, const ResourceResolver& resolver,
                        const LoadOptions& options) {
+    if (size > std::numeric_limits<unsigned int>::max())
+        return Status::error(StatusCode::out_of_memory, "file is larger than 4 GiB");
+    // External resources are decided and read first (gltf_resources.cpp); tinygltf then sees only tokens for
+    // them and its file callbacks serve those from memory. Any other path it asks for does not exist: the
+    // file system is out of its reach, whatever it makes of a URI (before, it opened any absolute path and
+    // tried relative ones in the working directory too).
+    mesh_detail::PreparedGltf prepared;
+    if (Status s = mesh_detail::prepare_gltf(prepared, data, size, resolver, options); !s.ok()) return s;
+    if (!prepared.bytes.empty()) {
+        data = prepared.bytes.data();
+        size = prepared.bytes.size();
+    }
     tinygltf::TinyGLTF loader;
     tinygltf::Model model;
     loader.SetImageLoader(keep_image_bytes, &model);
-    if (base_dir.empty()) {
-        // From memory (load_scene_from_memory) there is no folder to resolve a URI against, and external URIs
-        // are documented as not resolved; tinygltf would still open any absolute path and try relative ones
-        // in the working directory, so the result depended on where the process ran and an error message
-        // gave away the size of any file a URI named (found while fuzzing load_scene_from_memory).
-        tinygltf::FsCallbacks no_files{};
-        no_files.FileExists = [](const std::string&, void*) { return false; };
-        no_files.ExpandFilePath = [](const std::string& p, void*) { return p; };
-        no_files.ReadWholeFile = [](std::vector<unsigned char>*, std::string*, const std::string&, void*) { return false; };
-        no_files.WriteWholeFile = [](std::string*, const std::string&, const std::vector<unsigned char>&, void*) { return false; };
-        loader.SetFsCallbacks(no_files);
-    }
+    tinygltf::FsCallbacks served{};
+    served.FileExists = [](const std::string& p, void* files) {
+        return static_cast<std::map<std::string, std::vector<uint8_t>>*>(files)->count(p) > 0;
+    };
+    served.ExpandFilePath = [](const std::string& p, void*) { return p; };
+    served.ReadWholeFile = [](std::vector<unsigned char>* out, std::string*, const std::string& p, void* files) {
+        auto& map = *static_cast<std::map<std::string, std::vector<uint8_t>>*>(files);
+        auto it = map.find(p);
+        if (it == map.end()) return false;
+        out->swap(it->second);
+        return true;
+    };
+    served.WriteWholeFile = [](std::string*, const std::string&, const std::vector<unsigned char>&, void*) { return false; };
+    served.user_data = &prepared.files;
+    loader.SetFsCallbacks(served);
     std::string err, warn;
     bool ok;
     const bool glb = size >= 4 && std::memcmp(data, "glTF", 4) == 0;
-    if (size > std::numeric_limits<unsigned int>::max())
-        return Status::error(StatusCode::out_of_memory, "file is larger than 4 GiB");
     if (glb) {
         // GLB container version 1 is glTF 1.0's binary extension: tinygltf reads it as if it were 2.0.
         if (size >= 12) {
@@ -667,10 +700,10 @@ Status load_gltf_bytes(Scene& out, const uint8_t* data, size_t size, const std::
                 return Status::error(StatusCode::unsupported, "invalid GLB: container version " + std::to_string(version) +
                                                                   " is not supported (glTF 2.0 is version 2)");
         }
-        ok = loader.LoadBinaryFromMemory(&model, &err, &warn, data, unsigned(size), base_dir);
+        ok = loader.LoadBinaryFromMemory(&model, &err, &warn, data, unsigned(size), "");
     } else {
         if (size == 0) return Status::error(StatusCode::invalid_input, "file is empty");
-        ok = loader.LoadASCIIFromString(&model, &err, &warn, reinterpret_cast<const char*>(data), unsigned(size), base_dir);
+        ok = loader.LoadASCIIFromString(&model, &err, &warn, reinterpret_cast<const char*>(data), unsigned(size), "");
     }
     if (!ok) {
         std::string msg = err.empty() ? "not a valid glTF file" : err;
@@ -685,6 +718,10 @@ Status load_gltf_bytes(Scene& out, const uint8_t* data, size_t size, const std::
         }
         return Status::error(StatusCode::invalid_input, (glb ? "invalid GLB: " : "invalid glTF: ") + msg);
     }
+    for (size_t i = 0; i < model.buffers.size() && i < prepared.buffer_uris.size(); ++i)
+        if (!prepared.buffer_uris[i].empty()) model.buffers[i].uri = prepared.buffer_uris[i];
+    for (size_t i = 0; i < model.images.size() && i < prepared.image_uris.size(); ++i)
+        if (!prepared.image_uris[i].empty()) model.images[i].uri = prepared.image_uris[i];
     Status s = convert_model(out, std::move(model), options);
     if (s.ok() && !warn.empty()) {
         size_t at = 0;

@@ -1,11 +1,15 @@
 // PNG/JPEG decoding and PNG encoding with stb_image / stb_image_write (compiled in tinygltf_impl.cpp).
+#include "document.h"
+
 #include <furrow/mesh.h>
 #include <furrow_kernel/atomic_file.h>
 #include <furrow_kernel/no_throw.h>
 #include <stb_image.h>
 #include <stb_image_write.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -56,6 +60,23 @@ bool jpeg_huffman_tables_ok(const uint8_t* p, size_t n) {
 }
 
 } // namespace
+
+bool mesh_detail::image_dimensions(const uint8_t* data, size_t size, int& width, int& height) {
+    if (size == 0 || size > size_t(INT32_MAX)) return false;
+    size_t soi = 0;
+    while (soi < size && data[soi] == 0xFF) ++soi;
+    if (soi > 0 && soi < size && data[soi] == 0xD8 && !jpeg_huffman_tables_ok(data + soi - 1, size - soi + 1)) return false;
+    int c = 0;
+    if (stbi_info_from_memory(data, int(size), &width, &height, &c)) return true;
+    // stb_image refuses a PNG header of more than 2^30 bytes of pixels without saying its size: the IHDR
+    // chunk's own (PNG §11.2.2), so that the caller's limit names it.
+    static const uint8_t png[] = {0x89, 'P', 'N', 'G', 0x0D, 0x0A, 0x1A, 0x0A};
+    if (size < 24 || std::memcmp(data, png, 8) != 0 || std::memcmp(data + 12, "IHDR", 4) != 0) return false;
+    auto be32 = [&](size_t at) { return uint32_t(data[at]) << 24 | uint32_t(data[at + 1]) << 16 | uint32_t(data[at + 2]) << 8 | data[at + 3]; };
+    width = int(std::min<uint32_t>(be32(16), INT32_MAX));
+    height = int(std::min<uint32_t>(be32(20), INT32_MAX));
+    return true;
+}
 
 namespace {
 Status decode_image_unguarded(ImageF& out, const uint8_t* data, size_t size) {

@@ -1,4 +1,6 @@
-// load_scene: reads the file once (with a size guard) and dispatches on the extension.
+// load_scene: reads the file once (with a size guard) and dispatches on the extension. A glTF file's external
+// resources are read through LoadOptions::resolver, by default confined_file_resolver under the resource root
+// (LoadOptions::resource_root, or the input's own folder): see gltf_resources.cpp.
 #include "document.h"
 #include <furrow_kernel/no_throw.h>
 
@@ -17,13 +19,13 @@ std::string lower_extension(const std::string& path) {
     return ext;
 }
 
-Status dispatch(Scene& out, const uint8_t* data, size_t size, const std::string& ext, const std::string& base_dir,
+Status dispatch(Scene& out, const uint8_t* data, size_t size, const std::string& ext, const ResourceResolver& resolver,
                 const LoadOptions& options) {
     // A .glb must be a GLB container. Without this check a .glb with a wrong magic was parsed as JSON and
     // reported as a JSON syntax error at column 1, which does not say what is wrong with the file.
     if (ext == ".glb" && size > 0 && (size < 4 || std::memcmp(data, "glTF", 4) != 0))
         return Status::error(StatusCode::invalid_input, "invalid GLB: the file does not start with the GLB magic 'glTF'");
-    if (ext == ".gltf" || ext == ".glb") return load_gltf_bytes(out, data, size, base_dir, options);
+    if (ext == ".gltf" || ext == ".glb") return load_gltf_bytes(out, data, size, resolver, options);
     if (ext == ".stl") return load_stl_bytes(out, std::string(reinterpret_cast<const char*>(data), size), options);
     if (ext == ".obj" || ext == ".ply" || ext == ".off")
         return load_openmesh_bytes(out, std::string(reinterpret_cast<const char*>(data), size), ext, options);
@@ -40,7 +42,7 @@ Status load_scene_unguarded(Scene& out, const std::string& path, const LoadOptio
     if (fs::is_directory(path, ec)) return Status::error(StatusCode::io_error, "is a directory, not a mesh file");
     const std::string ext = lower_extension(path);
     if (ext != ".gltf" && ext != ".glb" && ext != ".obj" && ext != ".ply" && ext != ".off" && ext != ".stl")
-        return dispatch(out, nullptr, 0, ext, "", options);
+        return dispatch(out, nullptr, 0, ext, {}, options);
     std::ifstream in(path, std::ios::binary);
     if (!in) return Status::error(StatusCode::io_error, std::string("cannot open: ") + std::strerror(errno));
     in.seekg(0, std::ios::end);
@@ -54,9 +56,14 @@ Status load_scene_unguarded(Scene& out, const std::string& path, const LoadOptio
     std::vector<uint8_t> bytes(size);
     if (size && !in.read(reinterpret_cast<char*>(bytes.data()), std::streamsize(size)))
         return Status::error(StatusCode::io_error, "read failed");
-    std::string base_dir = fs::path(path).parent_path().string();
-    if (base_dir.empty()) base_dir = "."; // a file in the working directory; "" means "from memory" below
-    return dispatch(out, bytes.data(), bytes.size(), ext, base_dir, options);
+    const std::string base_dir = fs::absolute(fs::path(path), ec).parent_path().string();
+    if (ec) return Status::error(StatusCode::io_error, "cannot resolve its folder: " + ec.message());
+    if (!options.resolver && !options.resource_root.empty() && !fs::is_directory(options.resource_root, ec))
+        return Status::error(StatusCode::io_error, "the resource root " + options.resource_root + " is not a folder");
+    const ResourceResolver resolver =
+        options.resolver ? options.resolver
+                         : confined_file_resolver(options.resource_root.empty() ? base_dir : options.resource_root, base_dir);
+    return dispatch(out, bytes.data(), bytes.size(), ext, resolver, options);
 }
 } // namespace
 
@@ -71,7 +78,7 @@ Status load_scene_from_memory_unguarded(Scene& out, const uint8_t* data, size_t 
     std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
     if (!ext.empty() && ext[0] != '.') ext = "." + ext;
     if (size > options.max_file_bytes) return Status::error(StatusCode::out_of_memory, "input above the size limit");
-    return dispatch(out, data, size, ext, "", options);
+    return dispatch(out, data, size, ext, options.resolver, options);
 }
 } // namespace
 

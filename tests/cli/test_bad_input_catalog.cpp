@@ -539,6 +539,71 @@ std::vector<Case> catalog() {
                  },
                  {"convert", "@/a.gltf", "-o", "@/data.gltf"}, 1, "@/data.gltf", "refusing to overwrite the input"});
 
+    // ---- external resources (README "Threat model"): every way out of the resource root, the limits ----------
+    // in/x.gltf names a texture image; @/secret.png lies outside its folder (the default resource root).
+    auto textured = [](const std::string& name, const std::string& uri, std::function<void(const fs::path&)> more = {}) {
+        return [=](const fs::path& dir) {
+            json j = Quad{}.doc();
+            j["meshes"][0]["primitives"][0]["material"] = 0;
+            j["materials"] = json::array({{{"pbrMetallicRoughness", {{"baseColorTexture", {{"index", 0}}}}}}});
+            j["textures"] = json::array({{{"source", 0}}});
+            j["images"] = json::array({{{"uri", uri}}});
+            fs::create_directories(dir / "in");
+            test::write_text(dir / "in" / name, j.dump());
+            write_png_grey(dir / "secret.png", 1);
+            if (more) more(dir);
+        };
+    };
+    const std::string outside = "is outside the resource root ";
+    c.push_back({"ImageUriParentFolder", textured("up.gltf", "../secret.png"), {"convert", "@/in/up.gltf", "-o", "@/out.glb"}, 1,
+                 "@/in/up.gltf", "image 0 uri '../secret.png' " + outside});
+    c.push_back({"ImageUriPercentEncodedParent", textured("pct.gltf", "..%2Fsecret.png"), {"render", "@/in/pct.gltf", "-o", "@/out.png"},
+                 1, "@/in/pct.gltf", "image 0 uri '..%2Fsecret.png' " + outside});
+    c.push_back({"ImageUriAbsolutePath", [textured](const fs::path& dir) { textured("abs.gltf", (dir / "secret.png").string())(dir); },
+                 cat({"shells", "@/in/abs.gltf", "-o", "@/out.glb"}, kShells), 1, "@/in/abs.gltf", outside});
+    c.push_back({"ImageUriFileScheme", [textured](const fs::path& dir) { textured("file.gltf", "file://" + (dir / "secret.png").string())(dir); },
+                 {"tessellate", "@/in/file.gltf", "-o", "@/out.glb", "--uniform", "2"}, 1, "@/in/file.gltf", outside});
+    c.push_back({"ImageUriSymlinkOutOfRoot",
+                 textured("link.gltf", "link.png", [](const fs::path& dir) { fs::create_symlink(dir / "secret.png", dir / "in" / "link.png"); }),
+                 cat({"stamp", "@/in/link.gltf", "-o", "@/out.glb"}, kStamp), 1, "@/in/link.gltf", "image 0 uri 'link.png' " + outside});
+    c.push_back({"ImageUriPercentNul", textured("nul.gltf", "x.png%00.txt"), {"check", "@/in/nul.gltf"}, 1, "@/in/nul.gltf",
+                 "image 0 uri 'x.png%00.txt' contains a NUL byte"});
+    c.push_back({"ImageUriRawNul", textured("rawnul.gltf", std::string("x.png\0.txt", 10)), {"convert", "@/in/rawnul.gltf", "-o", "@/out.gltf"},
+                 1, "@/in/rawnul.gltf", "image 0 uri 'x.png%00.txt' contains a NUL byte"});
+    c.push_back({"BufferUriParentFolder", quad_gltf("bufup.gltf", [](json& j) { j["buffers"][0]["uri"] = "../etc/data.bin"; }),
+                 {"check", "@/bufup.gltf"}, 1, "@/bufup.gltf", "buffer 0 uri '../etc/data.bin' " + outside});
+    c.push_back({"ImageUriIsAFolder", textured("dir.gltf", "sub", [](const fs::path& dir) { fs::create_directories(dir / "in" / "sub"); }),
+                 {"render", "@/in/dir.gltf", "-o", "@/out.png"}, 1, "@/in/dir.gltf", "image 0 uri 'sub' is not a regular file"});
+    c.push_back({"ImageUriOtherScheme", textured("http.gltf", "http://example.com/a.png"), {"check", "@/in/http.gltf"}, 1,
+                 "@/in/http.gltf", "uses the URI scheme 'http:'"});
+    c.push_back({"ResourcesAboveMaxResourceBytes", textured("big.gltf", "t.png", [](const fs::path& dir) { write_png_grey(dir / "in" / "t.png", 4); }),
+                 {"convert", "@/in/big.gltf", "-o", "@/out.glb", "--max-resource-bytes", "10"}, 1, "@/in/big.gltf",
+                 "left for external resources (--max-resource-bytes raises it)"});
+    c.push_back({"BufferByteLengthAboveMaxResourceBytes", quad_gltf("huge.gltf", [](json& j) {
+                     j["buffers"][0]["uri"] = "huge.bin";
+                     j["buffers"][0]["byteLength"] = 1000000000000ull;
+                 }),
+                 {"check", "@/huge.gltf"}, 1, "@/huge.gltf", "buffer 0 uri 'huge.bin' is 1000000000000 bytes"});
+    // A 1 KB PNG whose header claims 20000 x 20000 pixels (a decompression bomb).
+    c.push_back({"ImageHeaderAboveMaxImagePixels",
+                 textured("bomb.gltf", "bomb.png", [](const fs::path& dir) {
+                     std::vector<uint8_t> png = test::read_bytes(dir / "secret.png");
+                     for (size_t at : {16, 20}) png[at] = 0, png[at + 1] = 0, png[at + 2] = 0x4E, png[at + 3] = 0x20;
+                     test::write_bytes(dir / "in" / "bomb.png", png);
+                 }),
+                 {"convert", "@/in/bomb.gltf", "-o", "@/out.glb"}, 1, "@/in/bomb.gltf",
+                 "image 0 is 20000x20000 pixels, above the limit of 67108864 (--max-image-pixels raises it)"});
+    c.push_back({"NodesAboveMaxNodes", quad_gltf("nodes.gltf", [](json& j) { j["nodes"].push_back(json::object()); }),
+                 {"shells", "@/nodes.gltf", "-o", "@/out.glb", "--layers", "2", "--length", "0.05", "--max-nodes", "1"}, 1, "@/nodes.gltf",
+                 "the file has 2 nodes, above the limit of 1 (--max-nodes raises it)"});
+    c.push_back({"PrimitivesAboveMaxPrimitives", quad_gltf("prims.gltf", [](json& j) {
+                     j["meshes"][0]["primitives"].push_back(j["meshes"][0]["primitives"][0]);
+                 }),
+                 {"tessellate", "@/prims.gltf", "-o", "@/out.glb", "--uniform", "2", "--max-primitives", "1"}, 1, "@/prims.gltf",
+                 "the file has 2 primitives, above the limit of 1 (--max-primitives raises it)"});
+    c.push_back({"ResourceRootMissing", nothing(), {"convert", "@/good.glb", "-o", "@/out.glb", "--resource-root", "@/nowhere"}, 2, "",
+                 "--resource-root"});
+
     // ---- empty meshes and failed gates ----------------------------------------------------------------------
     c.push_back({"RenderNoMeshes", text_file("nomesh.gltf", R"({"asset": {"version": "2.0"}})"), {"render", "@/nomesh.gltf", "-o", "@/out.png"}, 1,
                  "@/nomesh.gltf", "no triangles"});
@@ -714,6 +779,30 @@ TEST(BadInputCatalogCoverage, MissingTextureImageIsOneWarning) {
     EXPECT_TRUE(error_lines(r.err).empty()) << r.err;
     EXPECT_NE(r.err.find("Warning: " + (dir / "tex.gltf").string() + ": "), std::string::npos) << r.err;
     EXPECT_NE(r.err.find("gone.png"), std::string::npos) << r.err;
+}
+
+// `../` outside the input's folder is refused by default; --resource-root pointing higher allows it, and the
+// image (of a texture no material uses: the quad has no UVs) is then embedded in a validator-clean output.
+TEST(BadInputCatalogCoverage, ResourceRootHigherAllowsParentFolder) {
+    const fs::path dir = test::temp_dir();
+    json j = Quad{}.doc();
+    j["textures"] = json::array({{{"source", 0}}});
+    j["images"] = json::array({{{"uri", "../textures/grey.png"}}});
+    fs::create_directories(dir / "models");
+    fs::create_directories(dir / "textures");
+    test::write_text(dir / "models" / "a.gltf", j.dump());
+    write_png_grey(dir / "textures" / "grey.png", 1);
+    const std::string in = (dir / "models" / "a.gltf").string(), out = (dir / "out.glb").string();
+    auto r = run_furrow({"convert", in, "-o", out});
+    EXPECT_EQ(r.exit_code, 1) << r.err;
+    EXPECT_FALSE(fs::exists(out));
+    r = run_furrow({"convert", in, "-o", out, "--resource-root", dir.string()});
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_VALID_GLTF(out);
+    Scene s;
+    ASSERT_TRUE(load_scene(s, out).ok());
+    ASSERT_EQ(s.images.size(), 1u);
+    EXPECT_EQ(s.images[0].encoded, test::read_bytes(dir / "textures" / "grey.png"));
 }
 
 } // namespace

@@ -608,7 +608,10 @@ TEST_P(HardCases, EveryCommand) {
     const fs::path in = c.write(dir);
     const auto before = test::read_bytes(in);
     Scene scene;
-    ASSERT_TRUE(load_scene(scene, in.string(), LoadOptions{false, 1000.0, true}).ok());
+    LoadOptions keep_non_finite;
+    keep_non_finite.recentre = false;
+    keep_non_finite.allow_non_finite = true;
+    ASSERT_TRUE(load_scene(scene, in.string(), keep_non_finite).ok());
     const CheckReport input = report_of(scene);
     {
         SCOPED_TRACE("check");

@@ -3,18 +3,73 @@
 // whatever loaded.
 //
 // Input: byte 0 picks the format (value mod 6: .glb .gltf .obj .ply .off .stl); its bit 3 sets
-// allow_non_finite, bit 4 clears recentre. The rest is the file.
+// allow_non_finite, bit 4 clears recentre. The rest is the file. With bit 5 set, the file is a .glb (bit 0
+// clear) or .gltf (bit 0 set) written into a scratch resource root and loaded from there with load_scene and
+// its default, confined resolver (README "Threat model"): the root holds data.bin (a triangle's 36 bytes),
+// tex.png, link.png and link.bin (symbolic links out of the root); outside it lie secret.png and
+// secret.bin. Property: nothing of the secrets reaches the scene.
 // Properties: a load either fails with a Status or gives a consistent scene (fuzz::check_scene);
 // check_primitive never fails; a loaded finite scene saves as .glb (or refuses with a Status) and what was
 // saved loads again with the same meshes and vertex counts.
 #include "fuzz_common.h"
 
 #include <cstdio>
+#include <filesystem>
 
 using namespace furrow;
 
 namespace {
 const char* const kExtensions[] = {".glb", ".gltf", ".obj", ".ply", ".off", ".stl"};
+
+constexpr float kSecretValue = 7777.25f; // every float of secret.bin; no resource inside the root holds it
+
+std::vector<uint8_t> png_1x1(uint8_t r, uint8_t g, uint8_t b) {
+    const uint8_t rgba[4] = {r, g, b, 255};
+    return encode_png_rgba8(rgba, 1, 1);
+}
+
+void write_file(const std::string& path, const std::vector<uint8_t>& bytes) {
+    FILE* f = std::fopen(path.c_str(), "wb");
+    FUZZ_CHECK(f != nullptr, "cannot write %s", path.c_str());
+    std::fwrite(bytes.data(), 1, bytes.size(), f);
+    std::fclose(f);
+}
+
+// The scratch folders (made once per process): <scratch>/root/ is the resource root, the secrets beside it.
+std::string resource_root() {
+    static const std::string root = [] {
+        const std::string top = fuzz::scratch_path("resources");
+        std::filesystem::create_directories(top + "/root");
+        const float tri[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+        write_file(top + "/root/data.bin", std::vector<uint8_t>(reinterpret_cast<const uint8_t*>(tri),
+                                                                reinterpret_cast<const uint8_t*>(tri) + sizeof(tri)));
+        write_file(top + "/root/tex.png", png_1x1(10, 20, 30));
+        const std::vector<float> secret(9, kSecretValue);
+        write_file(top + "/secret.bin", std::vector<uint8_t>(reinterpret_cast<const uint8_t*>(secret.data()),
+                                                             reinterpret_cast<const uint8_t*>(secret.data()) + 36));
+        write_file(top + "/secret.png", png_1x1(200, 100, 50));
+        std::error_code ec;
+        std::filesystem::create_symlink("../secret.png", top + "/root/link.png", ec);
+        std::filesystem::create_symlink("../secret.bin", top + "/root/link.bin", ec);
+        return top + "/root";
+    }();
+    return root;
+}
+
+Status load_from_root(Scene& scene, const uint8_t* data, size_t size, bool gltf, const LoadOptions& lo) {
+    const std::string path = resource_root() + (gltf ? "/in.gltf" : "/in.glb");
+    write_file(path, std::vector<uint8_t>(data, data + size));
+    Status s = load_scene(scene, path, lo);
+    std::remove(path.c_str());
+    static const std::vector<uint8_t> secret_png = png_1x1(200, 100, 50);
+    for (const Image& im : scene.images) FUZZ_CHECK(im.encoded != secret_png, "an image outside the resource root was read");
+    for (const Mesh& m : scene.meshes)
+        for (const Primitive& p : m.primitives)
+            for (float x : p.positions) FUZZ_CHECK(x != kSecretValue, "a buffer outside the resource root was read");
+    for (const Node& n : scene.nodes) // recentring moves a constant triangle into its node
+        for (double t : n.translation) FUZZ_CHECK(float(t) != kSecretValue, "a buffer outside the resource root was read");
+    return s;
+}
 } // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
@@ -24,7 +79,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     lo.allow_non_finite = mode & 0x08;
     lo.recentre = !(mode & 0x10);
     Scene scene;
-    Status s = load_scene_from_memory(scene, data + 1, size - 1, kExtensions[mode % 6], lo);
+    Status s = mode & 0x20 ? load_from_root(scene, data + 1, size - 1, mode & 1, lo)
+                           : load_scene_from_memory(scene, data + 1, size - 1, kExtensions[mode % 6], lo);
     if (!s.ok()) {
         fuzz::rejected("load_scene_from_memory", s);
         return 0;

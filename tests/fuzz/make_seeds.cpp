@@ -495,6 +495,21 @@ int main(int argc, char** argv) {
         seed("load_scene", "creature_piece_skin_morph_texture.glb", prefixed(0, cglb));
         seed("load_scene", "creature_piece_skin_morph_texture.gltf", prefixed(1, gltf_of_glb(cglb)));
         const Primitive gqp = to_primitive(gq), c2p = to_primitive(c2);
+        // Loaded from the harness's scratch resource root (byte 0 bit 5): a triangle in data.bin, textured by
+        // tex.png, both beside the file.
+        const json external = {
+            {"asset", {{"version", "2.0"}}},
+            {"scenes", {{{"nodes", {0}}}}},
+            {"nodes", {{{"mesh", 0}}}},
+            {"meshes", {{{"primitives", {{{"attributes", {{"POSITION", 0}}}, {"material", 0}}}}}}},
+            {"materials", {{{"pbrMetallicRoughness", {{"baseColorTexture", {{"index", 0}}}}}}}},
+            {"textures", {{{"source", 0}}}},
+            {"images", {{{"uri", "tex.png"}}}},
+            {"accessors", {{{"bufferView", 0}, {"componentType", 5126}, {"count", 3}, {"type", "VEC3"},
+                            {"min", {0, 0, 0}}, {"max", {1, 1, 0}}}}},
+            {"bufferViews", {{{"buffer", 0}, {"byteLength", 36}}}},
+            {"buffers", {{{"byteLength", 36}, {"uri", "data.bin"}}}}};
+        seed("load_scene", "external_bin_and_png_in_root.gltf", prefixed(0x21, text_bytes(external.dump())));
         seed("load_scene", "ground_quads.obj", prefixed(2, text_bytes(obj_of(gqp, gq))));
         seed("load_scene", "creature_piece.obj", prefixed(2, text_bytes(obj_of(c2p, c2))));
         seed("load_scene", "ground_quads_ascii.ply", prefixed(3, text_bytes(ply_ascii_of(gqp, gq))));

@@ -3,6 +3,8 @@
 #include "test_support.h"
 
 #include <cmath>
+#include <filesystem>
+#include <map>
 
 using namespace furrow;
 using namespace furrow::test;
@@ -386,3 +388,269 @@ TEST(load_scene, FromMemoryNoExternalFileIsRead) {
     ASSERT_TRUE(st.ok()) << st.message;
     EXPECT_EQ(s.meshes[0].primitives[0].vertex_count(), 3u);
 }
+
+// ---------------------------------------------------------------------------------------------------------
+// External resources (issue 15): the resolver, the resource root, reading only what is used, the limits.
+// ---------------------------------------------------------------------------------------------------------
+
+namespace {
+
+// A textured triangle: buffer 0 (positions) at `bin_uri`, image 0 at `image_uri` (texture 0 of material 0);
+// with `unused`, also buffer 1 and image 1 that nothing refers to.
+struct TexturedTriangle {
+    std::vector<uint8_t> bin() const {
+        std::vector<uint8_t> b;
+        append_bytes(b, std::vector<float>{0, 0, 0, 1, 0, 0, 0, 1, 0});
+        append_bytes(b, std::vector<float>{0, 0, 1, 0, 0, 1});
+        return b;
+    }
+    static std::vector<uint8_t> png() {
+        const std::vector<uint8_t> rgba{255, 0, 0, 255, 0, 255, 0, 255, 0, 0, 255, 255, 255, 255, 255, 255};
+        return encode_png_rgba8(rgba.data(), 2, 2);
+    }
+    nlohmann::json doc(const std::string& bin_uri, const std::string& image_uri, bool unused = false) const {
+        nlohmann::json j = {
+            {"asset", {{"version", "2.0"}}},
+            {"scenes", {{{"nodes", {0}}}}},
+            {"nodes", {{{"mesh", 0}}}},
+            {"meshes", {{{"primitives", {{{"attributes", {{"POSITION", 0}, {"TEXCOORD_0", 1}}}, {"material", 0}}}}}}},
+            {"materials", {{{"pbrMetallicRoughness", {{"baseColorTexture", {{"index", 0}}}}}}}},
+            {"textures", {{{"source", 0}}}},
+            {"images", {{{"uri", image_uri}}}},
+            {"accessors", {{{"bufferView", 0}, {"componentType", 5126}, {"count", 3}, {"type", "VEC3"},
+                            {"min", {0, 0, 0}}, {"max", {1, 1, 0}}},
+                           {{"bufferView", 1}, {"componentType", 5126}, {"count", 3}, {"type", "VEC2"}}}},
+            {"bufferViews", {{{"buffer", 0}, {"byteOffset", 0}, {"byteLength", 36}},
+                             {{"buffer", 0}, {"byteOffset", 36}, {"byteLength", 24}}}},
+            {"buffers", {{{"byteLength", 60}, {"uri", bin_uri}}}}};
+        if (unused) {
+            j["buffers"].push_back({{"byteLength", 1000000}, {"uri", "unused.bin"}});
+            j["images"].push_back({{"uri", "unused.png"}});
+        }
+        return j;
+    }
+};
+
+Status load_with(Scene& s, const std::string& text, const LoadOptions& o) {
+    return load_scene_from_memory(s, reinterpret_cast<const uint8_t*>(text.data()), text.size(), ".gltf", o);
+}
+
+// An engine loads a .gltf and its resources (a .bin and a PNG) from its own storage, here a map in memory.
+TEST(load_scene, ResolverReadsGltfBinAndPngFromMemory) {
+    const TexturedTriangle t;
+    std::map<std::string, std::vector<uint8_t>> files{{"mesh.bin", t.bin()}, {"tex/skin one.png", t.png()}};
+    std::vector<std::string> asked;
+    LoadOptions o;
+    o.resolver = [&](std::vector<uint8_t>& bytes, const ResourceRequest& r) {
+        asked.push_back(r.path);
+        auto it = files.find(r.path);
+        if (it == files.end()) return Status::error(StatusCode::not_found, "is not in the archive");
+        bytes = it->second;
+        return Status::success();
+    };
+    Scene s;
+    Status st = load_with(s, t.doc("mesh.bin", "tex/skin%20one.png").dump(), o);
+    ASSERT_TRUE(st.ok()) << st.message;
+    EXPECT_EQ(asked, (std::vector<std::string>{"mesh.bin", "tex/skin one.png"}));
+    ASSERT_EQ(s.meshes.size(), 1u);
+    EXPECT_EQ(s.meshes[0].primitives[0].positions, (std::vector<float>{0, 0, 0, 1, 0, 0, 0, 1, 0}));
+    EXPECT_EQ(s.meshes[0].primitives[0].uv0, (std::vector<float>{0, 0, 1, 0, 0, 1}));
+    ASSERT_EQ(s.images.size(), 1u);
+    EXPECT_EQ(s.images[0].encoded, t.png());
+    EXPECT_EQ(s.images[0].mime_type, "image/png");
+    EXPECT_EQ(s.images[0].source_uri, "tex/skin%20one.png");
+    EXPECT_TRUE(s.warnings.empty()) << s.warnings.front();
+}
+
+// A buffer and an image nothing refers to are never asked for, and the unused image is not carried to the
+// output.
+TEST(load_scene, UnusedBufferAndImageAreNeverRequested) {
+    const TexturedTriangle t;
+    int calls = 0;
+    std::vector<std::string> asked;
+    LoadOptions o;
+    o.resolver = [&](std::vector<uint8_t>& bytes, const ResourceRequest& r) {
+        ++calls;
+        asked.push_back(r.uri);
+        bytes = r.image ? t.png() : t.bin();
+        return Status::success();
+    };
+    Scene s;
+    Status st = load_with(s, t.doc("mesh.bin", "used.png", true).dump(), o);
+    ASSERT_TRUE(st.ok()) << st.message;
+    EXPECT_EQ(calls, 2);
+    EXPECT_EQ(asked, (std::vector<std::string>{"mesh.bin", "used.png"}));
+    EXPECT_EQ(s.images.size(), 1u);
+    // From files: the unused ones do not even exist.
+    const auto dir = temp_dir();
+    write_text(dir / "a.gltf", t.doc("mesh.bin", "used.png", true).dump());
+    write_bytes(dir / "mesh.bin", t.bin());
+    write_bytes(dir / "used.png", t.png());
+    st = load_scene(s, (dir / "a.gltf").string());
+    ASSERT_TRUE(st.ok()) << st.message;
+    EXPECT_TRUE(s.warnings.empty()) << s.warnings.front();
+    ASSERT_TRUE(save_scene(s, (dir / "out.glb").string()).ok());
+    EXPECT_EQ(gltf_json(dir / "out.glb")["images"].size(), 1u);
+}
+
+// The default resolver keeps to the input's folder; --resource-root pointing higher allows `../`.
+TEST(load_scene, ResourceRootHigherAllowsParentFolder) {
+    const TexturedTriangle t;
+    const auto dir = temp_dir();
+    std::filesystem::create_directories(dir / "models");
+    write_text(dir / "models" / "a.gltf", t.doc("mesh.bin", "../shared/skin.png").dump());
+    write_bytes(dir / "models" / "mesh.bin", t.bin());
+    std::filesystem::create_directories(dir / "shared");
+    write_bytes(dir / "shared" / "skin.png", t.png());
+    Scene s;
+    Status st = load_scene(s, (dir / "models" / "a.gltf").string());
+    EXPECT_EQ(st.code, StatusCode::invalid_input);
+    EXPECT_EQ(st.message, "image 0 uri '../shared/skin.png' is outside the resource root " +
+                              std::filesystem::canonical(dir / "models").string());
+    LoadOptions o;
+    o.resource_root = dir.string();
+    st = load_scene(s, (dir / "models" / "a.gltf").string(), o);
+    ASSERT_TRUE(st.ok()) << st.message;
+    EXPECT_EQ(s.images.at(0).encoded, t.png());
+}
+
+// Every way out of the root is refused, and nothing outside it is read: `../`, `..%2F`, an absolute path, a
+// file:// URI, a symbolic link; a NUL byte (raw or %00) and a malformed '%' are refused outright.
+TEST(load_scene, EscapesFromTheResourceRootAreRefused) {
+    const TexturedTriangle t;
+    const auto dir = temp_dir();
+    std::filesystem::create_directories(dir / "root" / "sub");
+    write_bytes(dir / "root" / "mesh.bin", t.bin());
+    write_bytes(dir / "root" / "sub" / "in.png", t.png());
+    write_bytes(dir / "secret.png", t.png());
+    std::filesystem::create_symlink(dir / "secret.png", dir / "root" / "link.png");
+    const std::string root = std::filesystem::canonical(dir / "root").string();
+    const std::string secret = std::filesystem::canonical(dir / "secret.png").string();
+    const std::vector<std::pair<std::string, std::string>> rows{
+        {"../secret.png", "is outside the resource root " + root},
+        {"sub/../../secret.png", "is outside the resource root " + root},
+        {"..%2Fsecret.png", "is outside the resource root " + root},
+        {"%2E%2E/secret.png", "is outside the resource root " + root},
+        {secret, "is outside the resource root " + root},
+        {"file://" + secret, "is outside the resource root " + root},
+        {"file://localhost" + secret, "is outside the resource root " + root},
+        {"link.png", "is outside the resource root " + root},
+        {"sub/in.png%00.txt", "contains a NUL byte"},
+        {std::string("sub/in.png\0.txt", 15), "contains a NUL byte"},
+        {"sub/in%zz.png", "'%' not followed by two hex digits"},
+        {"http://example.com/a.png", "uses the URI scheme 'http:'"},
+        {"file://otherhost/a.png", "names a file on another host"},
+        {"sub", "is not a regular file"},
+    };
+    for (const auto& [uri, expected] : rows) {
+        write_text(dir / "root" / "a.gltf", t.doc("mesh.bin", uri).dump());
+        Scene s;
+        Status st = load_scene(s, (dir / "root" / "a.gltf").string());
+        EXPECT_FALSE(st.ok()) << uri;
+        EXPECT_EQ(st.message.rfind("image 0 uri '", 0), 0u) << st.message;
+        EXPECT_NE(st.message.find(expected), std::string::npos) << uri << ": " << st.message;
+        EXPECT_EQ(st.message.find('\0'), std::string::npos);
+    }
+    // The same resources, named so that they stay inside, load: absolute, file:// and percent-encoded.
+    for (const std::string& uri : std::vector<std::string>{root + "/sub/in.png", "file://" + root + "/sub/in.png", "sub%2Fin.png", "sub/./../sub/in.png"}) {
+        write_text(dir / "root" / "a.gltf", t.doc("mesh.bin", uri).dump());
+        Scene s;
+        Status st = load_scene(s, (dir / "root" / "a.gltf").string());
+        ASSERT_TRUE(st.ok()) << uri << ": " << st.message;
+        EXPECT_EQ(s.images.at(0).encoded, t.png()) << uri;
+    }
+    // Buffers alike.
+    write_text(dir / "root" / "a.gltf", t.doc("../root/../secret.png", "sub/in.png").dump());
+    Scene s;
+    Status st = load_scene(s, (dir / "root" / "a.gltf").string());
+    EXPECT_EQ(st.message, "buffer 0 uri '../root/../secret.png' is outside the resource root " + root);
+}
+
+// A resolver's error fails the load, continuing the sentence that names the resource.
+TEST(load_scene, ResolverErrorFailsTheLoad) {
+    const TexturedTriangle t;
+    LoadOptions o;
+    o.resolver = [&](std::vector<uint8_t>& bytes, const ResourceRequest& r) {
+        if (r.image) return Status::error(StatusCode::io_error, "could not be fetched: archive is corrupt");
+        bytes = t.bin();
+        return Status::success();
+    };
+    Scene s;
+    Status st = load_with(s, t.doc("mesh.bin", "skin.png").dump(), o);
+    EXPECT_EQ(st.code, StatusCode::io_error);
+    EXPECT_EQ(st.message, "image 0 uri 'skin.png' could not be fetched: archive is corrupt");
+    // not_found: the image is one warning (renders with the factor), a buffer an error.
+    o.resolver = [&](std::vector<uint8_t>& bytes, const ResourceRequest& r) {
+        if (r.image) return Status::error(StatusCode::not_found, "is not in the archive");
+        bytes = t.bin();
+        return Status::success();
+    };
+    st = load_with(s, t.doc("mesh.bin", "skin.png").dump(), o);
+    ASSERT_TRUE(st.ok()) << st.message;
+    EXPECT_TRUE(s.images.at(0).encoded.empty());
+    o.resolver = [](std::vector<uint8_t>&, const ResourceRequest&) { return Status::error(StatusCode::not_found, "is not in the archive"); };
+    st = load_with(s, t.doc("mesh.bin", "skin.png").dump(), o);
+    EXPECT_EQ(st.message, "buffer 0 uri 'mesh.bin' is not in the archive");
+}
+
+// The limits, each naming the flag that raises it; the resolver is not asked for what a limit refuses.
+TEST(load_scene, LimitsNameTheFlagThatRaisesThem) {
+    const TexturedTriangle t;
+    int calls = 0;
+    LoadOptions o;
+    o.resolver = [&](std::vector<uint8_t>& bytes, const ResourceRequest& r) {
+        ++calls;
+        bytes = r.image ? t.png() : t.bin();
+        return Status::success();
+    };
+    Scene s;
+    auto doc = t.doc("mesh.bin", "skin.png");
+    // A byteLength of 1e12 is refused before anything is read.
+    auto big = doc;
+    big["buffers"][0]["byteLength"] = 1000000000000ull;
+    Status st = load_with(s, big.dump(), o);
+    EXPECT_EQ(st.code, StatusCode::out_of_memory);
+    EXPECT_NE(st.message.find("buffer 0 uri 'mesh.bin' is 1000000000000 bytes"), std::string::npos) << st.message;
+    EXPECT_NE(st.message.find("--max-resource-bytes"), std::string::npos) << st.message;
+    EXPECT_EQ(calls, 0);
+    LoadOptions small = o;
+    small.max_resource_bytes = 100; // the .bin (60) fits, the PNG then does not
+    st = load_with(s, doc.dump(), small);
+    EXPECT_NE(st.message.find("image 0 uri 'skin.png' is " + std::to_string(t.png().size()) + " bytes, above the 40 bytes left"),
+              std::string::npos) << st.message;
+    LoadOptions few = o;
+    few.max_nodes = 1;
+    auto two = doc;
+    two["nodes"].push_back({{"mesh", 0}});
+    st = load_with(s, two.dump(), few);
+    EXPECT_EQ(st.message, "the file has 2 nodes, above the limit of 1 (--max-nodes raises it)");
+    few.max_primitives = 1;
+    two = doc;
+    two["meshes"][0]["primitives"].push_back(two["meshes"][0]["primitives"][0]);
+    st = load_with(s, two.dump(), few);
+    EXPECT_EQ(st.message, "the file has 2 primitives, above the limit of 1 (--max-primitives raises it)");
+    calls = 0;
+    LoadOptions pixels = o;
+    pixels.max_image_pixels = 3; // the image is 2x2
+    st = load_with(s, doc.dump(), pixels);
+    EXPECT_EQ(st.message, "image 0 is 2x2 pixels, above the limit of 3 (--max-image-pixels raises it)");
+    pixels.max_image_pixels = 4;
+    EXPECT_TRUE(load_with(s, doc.dump(), pixels).ok());
+}
+
+// A PNG header claiming 100000 × 100000 (stb_image itself will not say its size) is refused at load, from
+// memory too: before, it loaded and only a decoder found out.
+TEST(load_scene, OversizedImageHeaderIsRefusedAtLoad) {
+    std::vector<uint8_t> png = TexturedTriangle::png();
+    for (int at : {16, 20}) { // IHDR width and height, big-endian (the CRC is not checked by a header read)
+        png[size_t(at)] = 0x00, png[size_t(at) + 1] = 0x01, png[size_t(at) + 2] = 0x86, png[size_t(at) + 3] = 0xA0;
+    }
+    const TexturedTriangle t;
+    auto doc = t.doc("data:application/octet-stream;base64," + base64(t.bin()), "data:image/png;base64," + base64(png));
+    Scene s;
+    Status st = load_with(s, doc.dump(), {});
+    EXPECT_EQ(st.code, StatusCode::out_of_memory);
+    EXPECT_EQ(st.message, "image 0 is 100000x100000 pixels, above the limit of 67108864 (--max-image-pixels raises it)");
+}
+
+} // namespace

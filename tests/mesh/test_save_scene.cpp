@@ -21,7 +21,9 @@ void round_trip(const Scene& s, const std::string& stem) {
         ASSERT_TRUE(st.ok()) << st.message;
         EXPECT_VALID_GLTF(out);
         Scene b;
-        st = load_scene(b, out.string(), LoadOptions{.recentre = false});
+        LoadOptions as_stored;
+        as_stored.recentre = false;
+        st = load_scene(b, out.string(), as_stored);
         ASSERT_TRUE(st.ok()) << st.message;
         expect_same_scene(s, b);
     }

@@ -31,7 +31,9 @@ TEST(viewer, MipmappedTextureColoursMatch) {
         EXPECT_LE(c.colour, kColourBound);
         // Without mipmaps furrow render would sample the base level: measurably further from three.js far away.
         const ImageF three = load_image(j.out), base = render_furrow(scene, j.view, RenderMode::shaded, false);
-        if (&j == &jobs.back()) EXPECT_GT(mean_covered_difference(three, base), kColourBound); // measured 1.16/255
+        if (&j == &jobs.back()) {
+            EXPECT_GT(mean_covered_difference(three, base), kColourBound); // measured 1.16/255
+        }
         std::printf("%s: IoU %.4f, colour %.2f/255 (base level only: %.2f/255)\n", j.out.filename().c_str(), c.iou,
                     255 * c.colour, 255 * mean_covered_difference(three, base));
     }

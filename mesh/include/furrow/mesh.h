@@ -8,6 +8,7 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -24,6 +25,7 @@ enum class StatusCode : int {
     io_error,         // a file could not be opened, read, written or renamed
     invalid_argument, // an option value is out of its documented range
     out_of_memory,    // a size guard refused the request
+    not_found,        // a resource a resolver was asked for does not exist (ResourceResolver)
 };
 
 struct [[nodiscard]] Status {
@@ -201,11 +203,47 @@ struct Scene {
 // ---------------------------------------------------------------------------------------------------------
 // I/O. Format by extension: .gltf .glb (read/write), .obj .ply .off .stl (read).
 // ---------------------------------------------------------------------------------------------------------
+
+// External resources of a glTF file: a buffer or image `uri` that is not a data URI. The loader reads only
+// the ones the scene uses (an image a texture names, a buffer a used accessor or image lies in) and asks a
+// resolver for their bytes, one request each.
+struct ResourceRequest {
+    std::string uri;      // as written in the file, e.g. "tex/a%20b.png" or "file:///srv/a.bin"
+    std::string path;     // the URI's path, percent-decoded (RFC 3986 §2.1): "tex/a b.png", "/srv/a.bin";
+                          // never holds a NUL byte (such a URI is refused before any resolver sees it)
+    bool image = false;   // an image (else a buffer)
+    int index = -1;       // its index in the file's images or buffers
+    size_t max_bytes = 0; // the most bytes it may have: what LoadOptions::max_resource_bytes leaves
+};
+// Fills `bytes` and returns success; or returns StatusCode::not_found (a missing image is one warning and
+// renders with its material's factor, a missing buffer fails the load); any other error fails the load. The
+// message continues the sentence "image 0 uri 'x.png' ...", e.g. "is not in the archive". Called on the
+// loading thread, in file order, at most once per resource; never for data URIs.
+using ResourceResolver = std::function<Status(std::vector<uint8_t>& bytes, const ResourceRequest& request)>;
+
+// The default resolver of load_scene: reads `request.path` as a file, relative to `base_dir` unless
+// absolute (file:// URIs with an empty or "localhost" host are paths), and refuses (invalid_input) a file
+// that does not lie under `root` once both are made canonical (std::filesystem::weakly_canonical: `..`,
+// `.` and symbolic links resolved), so `../`, absolute paths and symlinks cannot leave the root. Other URI
+// schemes (http:, ...) are refused; a folder or device is refused; a missing file is not_found.
+ResourceResolver confined_file_resolver(const std::string& root, const std::string& base_dir);
+
 struct LoadOptions {
     bool recentre = true;                // move far-from-origin meshes to their bbox centre (see recentre())
     double recentre_threshold = 1000.0;  // ... when |centre| > threshold × bbox diagonal ... or > 1e4 units
     bool allow_non_finite = false;       // accept NaN/Inf positions (for `furrow check`, which reports them)
     size_t max_file_bytes = size_t(2) << 30; // refuse larger inputs (memory guard)
+
+    // Untrusted input (README "Threat model"). Over a limit, the load fails naming the CLI flag that raises it.
+    std::string resource_root;                   // --resource-root: load_scene reads external resources only
+                                                 // under this folder; "" = the input file's own folder
+    ResourceResolver resolver;                   // reads external resources instead of confined_file_resolver;
+                                                 // load_scene_from_memory resolves none without one
+    size_t max_resource_bytes = size_t(2) << 30; // --max-resource-bytes: all external buffers and images together
+    size_t max_image_pixels = size_t(1) << 26;   // --max-image-pixels: width × height of any image (8192²), from
+                                                 // its header, before anything decodes it
+    size_t max_nodes = size_t(1) << 20;          // --max-nodes: nodes of a glTF file (1,048,576)
+    size_t max_primitives = size_t(1) << 20;     // --max-primitives: primitives over all meshes of a glTF file
 };
 
 struct SaveOptions {
@@ -213,7 +251,8 @@ struct SaveOptions {
 };
 
 Status load_scene(Scene& out, const std::string& path, const LoadOptions& options = {});
-// Loads from memory; `extension` is the format, e.g. ".glb" (external URIs are not resolved).
+// Loads from memory; `extension` is the format, e.g. ".glb". External URIs go to options.resolver; without
+// one they are not resolved (a buffer is then an error, an image a warning).
 Status load_scene_from_memory(Scene& out, const uint8_t* data, size_t size, const std::string& extension,
                               const LoadOptions& options = {});
 // Writes .glb or .gltf (+ .bin beside it, named after the .gltf). Output is written to a temporary file in
