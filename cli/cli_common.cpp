@@ -5,6 +5,7 @@
 #include <chrono>
 #include <condition_variable>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <mutex>
@@ -106,7 +107,15 @@ void add_load_flags(CLI::App& cmd, LoadOptions& o) {
 
 Scene load_or_throw(const std::string& path, const LoadOptions& options) {
     Scene scene;
-    require_ok(load_scene(scene, path, options), path);
+    Status s = load_scene(scene, path, options);
+    // The library names the LoadOptions field that raises a limit; on the command line it is a flag.
+    static const std::pair<const char*, const char*> flags[] = {{"LoadOptions::max_image_pixels", "--max-image-pixels"},
+                                                                {"LoadOptions::max_nodes", "--max-nodes"},
+                                                                {"LoadOptions::max_primitives", "--max-primitives"},
+                                                                {"LoadOptions::max_resource_bytes", "--max-resource-bytes"}};
+    for (const auto& [field, flag] : flags)
+        if (size_t at = s.message.find(field); at != std::string::npos) s.message.replace(at, std::strlen(field), flag);
+    require_ok(s, path);
     return scene;
 }
 

@@ -531,7 +531,7 @@ Status convert_images(Scene& scene, tinygltf::Model& model, const LoadOptions& o
             return Status::error(StatusCode::out_of_memory,
                                  "image " + std::to_string(scene.images.size()) + " is " + std::to_string(w) + "x" +
                                      std::to_string(h) + " pixels, above the limit of " +
-                                     std::to_string(options.max_image_pixels) + " (--max-image-pixels raises it)");
+                                     std::to_string(options.max_image_pixels) + " (LoadOptions::max_image_pixels raises it)");
         if (im.encoded.empty())
             scene.warnings.push_back("image " + std::to_string(scene.images.size()) + " ('" + mesh_detail::printable_uri(img.uri) +
                                      "') could not be read; its texture renders as the material factor");

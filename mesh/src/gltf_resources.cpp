@@ -54,11 +54,11 @@ std::string printable_uri(const std::string& uri) {
 Status check_scene_counts(size_t nodes, size_t primitives, const LoadOptions& options) {
     if (nodes > options.max_nodes)
         return Status::error(StatusCode::out_of_memory, "the file has " + std::to_string(nodes) + " nodes, above the limit of " +
-                                                            std::to_string(options.max_nodes) + " (--max-nodes raises it)");
+                                                            std::to_string(options.max_nodes) + " (LoadOptions::max_nodes raises it)");
     if (primitives > options.max_primitives)
         return Status::error(StatusCode::out_of_memory, "the file has " + std::to_string(primitives) +
                                                             " primitives, above the limit of " +
-                                                            std::to_string(options.max_primitives) + " (--max-primitives raises it)");
+                                                            std::to_string(options.max_primitives) + " (LoadOptions::max_primitives raises it)");
     return Status::success();
 }
 
@@ -189,7 +189,7 @@ Status read_resource(std::vector<uint8_t>& bytes, const std::string& uri, bool i
     auto too_big = [&](size_t n) {
         return Status::error(StatusCode::out_of_memory,
                              what + " is " + std::to_string(n) + " bytes, above the " + std::to_string(budget) +
-                                 " bytes left for external resources (--max-resource-bytes raises it)");
+                                 " bytes left for external resources (LoadOptions::max_resource_bytes raises it)");
     };
     if (length > budget) return too_big(length);
     if (!resolver) return Status::error(StatusCode::not_found, what + " was not found: loaded from memory without a resolver");
@@ -369,7 +369,7 @@ Status read_confined(std::vector<uint8_t>& bytes, const ResourceRequest& r, cons
     if (size > r.max_bytes)
         return Status::error(StatusCode::out_of_memory, "is " + std::to_string(size) + " bytes, above the " +
                                                             std::to_string(r.max_bytes) +
-                                                            " bytes left for external resources (--max-resource-bytes raises it)");
+                                                            " bytes left for external resources (LoadOptions::max_resource_bytes raises it)");
     std::ifstream in(file, std::ios::binary);
     bytes.resize(size_t(size));
     if (!in || (size && !in.read(reinterpret_cast<char*>(bytes.data()), std::streamsize(size))))

@@ -593,8 +593,8 @@ TEST(load_scene, ResolverErrorFailsTheLoad) {
     EXPECT_EQ(st.message, "buffer 0 uri 'mesh.bin' is not in the archive");
 }
 
-// The limits, each naming the flag that raises it; the resolver is not asked for what a limit refuses.
-TEST(load_scene, LimitsNameTheFlagThatRaisesThem) {
+// The limits, each naming the option that raises it (the CLI names its flag instead); the resolver is not asked for what a limit refuses.
+TEST(load_scene, LimitsNameTheOptionThatRaisesThem) {
     const TexturedTriangle t;
     int calls = 0;
     LoadOptions o;
@@ -611,7 +611,7 @@ TEST(load_scene, LimitsNameTheFlagThatRaisesThem) {
     Status st = load_with(s, big.dump(), o);
     EXPECT_EQ(st.code, StatusCode::out_of_memory);
     EXPECT_NE(st.message.find("buffer 0 uri 'mesh.bin' is 1000000000000 bytes"), std::string::npos) << st.message;
-    EXPECT_NE(st.message.find("--max-resource-bytes"), std::string::npos) << st.message;
+    EXPECT_NE(st.message.find("LoadOptions::max_resource_bytes"), std::string::npos) << st.message;
     EXPECT_EQ(calls, 0);
     LoadOptions small = o;
     small.max_resource_bytes = 100; // the .bin (60) fits, the PNG then does not
@@ -623,17 +623,17 @@ TEST(load_scene, LimitsNameTheFlagThatRaisesThem) {
     auto two = doc;
     two["nodes"].push_back({{"mesh", 0}});
     st = load_with(s, two.dump(), few);
-    EXPECT_EQ(st.message, "the file has 2 nodes, above the limit of 1 (--max-nodes raises it)");
+    EXPECT_EQ(st.message, "the file has 2 nodes, above the limit of 1 (LoadOptions::max_nodes raises it)");
     few.max_primitives = 1;
     two = doc;
     two["meshes"][0]["primitives"].push_back(two["meshes"][0]["primitives"][0]);
     st = load_with(s, two.dump(), few);
-    EXPECT_EQ(st.message, "the file has 2 primitives, above the limit of 1 (--max-primitives raises it)");
+    EXPECT_EQ(st.message, "the file has 2 primitives, above the limit of 1 (LoadOptions::max_primitives raises it)");
     calls = 0;
     LoadOptions pixels = o;
     pixels.max_image_pixels = 3; // the image is 2x2
     st = load_with(s, doc.dump(), pixels);
-    EXPECT_EQ(st.message, "image 0 is 2x2 pixels, above the limit of 3 (--max-image-pixels raises it)");
+    EXPECT_EQ(st.message, "image 0 is 2x2 pixels, above the limit of 3 (LoadOptions::max_image_pixels raises it)");
     pixels.max_image_pixels = 4;
     EXPECT_TRUE(load_with(s, doc.dump(), pixels).ok());
 }
@@ -650,7 +650,7 @@ TEST(load_scene, OversizedImageHeaderIsRefusedAtLoad) {
     Scene s;
     Status st = load_with(s, doc.dump(), {});
     EXPECT_EQ(st.code, StatusCode::out_of_memory);
-    EXPECT_EQ(st.message, "image 0 is 100000x100000 pixels, above the limit of 67108864 (--max-image-pixels raises it)");
+    EXPECT_EQ(st.message, "image 0 is 100000x100000 pixels, above the limit of 67108864 (LoadOptions::max_image_pixels raises it)");
 }
 
 } // namespace

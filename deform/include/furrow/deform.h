@@ -309,7 +309,7 @@ struct StampOptions {
     int max_rate = 64;                    // segments per edge in each of the two tessellation passes, 1..4096
     size_t max_triangles = 0;             // > 0: tessellation rates scaled down to fit
     bool along_up = false;                // displacement direction (see DisplaceOptions)
-    const Heightmap* base = nullptr;      // --heightmap-in
+    const Heightmap* base = nullptr;      // a starting heightmap (a previous run's output)
 };
 
 struct StampReport {

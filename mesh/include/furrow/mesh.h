@@ -234,16 +234,16 @@ struct LoadOptions {
     bool allow_non_finite = false;       // accept NaN/Inf positions (for `furrow check`, which reports them)
     size_t max_file_bytes = size_t(2) << 30; // refuse larger inputs (memory guard)
 
-    // Untrusted input (README "Threat model"). Over a limit, the load fails naming the CLI flag that raises it.
-    std::string resource_root;                   // --resource-root: load_scene reads external resources only
+    // Untrusted input (README "Threat model"). Over a limit, the load fails (out_of_memory) naming the field.
+    std::string resource_root;                   // load_scene reads external resources only
                                                  // under this folder; "" = the input file's own folder
     ResourceResolver resolver;                   // reads external resources instead of confined_file_resolver;
                                                  // load_scene_from_memory resolves none without one
-    size_t max_resource_bytes = size_t(2) << 30; // --max-resource-bytes: all external buffers and images together
-    size_t max_image_pixels = size_t(1) << 26;   // --max-image-pixels: width × height of any image (8192²), from
+    size_t max_resource_bytes = size_t(2) << 30; // all external buffers and images together
+    size_t max_image_pixels = size_t(1) << 26;   // width × height of any image (8192²), from
                                                  // its header, before anything decodes it
-    size_t max_nodes = size_t(1) << 20;          // --max-nodes: nodes of a glTF file (1,048,576)
-    size_t max_primitives = size_t(1) << 20;     // --max-primitives: primitives over all meshes of a glTF file
+    size_t max_nodes = size_t(1) << 20;          // nodes of a glTF file (1,048,576)
+    size_t max_primitives = size_t(1) << 20;     // primitives over all meshes of a glTF file
 };
 
 struct SaveOptions {
