@@ -196,7 +196,10 @@ void bench_contact_rays(const Args& a, const GlobalFlags& g, bool text, nlohmann
         if (std::filesystem::exists(terrain)) grounds.push_back({"terrain.glb (corpus)", terrain});
     }
     Table rays({"ground", "triangles", "build ms", "rays", "rays/s (tree)", "rays/s (brute force)", "tree/brute"});
-    for (const auto& [name, path] : grounds) {
+    for (const auto& ground : grounds) {
+        // Named, not a structured binding: clang before 16 cannot capture a binding in the lambdas below.
+        const std::string& name = ground.first;
+        const std::string& path = ground.second;
         Scene s = load_or_throw(path);
         std::vector<float> P;
         std::vector<uint32_t> I;
