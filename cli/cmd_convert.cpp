@@ -4,6 +4,7 @@
 namespace furrow::cli {
 
 void run_convert(const ConvertArgs& a, const GlobalFlags& g) {
+    require_extension(a.out, "--output", {".glb", ".gltf"});
     LoadOptions lo = a.load;
     lo.recentre = !a.no_recentre;
     Scene scene = load_or_throw(a.in, lo);

@@ -2,46 +2,26 @@
 #include "commands.h"
 
 #include <furrow/render.h>
+#include <furrow_kernel/atomic_file.h>
 
-#include <cerrno>
 #include <cstdio>
-#include <cstring>
 #include <filesystem>
-#include <fstream>
 #include <sstream>
-#include <unistd.h>
 
 namespace furrow::cli {
 namespace {
 
-// Writes bytes to a temporary file beside `path` (stage_file), to be renamed into place by commit_file, so a
-// failure never leaves a half-written output. Throws InputError naming `path`.
+// Stages bytes beside `path` with the kernel's atomic file output (furrow_kernel/atomic_file.h), to be
+// renamed into place by commit_file, so a failure never leaves a half-written output. Throws InputError
+// naming `path`.
 std::string stage_file(const std::string& path, const std::vector<uint8_t>& bytes) {
-    namespace fs = std::filesystem;
-    fs::path target(path);
-    fs::path temp = target.parent_path() / ("." + target.filename().string() + ".furrow-tmp-" + std::to_string(getpid()));
-    {
-        std::ofstream out(temp, std::ios::binary | std::ios::trunc);
-        if (!out) throw InputError(path, std::string("cannot write: ") + std::strerror(errno));
-        out.write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
-        out.close();
-        if (!out) {
-            std::error_code ec;
-            fs::remove(temp, ec);
-            throw InputError(path, "cannot write: write failed (disk full?)");
-        }
-    }
-    return temp.string();
+    std::string temp;
+    if (Status s = kernel::stage_file(path, bytes.data(), bytes.size(), temp); !s.ok()) throw InputError(path, s.message);
+    return temp;
 }
 
 void commit_file(const std::string& temp, const std::string& path) {
-    std::error_code ec;
-    std::filesystem::rename(temp, path, ec);
-    if (ec) {
-        std::error_code ignored;
-        std::filesystem::remove(temp, ignored);
-        throw InputError(path, "cannot write: " + ec.message());
-    }
+    if (Status s = kernel::commit_file(temp, path); !s.ok()) throw InputError(path, s.message);
 }
 
 // A float image as PFM (Netpbm's portable float map: greyscale "Pf", little-endian, bottom row first).

@@ -16,19 +16,10 @@ std::string fmt_num(double v, const char* f = "%.4g") {
     return b;
 }
 
-bool ends_with_ci(const std::string& s, const std::string& suffix) {
-    if (s.size() < suffix.size()) return false;
-    for (size_t k = 0; k < suffix.size(); ++k)
-        if (std::tolower(static_cast<unsigned char>(s[s.size() - suffix.size() + k])) != suffix[k]) return false;
-    return true;
-}
-
 // The output checks, before anything is read: extensions, and no output that is an input.
 void check_outputs(const StampArgs& a) {
-    if (!ends_with_ci(a.out, ".glb") && !ends_with_ci(a.out, ".gltf"))
-        throw CLI::ValidationError("--output", "must end in .glb or .gltf");
-    if (!a.heightmap_out.empty() && !ends_with_ci(a.heightmap_out, ".pfm") && !ends_with_ci(a.heightmap_out, ".png"))
-        throw CLI::ValidationError("--heightmap-out", "must end in .pfm or .png");
+    require_extension(a.out, "--output", {".glb", ".gltf"});
+    if (!a.heightmap_out.empty()) require_extension(a.heightmap_out, "--heightmap-out", {".pfm", ".png"});
     if (same_file(a.out, a.in)) throw InputError(a.out, "output path is the input file; refusing to overwrite the input");
     // Inputs are never modified (README): not the colliders file, not the --heightmap-in map.
     if (same_file(a.out, a.colliders))

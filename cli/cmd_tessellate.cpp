@@ -102,6 +102,7 @@ void report_tessellation(const TessellateArgs& a, const GlobalFlags& g, const Sc
 
 // Validates the arguments, tessellates the scene, writes it and prints the report.
 void run_tessellate(const TessellateArgs& a, const GlobalFlags& g) {
+    require_extension(a.out, "--output", {".glb", ".gltf"});
     TessellateOptions o;
     o.triangle_budget = kDefaultTriangleBudget;
     set_surface_options(o.surface, a);

@@ -7,6 +7,7 @@
 #include <furrow/mesh.h>
 #include <furrow/shapes.h>
 #include <furrow_kernel/atomic_file.h>
+#include <furrow_kernel/vec3.h>
 
 #include <algorithm>
 #include <array>
@@ -88,11 +89,9 @@ inline double smoothstep(double e0, double e1, double x) {
 }
 inline double mix(double a, double b, double t) { return a + (b - a) * t; }
 
-using Vec3 = std::array<double, 3>;
+using Vec3 = kernel::Vec3; // the kernel's one vector type (GLM's dvec3)
 inline Vec3 vec(const std::array<float, 3>& a) { return {a[0], a[1], a[2]}; }
-inline double dist(const Vec3& a, const Vec3& b) {
-    return std::sqrt((a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) + (a[2] - b[2]) * (a[2] - b[2]));
-}
+inline double dist(const Vec3& a, const Vec3& b) { return kernel::norm(a - b); }
 inline Vec3 mix(const Vec3& a, const Vec3& b, double t) {
     return {mix(a[0], b[0], t), mix(a[1], b[1], t), mix(a[2], b[2], t)};
 }

@@ -3,10 +3,11 @@
 // shape). Plain SVG 1.1 text so that a browser, an image viewer or a pull request shows it as is.
 #include "bench_common.h"
 
+#include <furrow_kernel/atomic_file.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <fstream>
 #include <map>
 
 namespace furrow::cli {
@@ -130,18 +131,8 @@ std::string chart(const std::string& title, const std::string& x_name, const std
 }
 
 void write_text_atomic(const fs::path& file, const std::string& text) {
-    const fs::path tmp = file.string() + ".tmp";
-    {
-        std::ofstream o(tmp, std::ios::binary | std::ios::trunc);
-        o.write(text.data(), std::streamsize(text.size()));
-        if (!o) throw InputError(file.string(), "cannot write the plot");
-    }
-    std::error_code ec;
-    fs::rename(tmp, file, ec);
-    if (ec) {
-        fs::remove(tmp, ec);
+    if (!kernel::atomic_write(file.string(), text.data(), text.size()).ok())
         throw InputError(file.string(), "cannot write the plot");
-    }
 }
 
 } // namespace

@@ -483,6 +483,8 @@ std::vector<Case> catalog() {
     c.push_back({"ThreadsZero", nothing(), {"-j", "0", "check", "@/good.glb"}, 2, "", "--threads"});
     c.push_back({"RenderOutputNotPng", nothing(), {"render", "@/good.glb", "-o", "@/out.jpg"}, 2, "", ".png"});
     c.push_back({"ShellsOutputNotGltf", nothing(), cat({"shells", "@/good.glb", "-o", "@/out.obj"}, kShells), 2, "", ".glb"});
+    c.push_back({"ConvertOutputNotGltf", nothing(), {"convert", "@/good.glb", "-o", "@/out.obj"}, 2, "", ".glb"});
+    c.push_back({"TessellateOutputNotGltf", nothing(), {"tessellate", "@/good.glb", "-o", "@/out.stl", "--uniform", "2"}, 2, "", ".glb"});
 
     // ---- output paths -----------------------------------------------------------------------------------------
     c.push_back({"OutputFolderMissing", nothing(), {"convert", "@/good.glb", "-o", "@/missing/out.glb"}, 1, "@/missing/out.glb", "does not exist"});
@@ -504,10 +506,10 @@ std::vector<Case> catalog() {
     // A .gltf output that cannot be written must not leave its .bin behind.
     c.push_back({"GltfOutputIsAFolder", folder("out.gltf"), {"convert", "@/good.glb", "-o", "@/out.gltf"}, 1, "@/out.gltf", "is a directory"});
     c.push_back({"RenderOutputFolderMissing", nothing(), {"render", "@/good.glb", "-o", "@/missing/out.png", "--size", "32x24"}, 1,
-                 "@/missing/out.png", "cannot write"});
+                 "@/missing/out.png", "does not exist"});
     // The PNG can be written, the depth file cannot: neither is left.
     c.push_back({"DepthOutUnwritable", nothing(), {"render", "@/good.glb", "-o", "@/out.png", "--size", "32x24", "--depth-out", "@/missing/d.pfm"}, 1,
-                 "@/missing/d.pfm", "cannot write"});
+                 "@/missing/d.pfm", "does not exist"});
     // The heightmap folder does not exist: no mesh either.
     c.push_back({"HeightmapOutUnwritable", nothing(), cat(cat({"stamp", "@/ground.glb", "-o", "@/out.glb"}, kStamp), {"--heightmap-out", "@/missing/h.pfm"}),
                  1, "@/missing/h.pfm", "does not exist"});

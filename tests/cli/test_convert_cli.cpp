@@ -130,11 +130,16 @@ TEST(convert_cli, OutputEqualToInputIsRefused) {
     EXPECT_EQ(read_bytes(dir / "t.gltf"), before);
 }
 
+// A bad output extension is a bad option value: a usage error (exit 2) before anything is read, as in
+// shells, render, stamp and tessellate.
 TEST(convert_cli, UnsupportedOutputExtension) {
     const auto dir = temp_dir();
     write_text(dir / "t.gltf", TinyGltf{}.json());
     RunResult r = run_furrow({"convert", (dir / "t.gltf").string(), "-o", (dir / "t.fbx").string()});
-    expect_clean_failure(r, (dir / "t.fbx").string(), ".fbx");
+    EXPECT_EQ(r.exit_code, 2) << r.err;
+    EXPECT_EQ(r.err.rfind("Error: --output: must end in .glb or .gltf", 0), 0u) << r.err;
+    EXPECT_NE(r.err.find("--output: must end in .glb or .gltf"), std::string::npos) << r.err;
+    EXPECT_EQ(list_dir(dir), std::vector<std::string>{"t.gltf"});
 }
 
 TEST(convert_cli, UsageErrorsExitTwo) {

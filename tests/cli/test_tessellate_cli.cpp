@@ -174,9 +174,15 @@ TEST(tessellate_cli, InputErrorsOneLine) {
     RunResult r = run_furrow({"tessellate", missing, "-o", out, "--uniform", "2"});
     EXPECT_EQ(r.exit_code, 1);
     EXPECT_EQ(r.err.rfind("Error: " + missing, 0), 0u) << r.err;
-    const auto before = read_bytes(quads);
+    // An output that is the input: a glTF input (an OBJ output is refused for its extension, exit 2).
+    const auto glb = (dir / "quads.glb").string();
+    ASSERT_EQ(run_furrow({"convert", quads, "-o", glb}).exit_code, 0);
+    const auto before = read_bytes(glb);
+    r = run_furrow({"tessellate", glb, "-o", glb, "--uniform", "2"});
+    expect_error_line(r, glb, "input");
+    EXPECT_EQ(read_bytes(glb), before);
     r = run_furrow({"tessellate", quads, "-o", quads, "--uniform", "2"});
-    expect_error_line(r, quads, "input");
-    EXPECT_EQ(read_bytes(quads), before);
+    EXPECT_EQ(r.exit_code, 2) << r.err;
+    EXPECT_NE(r.err.find("must end in .glb or .gltf"), std::string::npos) << r.err;
     EXPECT_FALSE(fs::exists(out));
 }
