@@ -82,7 +82,12 @@ Status reader_mesh_to_scene(Scene& out, ReaderMesh& m, const LoadOptions& option
     if (nv == 0) return Status::error(StatusCode::invalid_input, "contains no vertices");
     Primitive p;
     CornerSplit split;
-    if (m.any_corner_uv) split.head.assign(nv, 0);
+    if (m.any_corner_uv) {
+        split.head.assign(nv, 0);
+        split.reader_vertex.reserve(nv);
+        split.next.reserve(nv);
+        split.uvs.reserve(nv * 2);
+    }
     size_t dropped = m.dropped_faces, out_of_range = 0;
     p.indices.reserve(m.corners.size());
     for (size_t f = 0; f < m.face_start.size(); ++f) {
