@@ -25,6 +25,8 @@ double median_seconds(int repeat, const std::function<void()>& f);
 // Runs a peer program (looked up on PATH), its output to /dev/null; returns its exit code, or -1 when it
 // could not be started. Peers (three.js, Blender, gltfpack) are optional: a bench prints "not installed".
 int run_peer(const std::vector<std::string>& argv);
+// Whether `program` is an executable file in a folder of PATH (a peer that is not is "not installed").
+bool on_path(const std::string& program);
 
 // Keeps the compiler from removing a computation whose result is otherwise unused.
 inline void do_not_optimize(const void* p) { asm volatile("" : : "g"(p) : "memory"); }

@@ -45,11 +45,34 @@ bool image_dimensions(const uint8_t* data, size_t size, int& width, int& height)
 
 } // namespace furrow::mesh_detail
 
+namespace furrow::mesh_detail {
+
+// What a polygon reader (obj_load.cpp, and OpenMesh's PLY/OFF readers in openmesh_load.cpp) reports: its
+// vertices, and its faces as lists of reader vertices. reader_mesh_to_scene turns it into a primitive.
+struct ReaderMesh {
+    std::vector<double> points;        // xyz per reader vertex, in double
+    std::vector<float> normals;        // xyz per reader vertex (sized when any_normal)
+    std::vector<float> colors;         // rgba per reader vertex (sized when any_color)
+    std::vector<float> vertex_uv;      // uv per reader vertex (sized when any_vertex_uv)
+    std::vector<uint32_t> face_start;  // offset into corners
+    std::vector<uint32_t> corners;     // reader vertex indices (>= the vertex count: the face is refused)
+    std::vector<float> corner_uv;      // uv per corner, parallel to corners (sized when any_corner_uv)
+    bool any_normal = false, any_color = false, any_vertex_uv = false, any_corner_uv = false;
+    size_t dropped_faces = 0; // faces the reader dropped for having fewer than 3 distinct corners
+    size_t vertex_count() const { return points.size() / 3; }
+};
+// One glTF vertex per distinct (reader vertex, corner uv) pair, so that UV seams split; positions recentred
+// in double; v flipped (OBJ/PLY put v = 0 at the image bottom, glTF at the top).
+Status reader_mesh_to_scene(Scene& out, ReaderMesh& mesh, const LoadOptions& options);
+
+} // namespace furrow::mesh_detail
+
 namespace furrow {
-// Format loaders behind load_scene (gltf_load.cpp, openmesh_load.cpp). `resolver` reads external resources;
+// Format loaders behind load_scene (gltf_load.cpp, obj_load.cpp, openmesh_load.cpp). `resolver` reads external resources;
 // empty = none are resolved.
 Status load_gltf_bytes(Scene& out, const uint8_t* data, size_t size, const ResourceResolver& resolver,
                        const LoadOptions& options);
 Status load_stl_bytes(Scene& out, const std::string& bytes, const LoadOptions& options);
 Status load_openmesh_bytes(Scene& out, const std::string& bytes, const std::string& ext, const LoadOptions& options);
+Status load_obj_bytes(Scene& out, const char* text, size_t size, const LoadOptions& options);
 } // namespace furrow

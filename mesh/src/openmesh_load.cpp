@@ -1,4 +1,4 @@
-// OBJ / PLY / OFF loading through OpenMesh's readers. The readers feed a recording importer instead of
+// PLY / OFF loading through OpenMesh's readers (OBJ: obj_load.cpp). The readers feed a recording importer instead of
 // a halfedge mesh: a halfedge structure would silently drop or split the non-manifold and degenerate faces
 // that `furrow check` must see. Polygons stay polygons (Catmull-Clark wants the quads).
 #include "document.h"
@@ -13,7 +13,6 @@
 #include <charconv>
 #include <cstring>
 #include <cmath>
-#include <map>
 #include <sstream>
 
 namespace furrow {
@@ -31,18 +30,8 @@ using OpenMesh::Vec4f;
 using OpenMesh::Vec4uc;
 
 // Records what a reader reports, with no topology of its own.
-class RecordingImporter final : public OpenMesh::IO::BaseImporter {
+class RecordingImporter final : public OpenMesh::IO::BaseImporter, public mesh_detail::ReaderMesh {
 public:
-    std::vector<double> points;        // xyz per reader vertex
-    std::vector<float> normals;        // xyz per reader vertex (if any reported)
-    std::vector<float> colors;         // rgba per reader vertex (if any reported)
-    std::vector<float> vertex_uv;      // uv per reader vertex (if any reported)
-    std::vector<uint32_t> face_start;  // offset into corners
-    std::vector<uint32_t> corners;     // reader vertex indices
-    std::vector<float> corner_uv;      // uv per corner, parallel to corners (if faces reported texcoords)
-    std::vector<char> corner_has_uv;
-    bool any_normal = false, any_color = false, any_vertex_uv = false, any_corner_uv = false;
-
     VertexHandle add_vertex(const Vec3f& p) override { return add_vertex(Vec3d(p[0], p[1], p[2])); }
     VertexHandle add_vertex(const Vec3d& p) override {
         points.insert(points.end(), {p[0], p[1], p[2]});
@@ -57,7 +46,6 @@ public:
         face_start.push_back(uint32_t(corners.size()));
         for (auto vh : idx) corners.push_back(uint32_t(vh.idx()));
         corner_uv.resize(corners.size() * 2, 0.0f);
-        corner_has_uv.resize(corners.size(), 0);
         return FaceHandle(int(face_start.size() - 1));
     }
     FaceHandle add_face(HalfedgeHandle) override { return FaceHandle(); }
@@ -70,7 +58,6 @@ public:
         for (size_t k = 0; k < uv.size() && begin + k < end; ++k) {
             corner_uv[(begin + k) * 2] = uv[k][0];
             corner_uv[(begin + k) * 2 + 1] = uv[k][1];
-            corner_has_uv[begin + k] = 1;
             any_corner_uv = true;
         }
     }
@@ -379,73 +366,6 @@ Status check_off(const std::string& bytes) {
     return Status::success();
 }
 
-// OpenMesh's OBJ reader asserts on a face corner without a vertex index ("f /1/1", OBJReader.cc: assert(
-// !vhandles.empty())), and Debian builds it with assertions on, so such a file aborted the process; a corner
-// whose index does not parse leaves an uninitialised int in use. Found by fuzz_load_scene. Every corner with a
-// '/' must therefore start with an integer (corners without one are numbers or trailing garbage, which the
-// reader parses or skips).
-// A `v` line whose three coordinates the reader's float stream cannot read ("v nan 0 0", "v 1e39 0 0", "v 1 2")
-// is skipped by the reader, and every later vertex shifts by one: the file was then refused with "faces
-// reference vertices that do not exist", or loaded wrong. It is refused here, by line.
-// The same pass keeps the coordinates in double (`points`): the reader parses floats, and a model 1e5 m from
-// the origin would lose its millimetres. Vertex k here is vertex k of the reader: both take the lines
-// trimmed, comments skipped, the keyword and three numbers through a stream, and any line the reader would
-// skip is refused.
-Status check_obj(const std::string& text, std::vector<double>& points) {
-    points.clear();
-    size_t at = 0, line_number = 0;
-    while (at < text.size()) {
-        size_t end = text.find('\n', at);
-        if (end == std::string::npos) end = text.size();
-        ++line_number;
-        std::istringstream line(text.substr(at, end - at));
-        std::string key, corner;
-        line >> key;
-        if (key == "v") {
-            double x, y, z;
-            line >> x >> y >> z;
-            // A float stream fails exactly where the double stream fails or the value overflows a float.
-            auto fits = [](double d) { return std::isfinite(static_cast<float>(d)); };
-            if (line.fail() || !fits(x) || !fits(y) || !fits(z)) {
-                std::string shown = text.substr(at, std::min<size_t>(end - at, 40));
-                while (!shown.empty() && (shown.back() == '\r' || shown.back() == ' ')) shown.pop_back();
-                return Status::error(StatusCode::invalid_input, "OBJ line " + std::to_string(line_number) + " '" + shown +
-                                                                    "': a vertex needs three finite numbers");
-            }
-            points.insert(points.end(), {x, y, z});
-        }
-        if (key == "f")
-            while (line >> corner) {
-                const size_t slash = corner.find('/');
-                if (slash == std::string::npos) continue;
-                const std::string index = corner.substr(0, slash);
-                int value = 0;
-                const char* b = index.data() + (!index.empty() && index[0] == '+' ? 1 : 0);
-                auto r = std::from_chars(b, index.data() + index.size(), value);
-                if (index.empty() || r.ec != std::errc())
-                    return Status::error(StatusCode::invalid_input, "OBJ: face corner '" + corner.substr(0, 24) + "' has no vertex index");
-            }
-        at = end + 1;
-    }
-    return Status::success();
-}
-
-// furrow reads no OBJ materials, but OpenMesh opens every mtllib file it is told to, relative to the folder
-// of the last file it read or the working directory, and reads it to the end (/dev/zero never ends): the
-// keyword is turned into a comment (same length, so the double re-read of `v` lines is unaffected).
-std::string without_mtllib(std::string text) {
-    size_t at = 0;
-    while (at < text.size()) {
-        size_t b = at;
-        while (b < text.size() && (text[b] == ' ' || text[b] == '\t')) ++b;
-        if (text.compare(b, 6, "mtllib") == 0) text[b] = '#';
-        const size_t end = text.find('\n', at);
-        if (end == std::string::npos) break;
-        at = end + 1;
-    }
-    return text;
-}
-
 } // namespace
 
 Status load_openmesh_bytes(Scene& out, const std::string& bytes, const std::string& ext, const LoadOptions& options) {
@@ -456,101 +376,13 @@ Status load_openmesh_bytes(Scene& out, const std::string& bytes, const std::stri
     RecordingImporter rec;
     OpenMesh::IO::Options opt = OpenMesh::IO::Options::VertexTexCoord | OpenMesh::IO::Options::FaceTexCoord |
                                 OpenMesh::IO::Options::VertexNormal | OpenMesh::IO::Options::VertexColor;
-    std::string fmt = ext.substr(1);
-    std::vector<double> obj_points; // OBJ: the `v` coordinates in double
-    Status checked = ext == ".ply" ? check_ply(bytes) : ext == ".off" ? check_off(bytes) : check_obj(bytes, obj_points);
+    const std::string fmt = ext.substr(1);
+    Status checked = ext == ".ply" ? check_ply(bytes) : check_off(bytes);
     if (!checked.ok()) return checked;
-    std::istringstream in(ext == ".obj" ? without_mtllib(bytes) : bytes);
+    std::istringstream in(bytes);
     bool ok = OpenMesh::IO::IOManager().read(in, fmt, rec, opt);
     if (!ok) return Status::error(StatusCode::invalid_input, "could not be parsed as " + fmt + " (OpenMesh reader failed)");
-    if (rec.n_vertices() == 0) return Status::error(StatusCode::invalid_input, "contains no vertices");
-    if (ext == ".obj" && obj_points.size() == rec.points.size()) rec.points = std::move(obj_points);
-
-    // Corners become glTF-style vertices: one per distinct (reader vertex, corner uv) pair, so UV seams split.
-    Primitive p;
-    const bool uv_per_corner = rec.any_corner_uv;
-    std::map<std::pair<uint32_t, std::pair<float, float>>, uint32_t> split;
-    std::vector<uint32_t> reader_vertex; // new vertex -> reader vertex
-    std::vector<float> uvs;
-    const size_t nv = rec.n_vertices();
-    auto vertex_for = [&](size_t corner) -> uint32_t {
-        uint32_t v = rec.corners[corner];
-        if (!uv_per_corner) return v;
-        std::pair<float, float> uv{rec.corner_uv[corner * 2], rec.corner_uv[corner * 2 + 1]};
-        auto [it, inserted] = split.insert({{v, uv}, uint32_t(reader_vertex.size())});
-        if (inserted) {
-            reader_vertex.push_back(v);
-            uvs.push_back(uv.first);
-            uvs.push_back(uv.second);
-        }
-        return it->second;
-    };
-    size_t dropped = 0, out_of_range = 0;
-    for (size_t f = 0; f < rec.face_start.size(); ++f) {
-        size_t b = rec.face_start[f], e = f + 1 < rec.face_start.size() ? rec.face_start[f + 1] : rec.corners.size();
-        if (e - b < 3) { ++dropped; continue; }
-        bool bad = false;
-        for (size_t c = b; c < e; ++c) bad |= rec.corners[c] >= nv;
-        if (bad) { ++out_of_range; continue; }
-        for (size_t c = b; c < e; ++c) p.indices.push_back(vertex_for(c));
-        p.face_sizes.push_back(uint32_t(e - b));
-    }
-    if (out_of_range)
-        return Status::error(StatusCode::invalid_input, std::to_string(out_of_range) + " faces reference vertices that do not exist");
-    if (!uv_per_corner) {
-        reader_vertex.resize(nv);
-        for (size_t i = 0; i < nv; ++i) reader_vertex[i] = uint32_t(i);
-        if (rec.any_vertex_uv) uvs = rec.vertex_uv;
-    }
-    // Positions relative to the bbox centre, computed in double (recentre() only sees floats).
-    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-    bool finite = true;
-    for (size_t i = 0; i < nv; ++i)
-        for (int k = 0; k < 3; ++k) {
-            double x = rec.points[i * 3 + size_t(k)];
-            if (!std::isfinite(x)) { finite = false; continue; }
-            lo[k] = std::min(lo[k], x);
-            hi[k] = std::max(hi[k], x);
-        }
-    if (!finite && !options.allow_non_finite)
-        return Status::error(StatusCode::invalid_input, "vertex positions contain NaN or infinite values");
-    double centre[3] = {0, 0, 0};
-    if (options.recentre && lo[0] <= hi[0]) {
-        double diag = std::sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
-                                (hi[2] - lo[2]) * (hi[2] - lo[2]));
-        double c[3] = {(lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2, (lo[2] + hi[2]) / 2};
-        double dist = std::sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]);
-        if (dist > options.recentre_threshold * std::max(diag, 1e-300) || dist > 1e4)
-            for (int k = 0; k < 3; ++k) centre[k] = c[k];
-    }
-    const size_t n = reader_vertex.size();
-    p.positions.resize(n * 3);
-    for (size_t i = 0; i < n; ++i)
-        for (int k = 0; k < 3; ++k)
-            p.positions[i * 3 + size_t(k)] = float(rec.points[size_t(reader_vertex[i]) * 3 + size_t(k)] - centre[k]);
-    if (rec.any_normal) {
-        p.normals.resize(n * 3);
-        for (size_t i = 0; i < n; ++i)
-            for (int k = 0; k < 3; ++k) p.normals[i * 3 + size_t(k)] = rec.normals[size_t(reader_vertex[i]) * 3 + size_t(k)];
-    }
-    if (rec.any_color) {
-        p.colors.resize(n * 4);
-        for (size_t i = 0; i < n; ++i)
-            for (int k = 0; k < 4; ++k) p.colors[i * 4 + size_t(k)] = rec.colors[size_t(reader_vertex[i]) * 4 + size_t(k)];
-    }
-    if (!uvs.empty()) {
-        // OBJ/PLY put v = 0 at the bottom of the image; glTF at the top.
-        for (size_t i = 1; i < uvs.size(); i += 2) uvs[i] = 1.0f - uvs[i];
-        p.uv0 = std::move(uvs);
-    }
-    bool all_tris = true;
-    for (uint32_t s : p.face_sizes) all_tris &= s == 3;
-    if (all_tris) p.face_sizes.clear();
-    Scene scene = make_scene(std::move(p), "mesh");
-    scene.nodes[0].translation = {centre[0], centre[1], centre[2]};
-    if (dropped) scene.warnings.push_back(std::to_string(dropped) + " faces with fewer than 3 distinct corners were dropped by the reader");
-    out = std::move(scene);
-    return Status::success();
+    return mesh_detail::reader_mesh_to_scene(out, rec, options);
 }
 
 } // namespace furrow

@@ -1,6 +1,7 @@
 // `furrow bench`: every tool's benchmark reachable from one command, one JSON document with speed-versus-error
 // points, and SVG plots drawn from them. (The numbers themselves are measurements, not asserted here; what is
 // asserted is that they exist, are finite and consistent with the tables' own rows.)
+#include "../../models/obj_grid.h"
 #include "test_support.h"
 
 #include <cmath>
@@ -118,4 +119,37 @@ TEST(bench_cli, ShellsAndRenderPlotPoints) {
     EXPECT_GT(j["ssaa"][0]["mean_abs_diff_255"].get<double>(), j["ssaa"][1]["mean_abs_diff_255"].get<double>());
     EXPECT_GT(j["ssaa"][1]["mean_abs_diff_255"].get<double>(), j["ssaa"][2]["mean_abs_diff_255"].get<double>());
     for (const auto& row : j["rows"]) EXPECT_TRUE(row["identical"].get<bool>());
+}
+
+// bench io: the format and load MB/s per row, gltfpack as a peer (or "peer not installed" without it), and
+// the generated OBJ grid row (1 MB here through --generated-mb; `furrow bench io` makes it ~100 MB).
+TEST(bench_cli, IoFormatThroughputPeerAndGeneratedObj) {
+    const auto dir = temp_dir();
+    write_text(dir / "tri.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+    RunResult r = run_furrow({"bench", "io", (dir / "tri.obj").string(), "--repeat", "1", "--generated-mb", "1", "--json"});
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    nlohmann::json j = nlohmann::json::parse(r.out, nullptr, false);
+    ASSERT_FALSE(j.is_discarded()) << r.out.substr(0, 500);
+    ASSERT_EQ(j["rows"].size(), 2u);
+    const int n = models::obj_grid_side_for_bytes(1e6);
+    EXPECT_EQ(j["rows"][0]["model"], "tri.obj");
+    EXPECT_EQ(j["rows"][1]["model"], "generated grid_" + std::to_string(n) + ".obj");
+    EXPECT_EQ(j["rows"][0]["triangles"], 1);
+    EXPECT_EQ(j["rows"][1]["triangles"], 2 * (n - 1) * (n - 1));
+    const bool peer = j["peer"] == "gltfpack";
+    EXPECT_TRUE(peer || j["peer"] == "peer not installed") << j["peer"];
+    for (const auto& row : j["rows"]) {
+        EXPECT_EQ(row["format"], "obj");
+        EXPECT_GT(row["load_mb_s"].get<double>(), 0.0);
+        EXPECT_TRUE(std::isfinite(row["load_mb_s"].get<double>()));
+        EXPECT_GT(row["convert_s"].get<double>(), 0.0) << row["model"];
+        EXPECT_EQ(row["gltfpack_s"].is_number(), peer) << row["model"];
+        EXPECT_EQ(row["convert_over_gltfpack"].is_number(), peer) << row["model"];
+    }
+    // --quick: no generated row; the table names the peer's state.
+    r = run_furrow({"bench", "io", (dir / "tri.obj").string(), "--repeat", "1", "--quick"});
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_EQ(r.out.find("generated"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find(peer ? "gltfpack: installed" : "peer not installed"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("load MB/s"), std::string::npos) << r.out;
 }

@@ -2,7 +2,10 @@
 #include "gltf_builder.h"
 #include "test_support.h"
 
+#include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <map>
 
@@ -354,6 +357,175 @@ TEST(load_scene, ObjVertexLineThatDoesNotParseIsAnError) {
     Status st = load_text(s, "v 0 0 0 1\nv 1e2 0 0 0.5 0.5 0.5\nv 0 1 0\nf 1 2 3\n", ".obj");
     ASSERT_TRUE(st.ok()) << st.message;
     EXPECT_EQ(s.meshes[0].primitives[0].positions, (std::vector<float>{0, 0, 0, 100, 0, 0, 0, 1, 0}));
+}
+
+// The one-pass OBJ reader (obj_load.cpp). Each behaviour with its own test; then a property test against an
+// independent expectation on random OBJ text.
+namespace {
+const Primitive& first_primitive(const Scene& s) { return s.meshes.at(0).primitives.at(0); }
+} // namespace
+
+// A negative index counts back from the last vertex (texcoord, normal) read so far, not from the end of the
+// file; a positive index may name a vertex written further down.
+TEST(load_scene, ObjNegativeIndicesAreRelative) {
+    Scene s;
+    Status st = load_text(s, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf -3 -2 -1\nv 5 5 5\nf 1 2 4\nf -4 -3 -2\n", ".obj");
+    ASSERT_TRUE(st.ok()) << st.message;
+    EXPECT_EQ(first_primitive(s).indices, (std::vector<uint32_t>{0, 1, 2, 0, 1, 3, 0, 1, 2}));
+    // Relative texcoords: vt -1 at the first face is the first vt, at the second face the second.
+    st = load_text(s, "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0.25 0\nf 1/-1 2/-1 3/-1\nvt 0.75 0\nf 3/-1 2/-1 1/-1\n", ".obj");
+    ASSERT_TRUE(st.ok()) << st.message;
+    EXPECT_EQ(first_primitive(s).uv0, (std::vector<float>{0.25f, 1, 0.25f, 1, 0.25f, 1, 0.75f, 1, 0.75f, 1, 0.75f, 1}));
+    // Beyond the first vertex is out of range.
+    st = load_text(s, "v 0 0 0\nv 1 0 0\nf -1 -2 -3\nv 0 1 0\n", ".obj");
+    EXPECT_EQ(st.code, StatusCode::invalid_input);
+    EXPECT_NE(st.message.find("1 faces reference vertices that do not exist"), std::string::npos) << st.message;
+}
+
+// Windows line ends, tabs between words, leading and trailing blanks, a last line without a line end.
+TEST(load_scene, ObjCrlfAndTabs) {
+    Scene a, b;
+    ASSERT_TRUE(load_text(a, "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf 1/1 2/1 3/1\n", ".obj").ok());
+    Status st = load_text(b, "v\t0 0 0\r\n  v 1\t0 0 \r\n\tv 0 1\t 0\t\r\n\r\nvt 0\t0\r\nf\t1/1  2/1\t3/1 \r", ".obj");
+    ASSERT_TRUE(st.ok()) << st.message;
+    EXPECT_EQ(first_primitive(b).positions, first_primitive(a).positions);
+    EXPECT_EQ(first_primitive(b).indices, first_primitive(a).indices);
+    EXPECT_EQ(first_primitive(b).uv0, first_primitive(a).uv0);
+}
+
+// A line ending in '\' goes on on the next line (OpenMesh read the '\' as a corner and dropped the face).
+TEST(load_scene, ObjLineContinuation) {
+    Scene s;
+    Status st = load_text(s, "v 0 0 \\\n 7\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 \\\n3 \\\r\n4\n", ".obj");
+    ASSERT_TRUE(st.ok()) << st.message;
+    EXPECT_EQ(first_primitive(s).face_sizes, (std::vector<uint32_t>{4}));
+    EXPECT_EQ(first_primitive(s).positions[2], 7.0f);
+    EXPECT_TRUE(s.warnings.empty());
+    // A bad number on a continued line is reported at the line the statement starts on.
+    st = load_text(s, "v 0 0 0\nv 1 \\\n x 0\n", ".obj");
+    EXPECT_NE(st.message.find("OBJ line 2 'v 1 \\': a vertex needs three finite numbers"), std::string::npos) << st.message;
+}
+
+// Polygons stay polygons (Catmull-Clark wants the quads), and o, g, s, usemtl, mtllib, l and p lines and
+// trailing comments change nothing.
+TEST(load_scene, ObjPolygonsAndIgnoredStatements) {
+    Scene s;
+    Status st = load_text(s, "mtllib none.mtl\no quad\ng a b\nusemtl skin\ns 1\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 2 0 0\n"
+                             "l 1 2\np 3\nf 1 2 3 4 # the quad\nf 2 5 3\ns off\n", ".obj");
+    ASSERT_TRUE(st.ok()) << st.message;
+    const Primitive& p = first_primitive(s);
+    EXPECT_EQ(p.face_sizes, (std::vector<uint32_t>{4, 3}));
+    EXPECT_EQ(p.indices, (std::vector<uint32_t>{0, 1, 2, 3, 1, 4, 2}));
+    EXPECT_EQ(p.vertex_count(), 5u);
+}
+
+// `vn` through v//n and v/t/n corners gives vertex normals; `v x y z r g b` gives vertex colours (alpha 1).
+TEST(load_scene, ObjNormalsAndVertexColours) {
+    Scene s;
+    Status st = load_text(s, "v 0 0 0 1 0 0\nv 1 0 0 0 1 0\nv 0 1 0 0 0 1\nvn 0 0 1\nvn 0 0 -1\nf 1//2 2//1 3//2\n", ".obj");
+    ASSERT_TRUE(st.ok()) << st.message;
+    const Primitive& p = first_primitive(s);
+    EXPECT_EQ(p.normals, (std::vector<float>{0, 0, -1, 0, 0, 1, 0, 0, -1}));
+    EXPECT_EQ(p.colors, (std::vector<float>{1, 0, 0, 1, 0, 1, 0, 1, 0, 0, 1, 1}));
+}
+
+// A face that names a vertex twice keeps its distinct corners; one left with fewer than three is dropped,
+// and the load says so.
+TEST(load_scene, ObjRepeatedCornersAndDegenerateFaces) {
+    Scene s;
+    Status st = load_text(s, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 2 3\nf 1 1 2\n", ".obj");
+    ASSERT_TRUE(st.ok()) << st.message;
+    EXPECT_EQ(first_primitive(s).indices, (std::vector<uint32_t>{0, 1, 2}));
+    ASSERT_EQ(s.warnings.size(), 1u);
+    EXPECT_NE(s.warnings[0].find("1 faces with fewer than 3 distinct corners"), std::string::npos) << s.warnings[0];
+}
+
+// A `vt` line that is not two numbers is refused by line (OpenMesh failed the whole read without saying where).
+TEST(load_scene, ObjTexcoordLineThatDoesNotParseIsAnError) {
+    Scene s;
+    Status st = load_text(s, "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0.5\nf 1 2 3\n", ".obj");
+    EXPECT_EQ(st.code, StatusCode::invalid_input);
+    EXPECT_NE(st.message.find("OBJ line 4 'vt 0.5': a texture coordinate needs two numbers"), std::string::npos) << st.message;
+}
+
+// Property: on random OBJ text (random spacing, line ends, comments, index styles, relative indices) the
+// loader gives what a direct reading of the same statements gives: one vertex per distinct (v, vt) pair in
+// order of first use, positions as the nearest float of the written double, uv with v flipped.
+TEST(load_scene, ObjMatchesAnIndependentReadingOfRandomText) {
+    uint64_t state = 12345;
+    auto next = [&](uint64_t n) {
+        state = state * 6364136223846793005ull + 1442695040888963407ull;
+        return (state >> 33) % n;
+    };
+    for (int round = 0; round < 300; ++round) {
+        const size_t nv = 3 + next(20), nt = next(2) ? 1 + next(8) : 0;
+        const bool crlf = next(4) == 0;
+        auto space = [&] { return std::string(next(3) ? " " : next(2) ? "\t" : "  \t"); };
+        auto eol = [&] { return std::string(next(8) == 0 ? " # note" : "") + (crlf ? "\r\n" : "\n"); };
+        std::string text = next(2) ? "# random\n" : "";
+        std::vector<double> pos;
+        std::vector<float> uv;
+        for (size_t i = 0; i < nv; ++i) {
+            text += "v";
+            for (int k = 0; k < 3; ++k) {
+                const double x = (double(next(2000001)) - 1e6) / double(1000 + next(1000)); // near the origin: not recentred
+                char b[40];
+                std::snprintf(b, sizeof b, "%.17g", x);
+                text += space() + b;
+                pos.push_back(x);
+            }
+            text += eol();
+        }
+        for (size_t i = 0; i < nt; ++i) {
+            const float u = float(next(1025)) / 1024, v = float(next(1025)) / 1024;
+            text += "vt" + space() + std::to_string(u) + space() + std::to_string(v) + eol();
+            uv.push_back(std::stof(std::to_string(u)));
+            uv.push_back(std::stof(std::to_string(v)));
+        }
+        // Faces: distinct vertices; every corner with a texcoord, or none.
+        std::map<std::pair<size_t, size_t>, uint32_t> first_use;
+        std::vector<uint32_t> want_indices, want_sizes;
+        std::vector<float> want_pos, want_uv;
+        const size_t faces = 1 + next(12);
+        for (size_t f = 0; f < faces; ++f) {
+            const size_t n = 3 + next(std::min<size_t>(nv - 2, 4));
+            std::vector<size_t> corners;
+            while (corners.size() < n) {
+                const size_t c = next(nv);
+                if (std::find(corners.begin(), corners.end(), c) == corners.end()) corners.push_back(c);
+            }
+            text += "f";
+            for (size_t c : corners) {
+                const size_t t = nt ? next(nt) : 0;
+                const std::string vi = next(3) ? std::to_string(c + 1) : "-" + std::to_string(nv - c);
+                const std::string ti = next(3) ? std::to_string(t + 1) : "-" + std::to_string(nt - t);
+                text += space() + vi + (nt ? "/" + ti : "");
+                const auto key = std::make_pair(c, nt ? t : 0);
+                auto [it, inserted] = first_use.insert({key, uint32_t(first_use.size())});
+                if (inserted) {
+                    for (int k = 0; k < 3; ++k) want_pos.push_back(float(pos[c * 3 + size_t(k)]));
+                    if (nt) want_uv.insert(want_uv.end(), {uv[t * 2], 1.0f - uv[t * 2 + 1]});
+                }
+                want_indices.push_back(nt ? it->second : uint32_t(c));
+            }
+            want_sizes.push_back(uint32_t(n));
+            text += eol();
+        }
+        Scene s;
+        Status st = load_text(s, text, ".obj");
+        ASSERT_TRUE(st.ok()) << st.message << "\n" << text;
+        const Primitive& p = first_primitive(s);
+        if (!nt) { // without texcoords every vertex is kept, in file order
+            want_pos.clear();
+            for (double x : pos) want_pos.push_back(float(x));
+        }
+        EXPECT_EQ(p.positions, want_pos) << text;
+        EXPECT_EQ(p.indices, want_indices) << text;
+        EXPECT_EQ(p.uv0, want_uv) << text;
+        const bool all_triangles = std::all_of(want_sizes.begin(), want_sizes.end(), [](uint32_t n) { return n == 3; });
+        EXPECT_EQ(p.face_sizes, all_triangles ? std::vector<uint32_t>{} : want_sizes) << text;
+        EXPECT_EQ(s.nodes[0].translation, (std::array<double, 3>{0, 0, 0})) << text;
+    }
 }
 
 // load_scene_from_memory resolves no external URI (mesh.h), but tinygltf opened absolute paths and looked up

@@ -1,0 +1,323 @@
+// OBJ in one pass over the bytes, std::from_chars on the buffer: no stream and no string per line. OpenMesh's
+// reader (used before) read the file twice through a string stream per line, after a validation pass that
+// read it a third time (8 MB/s); this reads 100+ MB/s and gives the same scene for every file it accepted
+// (same vertices in the same order, same seam splits, same attributes), with these differences: a line
+// ending in '\' continues on the next line (OpenMesh read the '\' as a corner and dropped the face), a
+// `vt` line that is not two numbers is refused by line, and faces with fewer than 3 distinct corners are
+// reported in a warning instead of vanishing silently.
+// Stages:
+//  - lines: split at '\n', trimmed of ' ', '\t', '\r' (CRLF files), empty lines and '#' comments skipped, '\'
+//    continuations joined. Words are split at any C whitespace (tabs included). Only v, vt, vn, vc and f
+//    mean something: o, g, s, usemtl, l, p and the rest are skipped, and mtllib is never opened (furrow
+//    reads no materials; OpenMesh read /dev/zero forever).
+//  - numbers: read the way a C++ stream reads them (what OpenMesh did, so that a file means the same): the
+//    longest [sign] digits [. digits] [e [sign] digits] prefix, which must convert whole ("1e" does not).
+//    `v` coordinates in double (a model 1e5 m from the origin keeps its millimetres), refused by line unless
+//    three finite numbers that fit a float (OpenMesh skipped such a line and every later vertex shifted
+//    by one); three more numbers are a vertex colour. vt/vn/vc in float.
+//  - face corners: v, v/t, v//n, v/t/n, negative indices relative to the lines read so far; a corner word
+//    that is not a number is skipped, a corner with a '/' must start with a vertex index (OpenMesh asserted).
+//    Indices are kept raw: positive ones may name vertices, texcoords and normals later in the file.
+//  - attributes, once the whole file is read: per corner the texcoord and normal are set on the vertex,
+//    and the face's texcoords on its corners; a face's repeated vertices are removed first and a face left
+//    with fewer than 3 is dropped. This keeps OpenMesh's quirks that decide the output of valid files:
+//    vertex colours are indexed by vertex number among the lines that had a colour, and a face that
+//    repeats a vertex gets its texcoords on the remaining corners in order.
+//  - reader_mesh_to_scene: glTF vertices split by corner uv, recentring in double, v flipped.
+// OBJ: https://paulbourke.net/dataformats/obj/
+#include "document.h"
+
+#include <charconv>
+#include <climits>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+
+namespace furrow::mesh_detail {
+namespace {
+
+bool is_space(char c) { return c == ' ' || c == '\t' || c == '\n' || c == '\v' || c == '\f' || c == '\r'; }
+bool is_digit(char c) { return c >= '0' && c <= '9'; }
+
+// A number as `stream >> value` reads it: the span num_get takes, which must convert whole. Leading
+// whitespace is skipped. Returns the end of the number, nullptr if there is none.
+template <class T> const char* read_number(const char* p, const char* end, T& value) {
+    while (p < end && is_space(*p)) ++p;
+    const char* b = p;
+    if (p < end && (*p == '+' || *p == '-')) ++p;
+    bool digits = false;
+    while (p < end && is_digit(*p)) ++p, digits = true;
+    if (p < end && *p == '.')
+        for (++p; p < end && is_digit(*p); ++p) digits = true;
+    if (digits && p < end && (*p == 'e' || *p == 'E')) {
+        ++p;
+        if (p < end && (*p == '+' || *p == '-')) ++p;
+        while (p < end && is_digit(*p)) ++p;
+    }
+    const char* s = b < p && *b == '+' ? b + 1 : b;
+    const auto r = std::from_chars(s, p, value);
+    if (r.ptr != p || s == p) return nullptr;
+    if (r.ec == std::errc::result_out_of_range) { // overflow fails the stream; underflow reads as tiny or 0
+        const std::string copy(s, p);
+        const double d = std::strtod(copy.c_str(), nullptr);
+        if (std::abs(d) >= 1) return nullptr;
+        value = T(d);
+    }
+    return p;
+}
+
+// An index as `stream >> int` reads it: [sign] digits, what follows ignored; out of range clamps and fails.
+struct IntRead {
+    bool ok = false;
+    int value = 0;
+};
+IntRead read_int(const char* p, const char* end) {
+    bool negative = false;
+    if (p < end && (*p == '+' || *p == '-')) negative = *p++ == '-';
+    if (p == end || !is_digit(*p)) return {};
+    long long v = 0;
+    for (; p < end && is_digit(*p) && v <= 1LL << 32; ++p) v = v * 10 + (*p - '0');
+    v = negative ? -v : v;
+    if (v > INT_MAX || v < INT_MIN || (p < end && is_digit(*p))) return {false, negative ? INT_MIN : INT_MAX};
+    return {true, int(v)};
+}
+
+struct ObjText {
+    std::vector<double> points;               // xyz per `v`
+    std::vector<float> colors, uvs, normals;  // rgb per coloured `v` or `vc`; uv per `vt`; xyz per parsed `vn`
+    size_t normal_lines = 0;                  // `vn` lines, parsed or not (negative normal indices count them)
+    std::vector<uint32_t> face_start;         // into the corner arrays
+    std::vector<int> corner_v, corner_t, corner_n; // raw 0-based indices; t, n: -1 = none (sized once seen)
+};
+
+Status line_error(size_t line, const char* raw, const char* raw_end, const std::string& what) {
+    std::string shown(raw, size_t(std::min<ptrdiff_t>(raw_end - raw, 40)));
+    while (!shown.empty() && (shown.back() == '\r' || shown.back() == ' ')) shown.pop_back();
+    return Status::error(StatusCode::invalid_input, "OBJ line " + std::to_string(line) + " '" + shown + "': " + what);
+}
+
+// The words of an `f` line after the keyword: one corner each.
+Status read_face(ObjText& obj, const char* p, const char* end, size_t line) {
+    obj.face_start.push_back(uint32_t(obj.corner_v.size()));
+    while (p < end) {
+        while (p < end && is_space(*p)) ++p;
+        const char* word = p;
+        while (p < end && !is_space(*p)) ++p;
+        if (word == p) break;
+        int index[3] = {-1, -1, -1};
+        bool has_vertex = false;
+        const char* q = word;
+        for (int component = 0; q < p; ++component) {
+            const char* slash = static_cast<const char*>(std::memchr(q, '/', size_t(p - q)));
+            IntRead r;
+            if (slash) {
+                int checked = 0;
+                const char* digits = q < slash && *q == '+' ? q + 1 : q;
+                if (component == 0 && (q == slash || std::from_chars(digits, slash, checked).ec != std::errc()))
+                    return Status::error(StatusCode::invalid_input, "OBJ line " + std::to_string(line) + ": face corner '" +
+                                                                        std::string(word, size_t(std::min<ptrdiff_t>(p - word, 24))) +
+                                                                        "' has no vertex index");
+                const bool empty = q == slash;
+                r = read_int(q, slash); // a failed read is used as it stands (0, or clamped), as the stream's was
+                q = slash + 1;
+                if (empty) continue;
+            } else {
+                r = read_int(q, p);
+                q = p;
+                if (!r.ok) continue; // garbage at the end of the corner, or a word that is no corner
+            }
+            if (component > 2) continue;
+            const size_t so_far = component == 0 ? obj.points.size() / 3 : component == 1 ? obj.uvs.size() / 2 : obj.normal_lines;
+            const long long value = r.value < 0 ? (long long)so_far + r.value + 1 : r.value;
+            index[component] = int(value - 1);
+            has_vertex |= component == 0;
+        }
+        if (!has_vertex) continue;
+        obj.corner_v.push_back(index[0]);
+        for (auto [k, list] : {std::pair{1, &obj.corner_t}, std::pair{2, &obj.corner_n}})
+            if (index[k] != -1 || !list->empty()) {
+                if (list->empty()) list->reserve(obj.corner_v.capacity());
+                list->resize(obj.corner_v.size() - 1, -1); // the corners before the first index: none
+                list->push_back(index[k]);
+            }
+    }
+    return Status::success();
+}
+
+// One logical line (trimmed, continuations joined); raw..raw_end is its first physical line, for messages.
+Status read_line(ObjText& obj, const char* p, const char* end, size_t line, const char* raw, const char* raw_end) {
+    const char* key = p;
+    while (p < end && !is_space(*p)) ++p;
+    const size_t length = size_t(p - key);
+    const char k0 = key[0], k1 = length == 2 ? key[1] : '\0';
+    if (length == 1 && k0 == 'v') {
+        double xyz[3];
+        for (double& x : xyz)
+            if (!p || !(p = read_number(p, end, x)) || !std::isfinite(static_cast<float>(x)))
+                return line_error(line, raw, raw_end, "a vertex needs three finite numbers");
+        obj.points.insert(obj.points.end(), {xyz[0], xyz[1], xyz[2]});
+        float rgb[3];
+        for (float& c : rgb) p = p ? read_number(p, end, c) : nullptr;
+        if (p) obj.colors.insert(obj.colors.end(), {rgb[0], rgb[1], rgb[2]});
+    } else if (k0 == 'v' && k1 == 't') {
+        float uv[2];
+        for (float& c : uv)
+            if (!p || !(p = read_number(p, end, c))) return line_error(line, raw, raw_end, "a texture coordinate needs two numbers");
+        obj.uvs.insert(obj.uvs.end(), {uv[0], uv[1]});
+    } else if (k0 == 'v' && (k1 == 'n' || k1 == 'c')) {
+        float xyz[3];
+        for (float& c : xyz) p = p ? read_number(p, end, c) : nullptr;
+        std::vector<float>& list = k1 == 'n' ? obj.normals : obj.colors;
+        if (p) list.insert(list.end(), {xyz[0], xyz[1], xyz[2]}); // a `vn` that does not read is skipped, but counts
+        obj.normal_lines += k1 == 'n';
+    } else if (length == 1 && k0 == 'f') {
+        return read_face(obj, p, end, line);
+    }
+    return Status::success();
+}
+
+// Every array sized once: the statements counted by their first letters (the words of `f` lines counted too).
+// Growing them instead copied each array and faulted in fresh pages at every doubling: a fifth of the load.
+void reserve(ObjText& obj, const char* text, size_t size) {
+    const char* const end = text + size;
+    size_t v = 0, vt = 0, vn = 0, f = 0, words = 0;
+    for (const char* at = text; at < end;) {
+        while (at < end && (*at == ' ' || *at == '\t')) ++at;
+        const char* e = static_cast<const char*>(std::memchr(at, '\n', size_t(end - at)));
+        if (!e) e = end;
+        const char c1 = e - at > 1 ? at[1] : '\n';
+        if (at < e && *at == 'v') {
+            v += c1 == ' ' || c1 == '\t';
+            vt += c1 == 't';
+            vn += c1 == 'n';
+        } else if (at < e && *at == 'f' && (c1 == ' ' || c1 == '\t')) {
+            ++f;
+            for (const char* p = at + 1; p < e; ++p) words += is_space(p[-1]) && !is_space(*p);
+        }
+        at = e + 1;
+    }
+    obj.points.reserve(v * 3);
+    obj.uvs.reserve(vt * 2);
+    obj.normals.reserve(vn * 3);
+    obj.face_start.reserve(f);
+    obj.corner_v.reserve(words);
+}
+
+Status read_lines(ObjText& obj, const char* text, size_t size) {
+    reserve(obj, text, size);
+    const char* const end = text + size;
+    std::string joined; // continued lines only
+    size_t line = 0;
+    for (const char* at = text; at < end;) {
+        auto next_line = [&](const char*& b, const char*& e) {
+            b = at;
+            e = static_cast<const char*>(std::memchr(at, '\n', size_t(end - at)));
+            if (!e) e = end;
+            at = e < end ? e + 1 : end;
+            ++line;
+        };
+        auto trim = [](const char*& b, const char*& e) {
+            while (b < e && (*b == ' ' || *b == '\t' || *b == '\r')) ++b;
+            while (e > b && (e[-1] == ' ' || e[-1] == '\t' || e[-1] == '\r')) --e;
+        };
+        const char *raw, *raw_end;
+        next_line(raw, raw_end);
+        const size_t first_line = line;
+        const char *b = raw, *e = raw_end;
+        trim(b, e);
+        if (e > b && e[-1] == '\\') {
+            joined.assign(b, e - 1);
+            for (bool more = true; more && at < end;) {
+                const char *nb, *ne;
+                next_line(nb, ne);
+                trim(nb, ne);
+                more = ne > nb && ne[-1] == '\\';
+                joined.append(" ").append(nb, more ? ne - 1 : ne);
+            }
+            b = joined.data(), e = joined.data() + joined.size();
+            trim(b, e);
+        }
+        if (b == e || *b == '#' || is_space(*b)) continue;
+        if (Status s = read_line(obj, b, e, first_line, raw, raw_end); !s.ok()) return s;
+    }
+    return Status::success();
+}
+
+// The per-vertex values a face's corners set, in corner order (the last corner to name a vertex wins).
+void set_corner_attributes(const ObjText& obj, ReaderMesh& m, size_t c, std::vector<float>& face_uv) {
+    const size_t nv = m.vertex_count();
+    const int v = obj.corner_v[c];
+    const bool vertex_ok = v >= 0 && size_t(v) < nv;
+    auto in = [](int i, size_t n) { return i >= 0 && size_t(i) < n; };
+    if (vertex_ok && in(v, obj.colors.size() / 3)) {
+        if (!m.any_color) m.colors.assign(nv * 4, 1.0f), m.any_color = true;
+        std::copy_n(&obj.colors[size_t(v) * 3], 3, &m.colors[size_t(v) * 4]);
+    }
+    if (!obj.corner_t.empty() && in(obj.corner_t[c], obj.uvs.size() / 2)) {
+        const float* uv = &obj.uvs[size_t(obj.corner_t[c]) * 2];
+        face_uv.insert(face_uv.end(), {uv[0], uv[1]});
+        if (vertex_ok) {
+            if (!m.any_vertex_uv) m.vertex_uv.assign(nv * 2, 0.0f), m.any_vertex_uv = true;
+            std::copy_n(uv, 2, &m.vertex_uv[size_t(v) * 2]);
+        }
+    }
+    if (vertex_ok && !obj.corner_n.empty() && in(obj.corner_n[c], obj.normals.size() / 3)) {
+        if (!m.any_normal) m.normals.assign(nv * 3, 0.0f), m.any_normal = true;
+        std::copy_n(&obj.normals[size_t(obj.corner_n[c]) * 3], 3, &m.normals[size_t(v) * 3]);
+    }
+}
+
+// The faces with their repeated vertices removed (a face left with fewer than 3 is dropped), their
+// texcoords on their corners, and the attributes on the vertices.
+void to_reader_mesh(ObjText& obj, ReaderMesh& m) {
+    m.points = std::move(obj.points);
+    const size_t nv = m.vertex_count();
+    m.corners.reserve(obj.corner_v.size());
+    m.face_start.reserve(obj.face_start.size());
+    if (!obj.corner_t.empty()) m.corner_uv.reserve(obj.corner_v.size() * 2);
+    std::vector<float> face_uv;
+    std::vector<int> distinct;
+    for (size_t f = 0; f < obj.face_start.size(); ++f) {
+        const size_t b = obj.face_start[f], e = f + 1 < obj.face_start.size() ? obj.face_start[f + 1] : obj.corner_v.size();
+        face_uv.clear();
+        distinct.clear();
+        for (size_t c = b; c < e; ++c) {
+            set_corner_attributes(obj, m, c, face_uv);
+            if (std::find(distinct.begin(), distinct.end(), obj.corner_v[c]) == distinct.end()) distinct.push_back(obj.corner_v[c]);
+        }
+        if (distinct.size() < 3) {
+            m.dropped_faces += 1;
+            continue;
+        }
+        const size_t start = m.corners.size();
+        m.face_start.push_back(uint32_t(start));
+        for (int v : distinct) m.corners.push_back(uint32_t(v)); // a negative index becomes one out of range
+        if (face_uv.empty()) continue;
+        m.any_corner_uv = true;
+        m.corner_uv.resize(m.corners.size() * 2, 0.0f);
+        std::copy_n(face_uv.begin(), std::min(face_uv.size(), distinct.size() * 2), m.corner_uv.begin() + std::ptrdiff_t(start * 2));
+    }
+    if (m.any_corner_uv) m.corner_uv.resize(m.corners.size() * 2, 0.0f);
+    // Without faces, a point cloud: normals and colours in vertex order when there are enough of them.
+    if (m.face_start.empty() && !obj.normals.empty() && obj.normals.size() == nv * 3) m.normals = obj.normals, m.any_normal = true;
+    if (m.face_start.empty() && !obj.colors.empty() && obj.colors.size() >= nv * 3) {
+        m.colors.assign(nv * 4, 1.0f), m.any_color = true;
+        for (size_t i = 0; i < nv; ++i) std::copy_n(&obj.colors[i * 3], 3, &m.colors[i * 4]);
+    }
+}
+
+} // namespace
+} // namespace furrow::mesh_detail
+
+namespace furrow {
+
+Status load_obj_bytes(Scene& out, const char* text, size_t size, const LoadOptions& options) {
+    mesh_detail::ObjText obj;
+    if (Status s = mesh_detail::read_lines(obj, text, size); !s.ok()) return s;
+    mesh_detail::ReaderMesh mesh;
+    mesh_detail::to_reader_mesh(obj, mesh);
+    obj = {};
+    return mesh_detail::reader_mesh_to_scene(out, mesh, options);
+}
+
+} // namespace furrow
