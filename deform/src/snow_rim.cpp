@@ -33,7 +33,8 @@ namespace {
 
 // Working arrays, kept between calls (a game calls update() every frame): no allocation, no page faults.
 struct Scratch {
-    std::vector<float> source, mass, profile, num, den, result, tmp, f, depth;
+    std::vector<float> source, mass, profile, result, tmp, f, depth;
+    std::vector<uint64_t> num, den, tmp_q;
     std::vector<uint8_t> is_source, receiver;
     std::vector<int> row_of, nearest;
 };
@@ -43,17 +44,19 @@ void fit(std::vector<T>& v, size_t n) {
     if (v.size() < n) v.resize(n);
 }
 
-// Separable box sum of radius n (zero outside). Both passes walk memory row by row (the vertical one keeps a
-// running sum per column); sums are carried in double, stored in float.
-void box_pass(float* v, float* tmp, int w, int h, int n) {
+// Separable box sum of radius n (zero outside the window) of fixed-point values. Both passes walk memory row
+// by row (the vertical one keeps a running sum per column). The sums are exact (unsigned 64-bit, where
+// wrap-around cancels: the true sums fit, see kRimMaxGather), so a texel's sum is the same in any window that
+// holds its neighbourhood: the rim recomputed in a small window around a stamp equals the whole field's.
+void box_pass(uint64_t* v, uint64_t* tmp, int w, int h, int n) {
     tbb::parallel_for(tbb::blocked_range<int>(0, h, 32), [&](const tbb::blocked_range<int>& r) {
         for (int j = r.begin(); j != r.end(); ++j) {
-            const float* row = v + size_t(j) * size_t(w);
-            float* o = tmp + size_t(j) * size_t(w);
-            double acc = 0;
+            const uint64_t* row = v + size_t(j) * size_t(w);
+            uint64_t* o = tmp + size_t(j) * size_t(w);
+            uint64_t acc = 0;
             for (int i = 0; i <= std::min(n, w - 1); ++i) acc += row[i];
             for (int i = 0; i < w; ++i) {
-                o[i] = float(acc);
+                o[i] = acc;
                 if (i + n + 1 < w) acc += row[i + n + 1];
                 if (i - n >= 0) acc -= row[i - n];
             }
@@ -61,18 +64,44 @@ void box_pass(float* v, float* tmp, int w, int h, int n) {
     });
     tbb::parallel_for(tbb::blocked_range<int>(0, w, 256), [&](const tbb::blocked_range<int>& r) {
         const int i0 = r.begin(), i1 = r.end();
-        std::vector<double> acc(size_t(i1 - i0), 0.0);
+        std::vector<uint64_t> acc(size_t(i1 - i0), 0);
         for (int j = 0; j <= std::min(n, h - 1); ++j)
             for (int i = i0; i < i1; ++i) acc[size_t(i - i0)] += tmp[size_t(j) * size_t(w) + size_t(i)];
         for (int j = 0; j < h; ++j) {
-            float* o = v + size_t(j) * size_t(w);
-            const float* add = j + n + 1 < h ? tmp + size_t(j + n + 1) * size_t(w) : nullptr;
-            const float* sub = j - n >= 0 ? tmp + size_t(j - n) * size_t(w) : nullptr;
+            uint64_t* o = v + size_t(j) * size_t(w);
+            const uint64_t* add = j + n + 1 < h ? tmp + size_t(j + n + 1) * size_t(w) : nullptr;
+            const uint64_t* sub = j - n >= 0 ? tmp + size_t(j - n) * size_t(w) : nullptr;
             for (int i = i0; i < i1; ++i) {
-                double& a = acc[size_t(i - i0)];
-                o[i] = float(a);
+                uint64_t& a = acc[size_t(i - i0)];
+                o[i] = a;
                 if (add) a += add[i];
                 if (sub) a -= sub[i];
+            }
+        }
+    });
+}
+
+// Box sum of radius r in float, each texel's terms added in one fixed order (rows j − r .. j + r, then
+// columns i − r .. i + r; zero outside the window): the same bits in any window that holds the neighbourhood.
+void box_pass_ordered(float* v, float* tmp, int w, int h, int r) {
+    tbb::parallel_for(tbb::blocked_range<int>(0, h, 16), [&](const tbb::blocked_range<int>& rows) {
+        for (int j = rows.begin(); j != rows.end(); ++j) {
+            float* o = tmp + size_t(j) * size_t(w);
+            std::fill(o, o + w, 0.0f);
+            for (int k = std::max(0, j - r); k <= std::min(h - 1, j + r); ++k) {
+                const float* in = v + size_t(k) * size_t(w);
+                for (int i = 0; i < w; ++i) o[i] += in[i];
+            }
+        }
+    });
+    tbb::parallel_for(tbb::blocked_range<int>(0, h, 16), [&](const tbb::blocked_range<int>& rows) {
+        for (int j = rows.begin(); j != rows.end(); ++j) {
+            const float* in = tmp + size_t(j) * size_t(w);
+            float* o = v + size_t(j) * size_t(w);
+            for (int i = 0; i < w; ++i) {
+                float acc = 0.0f;
+                for (int k = std::max(0, i - r); k <= std::min(w - 1, i + r); ++k) acc += in[k];
+                o[i] = acc;
             }
         }
     });
@@ -104,10 +133,16 @@ void max_pass(float* v, float* tmp, int w, int h, int n) {
     });
 }
 
-// Two box passes: a smooth (quadratic B-spline) kernel of radius 2n in O(N).
-void smooth(float* v, float* tmp, int w, int h, int n) {
+// Two box passes: a smooth (quadratic B-spline) kernel of radius 2n in O(N), exact.
+void smooth(uint64_t* v, uint64_t* tmp, int w, int h, int n) {
     box_pass(v, tmp, w, h, n);
     box_pass(v, tmp, w, h, n);
+}
+
+// The same kernel in float with each texel's sum in a fixed order, O(r) per texel: the blur of the ridge.
+void blur(float* v, float* tmp, int w, int h, int r) {
+    box_pass_ordered(v, tmp, w, h, r);
+    box_pass_ordered(v, tmp, w, h, r);
 }
 
 // Nearest texel of a mask (exact Euclidean) for every texel of a w × h window: index into the window, or -1.
@@ -189,7 +224,8 @@ namespace {
 struct Window {
     int w = 0, h = 0;
     size_t N = 0;
-    float *source, *mass, *profile, *num, *den, *result, *tmp;
+    float *source, *mass, *profile, *result, *tmp;
+    uint64_t *num, *den, *tmp_q;
     uint8_t *is_source, *receiver;
 };
 
@@ -206,6 +242,7 @@ bool gather_sources(Window& W, const RimInput& in, const TexelRect& win, const R
             if (s > 0) {
                 W.source[x] = s;
                 W.is_source[x] = 1;
+                if (!in.conserve) any_source = true; // a cosmetic rim rises around any imprint
                 if (own.owns(i + win.x0, j + win.y0)) {
                     W.mass[x] = s;
                     any_source = true;
@@ -234,11 +271,14 @@ void rim_profile(Window& W, const int* nearest, double texel, double width_m) {
         }
 }
 
-// Gathering radius (texels): an imprint's half-width plus its rim, so that a rim point sees the volume it
-// carries. Beyond the window's size a box covers all of it, so the cap changes nothing but keeps i + n + 1
-// (in box_pass) from overflowing for a collider of 1e30 m.
-int gather_radius(const Window& W, const RimInput& in, double width_m) {
-    return std::max(2, clamped_int(std::ceil((width_m + in.gather_m) / in.texel / 2), 0, std::max(W.w, W.h)));
+// Fixed point of the gathered sums: 2^-20 m (about a micrometre) per unit, each value capped so that the
+// smoothed sum (a box of box sums, (2n + 1)⁴ terms, n <= kRimMaxGather) stays below 2^62: 16 km of depth
+// per texel at the largest radius.
+constexpr double kQuantum = 1.0 / 1048576.0;
+uint64_t quantized(double x, int n) {
+    const double side = 2.0 * n + 1;
+    const double cap = std::floor(4.6e18 / (side * side * side * side));
+    return x > 0 ? uint64_t(std::llround(std::min(x / kQuantum, cap))) : 0;
 }
 
 // The rim for one width: local amplitude (ratio of two smoothed fields) × profile, blurred, kept on owned
@@ -246,21 +286,23 @@ int gather_radius(const Window& W, const RimInput& in, double width_m) {
 // the volume that could not be placed.
 double rim_amplitude(Window& W, const RimInput& in, const TexelRect& win, const RimOwner& own, double width_m) {
     const size_t N = W.N;
-    const int n = gather_radius(W, in, width_m);
-    std::copy(in.conserve ? W.mass : W.source, (in.conserve ? W.mass : W.source) + N, W.num);
-    if (in.conserve) std::copy(W.profile, W.profile + N, W.den);
-    else
-        for (size_t x = 0; x < N; ++x) W.den[x] = W.is_source[x];
-    smooth(W.num, W.tmp, W.w, W.h, n);
-    smooth(W.den, W.tmp, W.w, W.h, n);
+    const int n = rim_gather_radius(width_m, in.gather_m, in.texel);
+    for (size_t x = 0; x < N; ++x) {
+        W.num[x] = quantized(in.conserve ? W.mass[x] : W.source[x], n);
+        W.den[x] = quantized(in.conserve ? W.profile[x] : double(W.is_source[x]), n);
+    }
+    smooth(W.num, W.tmp_q, W.w, W.h, n);
+    smooth(W.den, W.tmp_q, W.w, W.h, n);
     double removed = 0;
     for (size_t x = 0; x < N; ++x) {
         removed += W.mass[x];
-        W.result[x] = (W.profile[x] > 0 && W.den[x] > 0) ? W.profile[x] * W.num[x] / W.den[x] : 0.0f;
+        // The true sums are < 2^62: the wrapped unsigned sums read back as themselves.
+        const double num = double(int64_t(W.num[x])), den = double(int64_t(W.den[x]));
+        W.result[x] = (W.profile[x] > 0 && den > 0) ? float(double(W.profile[x]) * num / den) : 0.0f;
     }
     // Staircase noise of the texel-centre distances, blurred away (over a radius that grows with a widened
     // rim: its stripes are as long as it is wide); imprinted texels stay untouched.
-    smooth(W.result, W.tmp, W.w, W.h, in.conserve ? std::clamp(int(width_m / (6 * in.texel)), 1, 16) : 1);
+    blur(W.result, W.tmp, W.w, W.h, in.conserve ? std::clamp(int(width_m / (6 * in.texel)), 1, 16) : 1);
     double raised = 0;
     for (int j = 0; j < W.h; ++j)
         for (int i = 0; i < W.w; ++i) {
@@ -305,19 +347,20 @@ double rim_excess(Window& W, const RimInput& in, const float* local_depth) {
 
 } // namespace
 
-double compute_rim(float* rim, const RimInput& in, const TexelRect& win, const RimOwner& own) {
+double compute_rim(float* rim, const RimInput& in, const TexelRect& win, const RimOwner& own, const TexelRect& out) {
     const int w = win.x1 - win.x0, h = win.y1 - win.y0;
     if (w <= 0 || h <= 0) return 0.0;
     const size_t N = size_t(w) * size_t(h);
     static thread_local Scratch S;
-    for (auto* v : {&S.source, &S.mass, &S.profile, &S.num, &S.den, &S.result, &S.tmp, &S.depth}) fit(*v, N);
+    for (auto* v : {&S.source, &S.mass, &S.profile, &S.result, &S.tmp, &S.depth}) fit(*v, N);
+    for (auto* v : {&S.num, &S.den, &S.tmp_q}) fit(*v, N);
     fit(S.is_source, N);
     fit(S.receiver, N);
-    Window W{w, h, N, S.source.data(), S.mass.data(), S.profile.data(), S.num.data(), S.den.data(), S.result.data(), S.tmp.data(),
-             S.is_source.data(), S.receiver.data()};
+    Window W{w, h, N, S.source.data(), S.mass.data(), S.profile.data(), S.result.data(), S.tmp.data(), S.num.data(),
+             S.den.data(), S.tmp_q.data(), S.is_source.data(), S.receiver.data()};
     auto write = [&](const float* result) {
-        for (int j = 0; j < h; ++j)
-            for (int i = 0; i < w; ++i)
+        for (int j = std::max(0, out.y0 - win.y0); j < std::min(h, out.y1 - win.y0); ++j)
+            for (int i = std::max(0, out.x0 - win.x0); i < std::min(w, out.x1 - win.x0); ++i)
                 if (own.owns(i + win.x0, j + win.y0))
                     rim[size_t(j + win.y0) * size_t(in.width) + size_t(i + win.x0)] = result ? result[size_t(j) * size_t(w) + size_t(i)] : 0.0f;
     };
@@ -334,7 +377,7 @@ double compute_rim(float* rim, const RimInput& in, const TexelRect& win, const R
         // of the caller's width (what the rim's volume comes from).
         float* depth = S.depth.data();
         std::copy(W.source, W.source + N, depth);
-        max_pass(depth, W.tmp, w, h, 2 * gather_radius(W, in, in.width_m));
+        max_pass(depth, W.tmp, w, h, 2 * rim_gather_radius(in.width_m, in.gather_m, in.texel));
         // The rim widens before it rises: while it is taller than the print is deep, or steeper than the
         // snow's angle of repose, the same volume is spread over a wider ring (up to max_width_m, what the
         // caller's window holds).
