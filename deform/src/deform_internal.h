@@ -138,7 +138,7 @@ inline int rim_gather_radius(double width_m, double gather_m, double texel) {
 // the gathered sums (2n) and the distance to the nearest imprint (the rim's width + half a texel).
 inline int rim_reach(double width_m, double gather_m, double texel) {
     const int profile = clamped_int(std::ceil(width_m / texel + 0.5), 0, 1 << 20);
-    return 2 + std::max(2 * rim_gather_radius(width_m, gather_m, texel), profile) + 1;
+    return 2 + std::max(2 * rim_gather_radius(width_m, gather_m, texel), profile);
 }
 
 // ---- heightmap_io.cpp -------------------------------------------------------------------------------------

@@ -9,6 +9,11 @@
 // the dirty rectangle and renormalises every point of the faces around them, which is exactly the set whose
 // angle-weighted normal can change. Each face's part of a normal, and which faces are degenerate, are the
 // kernel's (furrow_kernel/angle_weighted_normal.h), as in compute_vertex_normals.
+// Cost per point. Both passes cache each face's terms (unit normal, corner angles: three atan2) once per face,
+// not once per corner. An update skips the points whose position comes out bit-identical (a dirty tile is
+// rarely dirty everywhere): their faces, normals and buffer entries are already those a full pass writes. The
+// points and faces to redo are claimed in parallel chunks, so the update scales with threads as the full pass
+// does; the result bytes do not depend on which chunk claims what.
 #include "deform_internal.h"
 
 #include <furrow_kernel/angle_weighted_normal.h>
@@ -19,6 +24,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <atomic>
 #include <bit>
 
 namespace furrow {
@@ -95,7 +101,8 @@ struct DisplacedGround::Impl {
     std::vector<uint32_t> tile_off, tile_pts;
     std::vector<FaceTerm> terms;          // per triangle, as of the last displace_all/update
     std::vector<uint32_t> mark, face_mark; // scratch for update()
-    std::vector<uint32_t> moved, changed, renorm;
+    std::vector<uint32_t> moved;          // points under the dirty rectangles
+    std::vector<std::vector<uint32_t>> claims; // per chunk of moved points: the points it renormalises
     std::vector<uint8_t> shifted;         // per moved point: its position changed
     uint32_t epoch = 0;
     static constexpr int kTile = 16;
@@ -305,7 +312,7 @@ size_t DisplacedGround::update(const Heightmap& h, const std::vector<TexelRect>&
         if (++m.epoch == 0) std::fill(m.mark.begin(), m.mark.end(), 0), std::fill(m.face_mark.begin(), m.face_mark.end(), 0), m.epoch = 1;
         return m.epoch;
     };
-    m.moved.clear(), m.changed.clear(), m.renorm.clear();
+    m.moved.clear();
     points_under(m, rects, next_epoch());
     if (m.moved.empty()) return 0;
     // Re-displaced; a point whose position came out bit-identical (its texels did not change: a dirty tile is
@@ -316,27 +323,32 @@ size_t DisplacedGround::update(const Heightmap& h, const std::vector<TexelRect>&
     });
     // The faces around a shifted point change; every corner of such a face gets a new normal.
     const uint32_t e = next_epoch();
-    for (size_t i = 0; i < m.moved.size(); ++i) {
-        if (!m.shifted[i]) continue;
-        const uint32_t p = m.moved[i];
-        for (uint32_t k = m.face_off[p]; k < m.face_off[size_t(p) + 1]; ++k) {
-            const uint32_t f = m.faces[k];
-            if (m.face_mark[f] == e) continue;
-            m.face_mark[f] = e;
-            m.changed.push_back(f);
-            for (int c = 0; c < 3; ++c) {
-                const uint32_t q = m.tris[3 * size_t(f) + size_t(c)];
-                if (m.mark[q] != e) m.mark[q] = e, m.renorm.push_back(q);
+    // Each face and point is claimed by the first chunk that reaches it (an atomic exchange of its mark); which
+    // chunk does does not matter, a face's terms and a point's normal are functions of positions alone.
+    constexpr size_t kChunk = 1024;
+    const size_t chunks = (m.moved.size() + kChunk - 1) / kChunk;
+    if (m.claims.size() < chunks) m.claims.resize(chunks);
+    auto claim = [e](uint32_t& mark) { return std::atomic_ref<uint32_t>(mark).exchange(e, std::memory_order_relaxed) != e; };
+    tbb::parallel_for(size_t(0), chunks, [&](size_t c) {
+        std::vector<uint32_t>& points = m.claims[c];
+        points.clear();
+        for (size_t i = c * kChunk; i < std::min(m.moved.size(), (c + 1) * kChunk); ++i) {
+            if (!m.shifted[i]) continue;
+            const uint32_t p = m.moved[i];
+            for (uint32_t k = m.face_off[p]; k < m.face_off[size_t(p) + 1]; ++k) {
+                const uint32_t f = m.faces[k];
+                if (!claim(m.face_mark[f])) continue;
+                m.terms[f] = face_term(m.cur, &m.tris[3 * size_t(f)]);
+                for (int corner = 0; corner < 3; ++corner) {
+                    const uint32_t q = m.tris[3 * size_t(f) + size_t(corner)];
+                    if (claim(m.mark[q])) points.push_back(q);
+                }
             }
+            if (claim(m.mark[p])) points.push_back(p); // isolated points
         }
-        if (m.mark[p] != e) m.mark[p] = e, m.renorm.push_back(p); // isolated points
-    }
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, m.changed.size(), 256), [&](const tbb::blocked_range<size_t>& r) {
-        for (size_t k = r.begin(); k != r.end(); ++k) m.terms[m.changed[k]] = face_term(m.cur, &m.tris[3 * size_t(m.changed[k])]);
     });
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, m.renorm.size(), 256), [&](const tbb::blocked_range<size_t>& r) {
-        for (size_t k = r.begin(); k != r.end(); ++k) {
-            const uint32_t p = m.renorm[k];
+    tbb::parallel_for(size_t(0), chunks, [&](size_t c) {
+        for (const uint32_t p : m.claims[c]) {
             gather_normal(&m.nrm[3 * size_t(p)], p, m.terms, m.tris.data(), m.face_off, m.faces);
             m.fix_normal(p);
             m.write(p, pos, nor);

@@ -544,7 +544,7 @@ static void update_local_rim(SnowField::Impl& m, std::vector<uint8_t>& region, S
     for (const TexelRect& r : m.stamped_rects)
         m.mark(rim_tiles, {std::max(0, r.x0 - reach), std::max(0, r.y0 - reach), std::min(f.width, r.x1 + reach), std::min(f.height, r.y1 + reach)});
     const RimInput in = rim_input(m);
-    const int band = 4, gap = (2 * reach + T - 1) / T;
+    const int band = 64 / T, gap = (2 * reach + T - 1) / T;
     for (int b0 = 0; b0 < TY; b0 += band) {
         const int b1 = std::min(TY, b0 + band);
         auto column_dirty = [&](int x, int& y_lo, int& y_hi) {

@@ -242,8 +242,8 @@ bool gather_sources(Window& W, const RimInput& in, const TexelRect& win, const R
             if (s > 0) {
                 W.source[x] = s;
                 W.is_source[x] = 1;
-                if (!in.conserve) any_source = true; // a cosmetic rim rises around any imprint
-                if (own.owns(i + win.x0, j + win.y0)) {
+                // A cosmetic rim rises around any imprint; a conserving one counts the owned imprints' volume.
+                if (!in.conserve || own.owns(i + win.x0, j + win.y0)) {
                     W.mass[x] = s;
                     any_source = true;
                 }
@@ -275,11 +275,11 @@ void rim_profile(Window& W, const int* nearest, double texel, double width_m) {
 // smoothed sum (a box of box sums, (2n + 1)⁴ terms, n <= kRimMaxGather) stays below 2^62: 16 km of depth
 // per texel at the largest radius.
 constexpr double kQuantum = 1.0 / 1048576.0;
-uint64_t quantized(double x, int n) {
+double quantum_cap(int n) {
     const double side = 2.0 * n + 1;
-    const double cap = std::floor(4.6e18 / (side * side * side * side));
-    return x > 0 ? uint64_t(std::llround(std::min(x / kQuantum, cap))) : 0;
+    return std::floor(4.6e18 / (side * side * side * side));
 }
+uint64_t quantized(double x, double cap) { return x > 0 ? uint64_t(std::min(x / kQuantum, cap) + 0.5) : 0; } // half up
 
 // The rim for one width: local amplitude (ratio of two smoothed fields) × profile, blurred, kept on owned
 // receivers, scaled (conserve: to the removed volume × (1 − compaction); cosmetic: by rim_height). Returns
@@ -287,9 +287,10 @@ uint64_t quantized(double x, int n) {
 double rim_amplitude(Window& W, const RimInput& in, const TexelRect& win, const RimOwner& own, double width_m) {
     const size_t N = W.N;
     const int n = rim_gather_radius(width_m, in.gather_m, in.texel);
+    const double cap = quantum_cap(n);
     for (size_t x = 0; x < N; ++x) {
-        W.num[x] = quantized(in.conserve ? W.mass[x] : W.source[x], n);
-        W.den[x] = quantized(in.conserve ? W.profile[x] : double(W.is_source[x]), n);
+        W.num[x] = quantized(in.conserve ? W.mass[x] : W.source[x], cap);
+        W.den[x] = quantized(in.conserve ? W.profile[x] : double(W.is_source[x]), cap);
     }
     smooth(W.num, W.tmp_q, W.w, W.h, n);
     smooth(W.den, W.tmp_q, W.w, W.h, n);
@@ -303,6 +304,11 @@ double rim_amplitude(Window& W, const RimInput& in, const TexelRect& win, const 
     // Staircase noise of the texel-centre distances, blurred away (over a radius that grows with a widened
     // rim: its stripes are as long as it is wide); imprinted texels stay untouched.
     blur(W.result, W.tmp, W.w, W.h, in.conserve ? std::clamp(int(width_m / (6 * in.texel)), 1, 16) : 1);
+    if (!in.conserve) { // kept on receivers (the caller writes only its owned texels)
+        const float k = float(in.height_ratio / 81.0); // the blur kernel sums to 81 (two 3 x 3 box passes)
+        for (size_t x = 0; x < N; ++x) W.result[x] = W.receiver[x] ? W.result[x] * k : 0.0f;
+        return 0.0;
+    }
     double raised = 0;
     for (int j = 0; j < W.h; ++j)
         for (int i = 0; i < W.w; ++i) {
@@ -310,11 +316,6 @@ double rim_amplitude(Window& W, const RimInput& in, const TexelRect& win, const 
             if (!W.receiver[x] || !own.owns(i + win.x0, j + win.y0)) W.result[x] = 0;
             raised += W.result[x];
         }
-    if (!in.conserve) {
-        const float k = float(in.height_ratio / 81.0); // the blur kernel sums to 81 (two 3 x 3 box passes)
-        for (size_t x = 0; x < N; ++x) W.result[x] *= k;
-        return 0.0;
-    }
     // The region owns its imprints and, by its margin, their whole rims: the raised volume written here
     // equals the volume removed here × (1 − compaction).
     const double target = removed * (1.0 - in.compaction);
