@@ -111,6 +111,7 @@ struct RimInput {
     double max_height = 1.0;        // conserve: rim height <= this × the nearby print depth (0 = no limit)
     double max_slope_degrees = 40;  // conserve: steepest rim slope (0 or >= 90 = no limit)
     double max_width_m = 0;         // conserve: how far the rim may widen to keep those limits (>= width_m)
+    bool parallel = true;           // false: one thread per window (the caller runs windows in parallel)
 };
 // The texels a rim computation owns: the tiles of one connected dirty region. It counts only the imprints
 // inside them and writes only them.

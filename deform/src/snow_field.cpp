@@ -543,8 +543,9 @@ static void update_local_rim(SnowField::Impl& m, std::vector<uint8_t>& region, S
     std::fill(rim_tiles.begin(), rim_tiles.end(), 0);
     for (const TexelRect& r : m.stamped_rects)
         m.mark(rim_tiles, {std::max(0, r.x0 - reach), std::max(0, r.y0 - reach), std::min(f.width, r.x1 + reach), std::min(f.height, r.y1 + reach)});
-    const RimInput in = rim_input(m);
-    const int band = 64 / T, gap = (2 * reach + T - 1) / T;
+    RimInput in = rim_input(m);
+    std::vector<TexelRect> outs; // the texels each window writes
+    const int band = 64 / T, gap = (2 * reach + T - 1) / T; // bands of 64 texel rows
     for (int b0 = 0; b0 < TY; b0 += band) {
         const int b1 = std::min(TY, b0 + band);
         auto column_dirty = [&](int x, int& y_lo, int& y_hi) {
@@ -565,14 +566,20 @@ static void update_local_rim(SnowField::Impl& m, std::vector<uint8_t>& region, S
                 if (hi > lo) last = e, y_lo = std::min(y_lo, lo), y_hi = std::max(y_hi, hi);
             }
             const TexelRect out{x * T, y_lo * T, std::min(f.width, (last + 1) * T), std::min(f.height, y_hi * T)};
-            const TexelRect win{std::max(0, out.x0 - reach), std::max(0, out.y0 - reach), std::min(f.width, out.x1 + reach),
-                                std::min(f.height, out.y1 + reach)};
-            m.lost_rim += compute_rim(m.rim.data(), in, win, RimOwner{rim_tiles.data(), TX, T}, out);
-            ++st.rim_windows;
-            m.content.unite(out);
+            outs.push_back(out);
             x = last + 1;
         }
     }
+    // The windows write disjoint texels and each is computed alone: in parallel, one thread per window.
+    in.parallel = false;
+    tbb::parallel_for(size_t(0), outs.size(), [&](size_t k) {
+        const TexelRect& out = outs[k];
+        const TexelRect win{std::max(0, out.x0 - reach), std::max(0, out.y0 - reach), std::min(f.width, out.x1 + reach),
+                            std::min(f.height, out.y1 + reach)};
+        compute_rim(m.rim.data(), in, win, RimOwner{rim_tiles.data(), TX, T}, out); // a cosmetic rim loses nothing
+    });
+    for (const TexelRect& out : outs) m.content.unite(out);
+    st.rim_windows += outs.size();
     for (size_t k = 0; k < region.size(); ++k) {
         region[k] |= rim_tiles[k];
         if (rim_tiles[k]) st.rim_texels += size_t(T) * size_t(T);

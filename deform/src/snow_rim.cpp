@@ -44,12 +44,20 @@ void fit(std::vector<T>& v, size_t n) {
     if (v.size() < n) v.resize(n);
 }
 
+// A range of rows or columns in chunks: in parallel, or in order when the caller runs windows in parallel
+// (then each window's scratch stays with its thread).
+template <class F>
+void for_range(bool par, const tbb::blocked_range<int>& range, const F& f) {
+    if (par) tbb::parallel_for(range, f);
+    else if (!range.empty()) f(range);
+}
+
 // Separable box sum of radius n (zero outside the window) of fixed-point values. Both passes walk memory row
 // by row (the vertical one keeps a running sum per column). The sums are exact (unsigned 64-bit, where
 // wrap-around cancels: the true sums fit, see kRimMaxGather), so a texel's sum is the same in any window that
 // holds its neighbourhood: the rim recomputed in a small window around a stamp equals the whole field's.
-void box_pass(uint64_t* v, uint64_t* tmp, int w, int h, int n) {
-    tbb::parallel_for(tbb::blocked_range<int>(0, h, 32), [&](const tbb::blocked_range<int>& r) {
+void box_pass(uint64_t* v, uint64_t* tmp, int w, int h, int n, bool par) {
+    for_range(par, tbb::blocked_range<int>(0, h, 32), [&](const tbb::blocked_range<int>& r) {
         for (int j = r.begin(); j != r.end(); ++j) {
             const uint64_t* row = v + size_t(j) * size_t(w);
             uint64_t* o = tmp + size_t(j) * size_t(w);
@@ -62,7 +70,7 @@ void box_pass(uint64_t* v, uint64_t* tmp, int w, int h, int n) {
             }
         }
     });
-    tbb::parallel_for(tbb::blocked_range<int>(0, w, 256), [&](const tbb::blocked_range<int>& r) {
+    for_range(par, tbb::blocked_range<int>(0, w, 256), [&](const tbb::blocked_range<int>& r) {
         const int i0 = r.begin(), i1 = r.end();
         std::vector<uint64_t> acc(size_t(i1 - i0), 0);
         for (int j = 0; j <= std::min(n, h - 1); ++j)
@@ -83,8 +91,8 @@ void box_pass(uint64_t* v, uint64_t* tmp, int w, int h, int n) {
 
 // Box sum of radius r in float, each texel's terms added in one fixed order (rows j − r .. j + r, then
 // columns i − r .. i + r; zero outside the window): the same bits in any window that holds the neighbourhood.
-void box_pass_ordered(float* v, float* tmp, int w, int h, int r) {
-    tbb::parallel_for(tbb::blocked_range<int>(0, h, 16), [&](const tbb::blocked_range<int>& rows) {
+void box_pass_ordered(float* v, float* tmp, int w, int h, int r, bool par) {
+    for_range(par, tbb::blocked_range<int>(0, h, 16), [&](const tbb::blocked_range<int>& rows) {
         for (int j = rows.begin(); j != rows.end(); ++j) {
             float* o = tmp + size_t(j) * size_t(w);
             std::fill(o, o + w, 0.0f);
@@ -94,7 +102,7 @@ void box_pass_ordered(float* v, float* tmp, int w, int h, int r) {
             }
         }
     });
-    tbb::parallel_for(tbb::blocked_range<int>(0, h, 16), [&](const tbb::blocked_range<int>& rows) {
+    for_range(par, tbb::blocked_range<int>(0, h, 16), [&](const tbb::blocked_range<int>& rows) {
         for (int j = rows.begin(); j != rows.end(); ++j) {
             const float* in = tmp + size_t(j) * size_t(w);
             float* o = v + size_t(j) * size_t(w);
@@ -108,7 +116,7 @@ void box_pass_ordered(float* v, float* tmp, int w, int h, int r) {
 }
 
 // Running maximum over a (2n + 1)² box (zero outside), separable, O(N) with a monotone queue per line.
-void max_pass(float* v, float* tmp, int w, int h, int n) {
+void max_pass(float* v, float* tmp, int w, int h, int n, bool par) {
     auto line = [n](const float* in, float* out, int len, size_t stride, std::vector<int>& q) {
         q.clear();
         size_t head = 0;
@@ -123,30 +131,30 @@ void max_pass(float* v, float* tmp, int w, int h, int n) {
             out[size_t(c) * stride] = in[size_t(q[head]) * stride];
         }
     };
-    tbb::parallel_for(tbb::blocked_range<int>(0, h, 32), [&](const tbb::blocked_range<int>& r) {
+    for_range(par, tbb::blocked_range<int>(0, h, 32), [&](const tbb::blocked_range<int>& r) {
         std::vector<int> q;
         for (int j = r.begin(); j != r.end(); ++j) line(v + size_t(j) * size_t(w), tmp + size_t(j) * size_t(w), w, 1, q);
     });
-    tbb::parallel_for(tbb::blocked_range<int>(0, w, 64), [&](const tbb::blocked_range<int>& r) {
+    for_range(par, tbb::blocked_range<int>(0, w, 64), [&](const tbb::blocked_range<int>& r) {
         std::vector<int> q;
         for (int i = r.begin(); i != r.end(); ++i) line(tmp + size_t(i), v + size_t(i), h, size_t(w), q);
     });
 }
 
 // Two box passes: a smooth (quadratic B-spline) kernel of radius 2n in O(N), exact.
-void smooth(uint64_t* v, uint64_t* tmp, int w, int h, int n) {
-    box_pass(v, tmp, w, h, n);
-    box_pass(v, tmp, w, h, n);
+void smooth(uint64_t* v, uint64_t* tmp, int w, int h, int n, bool par) {
+    box_pass(v, tmp, w, h, n, par);
+    box_pass(v, tmp, w, h, n, par);
 }
 
 // The same kernel in float with each texel's sum in a fixed order, O(r) per texel: the blur of the ridge.
-void blur(float* v, float* tmp, int w, int h, int r) {
-    box_pass_ordered(v, tmp, w, h, r);
-    box_pass_ordered(v, tmp, w, h, r);
+void blur(float* v, float* tmp, int w, int h, int r, bool par) {
+    box_pass_ordered(v, tmp, w, h, r, par);
+    box_pass_ordered(v, tmp, w, h, r, par);
 }
 
 // Nearest texel of a mask (exact Euclidean) for every texel of a w × h window: index into the window, or -1.
-void nearest_in_mask(Scratch& S, const uint8_t* mask, int w, int h) {
+void nearest_in_mask(Scratch& S, const uint8_t* mask, int w, int h, bool par) {
     const size_t N = size_t(w) * size_t(h);
     const float big = 1e30f;
     fit(S.f, N);
@@ -175,7 +183,7 @@ void nearest_in_mask(Scratch& S, const uint8_t* mask, int w, int h) {
             }
     }
     // Pass 2, per row: lower envelope of the parabolas (i − q)² + f(q).
-    tbb::parallel_for(tbb::blocked_range<int>(0, h, 16), [&](const tbb::blocked_range<int>& r) {
+    for_range(par, tbb::blocked_range<int>(0, h, 16), [&](const tbb::blocked_range<int>& r) {
         std::vector<int> v(static_cast<size_t>(w));
         std::vector<double> z(static_cast<size_t>(w) + 1);
         for (int j = r.begin(); j != r.end(); ++j) {
@@ -292,8 +300,8 @@ double rim_amplitude(Window& W, const RimInput& in, const TexelRect& win, const 
         W.num[x] = quantized(in.conserve ? W.mass[x] : W.source[x], cap);
         W.den[x] = quantized(in.conserve ? W.profile[x] : double(W.is_source[x]), cap);
     }
-    smooth(W.num, W.tmp_q, W.w, W.h, n);
-    smooth(W.den, W.tmp_q, W.w, W.h, n);
+    smooth(W.num, W.tmp_q, W.w, W.h, n, in.parallel);
+    smooth(W.den, W.tmp_q, W.w, W.h, n, in.parallel);
     double removed = 0;
     for (size_t x = 0; x < N; ++x) {
         removed += W.mass[x];
@@ -303,7 +311,7 @@ double rim_amplitude(Window& W, const RimInput& in, const TexelRect& win, const 
     }
     // Staircase noise of the texel-centre distances, blurred away (over a radius that grows with a widened
     // rim: its stripes are as long as it is wide); imprinted texels stay untouched.
-    blur(W.result, W.tmp, W.w, W.h, in.conserve ? std::clamp(int(width_m / (6 * in.texel)), 1, 16) : 1);
+    blur(W.result, W.tmp, W.w, W.h, in.conserve ? std::clamp(int(width_m / (6 * in.texel)), 1, 16) : 1, in.parallel);
     if (!in.conserve) { // kept on receivers (the caller writes only its owned texels)
         const float k = float(in.height_ratio / 81.0); // the blur kernel sums to 81 (two 3 x 3 box passes)
         for (size_t x = 0; x < N; ++x) W.result[x] = W.receiver[x] ? W.result[x] * k : 0.0f;
@@ -369,7 +377,7 @@ double compute_rim(float* rim, const RimInput& in, const TexelRect& win, const R
         write(nullptr);
         return 0.0;
     }
-    nearest_in_mask(S, W.is_source, w, h);
+    nearest_in_mask(S, W.is_source, w, h, in.parallel);
     double width = in.width_m;
     rim_profile(W, S.nearest.data(), in.texel, width);
     double lost = rim_amplitude(W, in, win, own, width);
@@ -378,7 +386,7 @@ double compute_rim(float* rim, const RimInput& in, const TexelRect& win, const R
         // of the caller's width (what the rim's volume comes from).
         float* depth = S.depth.data();
         std::copy(W.source, W.source + N, depth);
-        max_pass(depth, W.tmp, w, h, 2 * rim_gather_radius(in.width_m, in.gather_m, in.texel));
+        max_pass(depth, W.tmp, w, h, 2 * rim_gather_radius(in.width_m, in.gather_m, in.texel), in.parallel);
         // The rim widens before it rises: while it is taller than the print is deep, or steeper than the
         // snow's angle of repose, the same volume is spread over a wider ring (up to max_width_m, what the
         // caller's window holds).
