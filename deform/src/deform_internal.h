@@ -118,7 +118,9 @@ struct RimInput {
 struct RimOwner {
     const uint8_t* tiles = nullptr; // per tile, 1 = owned
     int tiles_x = 0, tile = 16;
-    bool owns(int i, int j) const { return tiles[size_t(j / tile) * size_t(tiles_x) + size_t(i / tile)] != 0; }
+    uint8_t* changed = nullptr;     // optional, per tile: set to 1 where a written rim value differs (in bits)
+    size_t tile_of(int i, int j) const { return size_t(j / tile) * size_t(tiles_x) + size_t(i / tile); }
+    bool owns(int i, int j) const { return tiles[tile_of(i, j)] != 0; }
 };
 // Recomputes the rim on the owned texels of `out` (within `window`) from the imprints in the window; with
 // conserve, only the imprints on owned texels count and the raised volume written equals their removed volume

@@ -328,7 +328,10 @@ size_t DisplacedGround::update(const Heightmap& h, const std::vector<TexelRect>&
     constexpr size_t kChunk = 1024;
     const size_t chunks = (m.moved.size() + kChunk - 1) / kChunk;
     if (m.claims.size() < chunks) m.claims.resize(chunks);
-    auto claim = [e](uint32_t& mark) { return std::atomic_ref<uint32_t>(mark).exchange(e, std::memory_order_relaxed) != e; };
+    auto claim = [e](uint32_t& mark) { // a plain load first: most faces and points are claimed already
+        std::atomic_ref<uint32_t> a(mark);
+        return a.load(std::memory_order_relaxed) != e && a.exchange(e, std::memory_order_relaxed) != e;
+    };
     tbb::parallel_for(size_t(0), chunks, [&](size_t c) {
         std::vector<uint32_t>& points = m.claims[c];
         points.clear();

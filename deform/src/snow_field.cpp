@@ -33,7 +33,7 @@ struct SnowField::Impl {
     // Dirty state per 16 x 16-texel tile: stamped since the last update, output changed by refill.
     static constexpr int kTile = 16;
     int tiles_x = 0, tiles_y = 0;
-    std::vector<uint8_t> carve_tiles, out_tiles, rim_tiles;
+    std::vector<uint8_t> carve_tiles, out_tiles, rim_tiles, rim_changed; // rim: recomputed, changed in bits
     std::vector<TexelRect> stamped_rects; // texels stamped since the last update (the cosmetic rim's sources)
     int rim_reach = -1;                   // the cosmetic rim's reach (texels) at the last update
     void mark(std::vector<uint8_t>& tiles, const TexelRect& r) {
@@ -535,12 +535,15 @@ static void update_conserving_rim(SnowField::Impl& m, std::vector<uint8_t>& regi
 // sums), so only the tiles within that reach of a stamped rectangle change, and each is recomputed from a
 // window holding its reach: the same bits as recomputing the whole field. The tiles are gathered per band
 // of four tile rows into runs of columns (runs whose windows would overlap merged), one window per run.
+// Only the tiles whose rim came out different in bits join the output's changed region: the reach is a bound,
+// and most of it lies where no older imprint is near.
 static void update_local_rim(SnowField::Impl& m, std::vector<uint8_t>& region, SnowUpdateStats& st) {
     const HeightmapFrame& f = m.ground.frame;
     const int T = SnowField::Impl::kTile, TX = m.tiles_x, TY = m.tiles_y;
     const int reach = m.rim_reach;
     std::vector<uint8_t>& rim_tiles = m.rim_tiles;
     std::fill(rim_tiles.begin(), rim_tiles.end(), 0);
+    m.rim_changed.assign(rim_tiles.size(), 0);
     for (const TexelRect& r : m.stamped_rects)
         m.mark(rim_tiles, {std::max(0, r.x0 - reach), std::max(0, r.y0 - reach), std::min(f.width, r.x1 + reach), std::min(f.height, r.y1 + reach)});
     RimInput in = rim_input(m);
@@ -576,12 +579,12 @@ static void update_local_rim(SnowField::Impl& m, std::vector<uint8_t>& region, S
         const TexelRect& out = outs[k];
         const TexelRect win{std::max(0, out.x0 - reach), std::max(0, out.y0 - reach), std::min(f.width, out.x1 + reach),
                             std::min(f.height, out.y1 + reach)};
-        compute_rim(m.rim.data(), in, win, RimOwner{rim_tiles.data(), TX, T}, out); // a cosmetic rim loses nothing
+        compute_rim(m.rim.data(), in, win, RimOwner{rim_tiles.data(), TX, T, m.rim_changed.data()}, out); // loses nothing
     });
     for (const TexelRect& out : outs) m.content.unite(out);
     st.rim_windows += outs.size();
-    for (size_t k = 0; k < region.size(); ++k) {
-        region[k] |= rim_tiles[k];
+    for (size_t k = 0; k < region.size(); ++k) { // the output changes where the rim did
+        region[k] |= m.rim_changed[k];
         if (rim_tiles[k]) st.rim_texels += size_t(T) * size_t(T);
     }
 }

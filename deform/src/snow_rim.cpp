@@ -26,6 +26,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <bit>
 #include <numbers>
 
 namespace furrow::deform_detail {
@@ -370,8 +371,12 @@ double compute_rim(float* rim, const RimInput& in, const TexelRect& win, const R
     auto write = [&](const float* result) {
         for (int j = std::max(0, out.y0 - win.y0); j < std::min(h, out.y1 - win.y0); ++j)
             for (int i = std::max(0, out.x0 - win.x0); i < std::min(w, out.x1 - win.x0); ++i)
-                if (own.owns(i + win.x0, j + win.y0))
-                    rim[size_t(j + win.y0) * size_t(in.width) + size_t(i + win.x0)] = result ? result[size_t(j) * size_t(w) + size_t(i)] : 0.0f;
+                if (own.owns(i + win.x0, j + win.y0)) {
+                    const float v = result ? result[size_t(j) * size_t(w) + size_t(i)] : 0.0f;
+                    float& dst = rim[size_t(j + win.y0) * size_t(in.width) + size_t(i + win.x0)];
+                    if (own.changed && std::bit_cast<uint32_t>(dst) != std::bit_cast<uint32_t>(v)) own.changed[own.tile_of(i + win.x0, j + win.y0)] = 1;
+                    dst = v;
+                }
     };
     if (!gather_sources(W, in, win, own) || in.width_m <= 0) {
         write(nullptr);
