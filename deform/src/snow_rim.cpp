@@ -20,6 +20,12 @@
 // width would break either, the rim widens before it rises: the same volume is spread over a wider ring,
 // found in a few rounds (height goes as 1 / width at a fixed volume, slope as 1 / width²), up to the width
 // the caller's window holds.
+// Windows. A game recomputes the rim only around what it stamped (SnowField::update), in small windows, and
+// the result must be the bytes a whole-field computation gives. Everything a cosmetic rim texel reads lies
+// within rim_reach of it, and every step gives that texel the same bits in any window that holds its reach:
+// the distance transform is exact (integers); the gathered sums are fixed point (2^-20 m) added in 64-bit
+// integers, where a running sum is exact wherever it starts (floating-point running sums round differently
+// from different starts); the blur adds its few terms in one fixed order per texel.
 #include "deform_internal.h"
 
 #include <tbb/blocked_range.h>
