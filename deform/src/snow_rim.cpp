@@ -43,7 +43,8 @@ struct Scratch {
     std::vector<float> source, mass, profile, result, tmp, f, depth;
     std::vector<uint64_t> num, den, tmp_q;
     std::vector<uint8_t> is_source, receiver;
-    std::vector<int> row_of, nearest;
+    std::vector<int> row_of;
+    std::vector<double> dist2;
 };
 
 template <class T>
@@ -160,16 +161,17 @@ void blur(float* v, float* tmp, int w, int h, int r, bool par) {
     box_pass_ordered(v, tmp, w, h, r, par);
 }
 
-// Nearest texel of a mask (exact Euclidean) for every texel of a w × h window: index into the window, or -1.
-void nearest_in_mask(Scratch& S, const uint8_t* mask, int w, int h, bool par) {
+// Squared distance (texels, exact Euclidean) to the nearest texel of a mask for every texel of a w × h window,
+// infinite when the mask is empty (S.dist2).
+void distance_to_mask(Scratch& S, const uint8_t* mask, int w, int h, bool par) {
     const size_t N = size_t(w) * size_t(h);
     const float big = 1e30f;
     fit(S.f, N);
     fit(S.row_of, N);
-    fit(S.nearest, N);
+    fit(S.dist2, N);
     float* f = S.f.data();
     int* row_of = S.row_of.data();
-    int* nearest = S.nearest.data();
+    double* dist2 = S.dist2.data();
     // Pass 1, per column: the nearest marked row above and below (row-major sweeps, a running row per column).
     {
         std::vector<int> last(size_t(w), -1);
@@ -195,7 +197,7 @@ void nearest_in_mask(Scratch& S, const uint8_t* mask, int w, int h, bool par) {
         std::vector<double> z(static_cast<size_t>(w) + 1);
         for (int j = r.begin(); j != r.end(); ++j) {
             const float* fr = f + size_t(j) * size_t(w);
-            int* out = nearest + size_t(j) * size_t(w);
+            double* out = dist2 + size_t(j) * size_t(w);
             int k = -1;
             for (int q = 0; q < w; ++q) {
                 if (fr[q] >= big) continue;
@@ -217,14 +219,15 @@ void nearest_in_mask(Scratch& S, const uint8_t* mask, int w, int h, bool par) {
                 v[size_t(k)] = q, z[size_t(k)] = s, z[size_t(k) + 1] = kInf;
             }
             if (k < 0) {
-                std::fill(out, out + w, -1);
+                std::fill(out, out + w, kInf);
                 continue;
             }
             int m = 0;
             for (int i = 0; i < w; ++i) {
                 while (z[size_t(m) + 1] < i) ++m;
                 const int q = v[size_t(m)];
-                out[i] = row_of[size_t(j) * size_t(w) + size_t(q)] * w + q;
+                const int row = row_of[size_t(j) * size_t(w) + size_t(q)];
+                out[i] = double(i - q) * (i - q) + double(row - j) * (row - j);
             }
         }
     });
@@ -271,16 +274,15 @@ bool gather_sources(Window& W, const RimInput& in, const TexelRect& win, const R
 
 // φ(τ) on the receivers, τ = distance from the imprint over the rim's width (texel centres; the outline is
 // half a texel out).
-void rim_profile(Window& W, const int* nearest, double texel, double width_m) {
+void rim_profile(Window& W, const double* dist2, double texel, double width_m) {
     const double reach2 = (width_m / texel + 0.5) * (width_m / texel + 0.5);
     for (int j = 0; j < W.h; ++j)
         for (int i = 0; i < W.w; ++i) {
             const size_t x = size_t(j) * size_t(W.w) + size_t(i);
             W.profile[x] = 0;
-            if (!W.receiver[x] || nearest[x] < 0) continue;
-            const int qi = nearest[x] % W.w, qj = nearest[x] / W.w;
-            const double d2 = double(i - qi) * (i - qi) + double(j - qj) * (j - qj);
-            if (d2 >= reach2) continue;
+            if (!W.receiver[x]) continue;
+            const double d2 = dist2[x];
+            if (!(d2 < reach2)) continue;
             const double tau = texel * (std::sqrt(d2) - 0.5) / width_m;
             if (tau > 0 && tau < 1) W.profile[x] = float(16 * tau * tau * (1 - tau) * (1 - tau));
         }
@@ -388,9 +390,9 @@ double compute_rim(float* rim, const RimInput& in, const TexelRect& win, const R
         write(nullptr);
         return 0.0;
     }
-    nearest_in_mask(S, W.is_source, w, h, in.parallel);
+    distance_to_mask(S, W.is_source, w, h, in.parallel);
     double width = in.width_m;
-    rim_profile(W, S.nearest.data(), in.texel, width);
+    rim_profile(W, S.dist2.data(), in.texel, width);
     double lost = rim_amplitude(W, in, win, own, width);
     if (in.conserve && (in.max_height > 0 || (in.max_slope_degrees > 0 && in.max_slope_degrees < 90))) {
         // The local print depth a rim point may rise to: the deepest imprint within the gathering radius
@@ -405,7 +407,7 @@ double compute_rim(float* rim, const RimInput& in, const TexelRect& win, const R
             const double excess = rim_excess(W, in, depth);
             if (excess <= 1.0 || width >= in.max_width_m) break;
             width = std::min(in.max_width_m, width * std::max(1.05, 1.02 * excess));
-            rim_profile(W, S.nearest.data(), in.texel, width);
+            rim_profile(W, S.dist2.data(), in.texel, width);
             lost = rim_amplitude(W, in, win, own, width);
         }
     }
