@@ -376,15 +376,25 @@ double compute_rim(float* rim, const RimInput& in, const TexelRect& win, const R
     fit(S.receiver, N);
     Window W{w, h, N, S.source.data(), S.mass.data(), S.profile.data(), S.result.data(), S.tmp.data(), S.num.data(),
              S.den.data(), S.tmp_q.data(), S.is_source.data(), S.receiver.data()};
+    // The owned texels of `out`, a tile's run of columns at a time (its owner and changed flag looked up once).
     auto write = [&](const float* result) {
+        const int i0 = std::max(0, out.x0 - win.x0), i1 = std::min(w, out.x1 - win.x0);
         for (int j = std::max(0, out.y0 - win.y0); j < std::min(h, out.y1 - win.y0); ++j)
-            for (int i = std::max(0, out.x0 - win.x0); i < std::min(w, out.x1 - win.x0); ++i)
-                if (own.owns(i + win.x0, j + win.y0)) {
-                    const float v = result ? result[size_t(j) * size_t(w) + size_t(i)] : 0.0f;
-                    float& dst = rim[size_t(j + win.y0) * size_t(in.width) + size_t(i + win.x0)];
-                    if (own.changed && std::bit_cast<uint32_t>(dst) != std::bit_cast<uint32_t>(v)) own.changed[own.tile_of(i + win.x0, j + win.y0)] = 1;
-                    dst = v;
+            for (int a = i0; a < i1;) {
+                const int b = std::min(i1, ((a + win.x0) / own.tile + 1) * own.tile - win.x0); // end of this tile's run
+                const size_t t = own.tile_of(a + win.x0, j + win.y0);
+                if (own.tiles[t]) {
+                    bool changed = false;
+                    for (int i = a; i < b; ++i) {
+                        const float v = result ? result[size_t(j) * size_t(w) + size_t(i)] : 0.0f;
+                        float& dst = rim[size_t(j + win.y0) * size_t(in.width) + size_t(i + win.x0)];
+                        changed = changed || std::bit_cast<uint32_t>(dst) != std::bit_cast<uint32_t>(v);
+                        dst = v;
+                    }
+                    if (changed && own.changed) own.changed[t] = 1;
                 }
+                a = b;
+            }
     };
     if (!gather_sources(W, in, win, own) || in.width_m <= 0) {
         write(nullptr);
