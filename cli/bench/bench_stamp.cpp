@@ -10,8 +10,11 @@
 #include <furrow/shapes.h>
 #include <furrow/tessellate.h>
 
+#include <tbb/global_control.h>
+
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <numbers>
 #include <random>
 
@@ -21,6 +24,8 @@ namespace {
 struct Args {
     int repeat = 3;
     bool quick = false;
+    std::vector<int> sections; // empty = all
+    bool wants(int section) const { return sections.empty() || std::find(sections.begin(), sections.end(), section) != sections.end(); }
 };
 
 double sphere_surface(double r, double p, double rho) {
@@ -356,74 +361,140 @@ void bench_stamp_throughput(const Args& a, const DemoGround& d, bool text, nlohm
 }
 
 // ---- 4. A frame: 256 walkers stamped + rim + re-displacement, against re-displacing the whole ground --------------
-// Prints the table, adds results["frame"].
-void bench_walker_frame(const Args& a, const DemoGround& d, bool text, nlohmann::json& J) {
-    const int repeat = a.repeat;
-    const TessellateOutput tess = tessellate_ground(d, a.quick ? 2 : 6);
-    Table fr({"frame", "ground tris", "colliders", "dirty rects", "points moved", "stamp ms", "rim+update ms", "redisplace ms", "frame ms",
-              "full redisplace ms", "frame/full"});
-    for (bool rim : {false, true}) {
-        SnowOptions fo;
-        fo.texel = 0.02;
-        if (rim) fo.rim_width = 0.06;
-        SnowField f;
-        require_ok(f.create(d.P.data(), d.P.size() / 3, d.I.data(), d.I.size(), fo), "ground.glb");
-        DisplacedGround dg;
-        require_ok(dg.prepare(tess.positions.data(), tess.positions.size() / 3, tess.indices.data(), tess.indices.size(), f.frame()),
-                   "ground");
-        std::vector<float> pos(tess.positions.size()), nor(tess.positions.size());
-        f.update();
-        const double full_s = median_seconds(repeat, [&] { dg.displace_all(f.heightmap(), pos.data(), nor.data()); });
-        // 256 walkers: footprints and small balls, each a step from where it was last frame.
-        std::mt19937 rng(2);
-        std::uniform_real_distribution<double> U(-9, 9), D(-0.2, 0.2);
-        const size_t nc = 256;
-        std::vector<ColliderPose> prev(nc);
-        std::vector<double> pts(3 * nc), h(nc);
-        for (size_t i = 0; i < nc; ++i) pts[3 * i] = U(rng), pts[3 * i + 1] = 10, pts[3 * i + 2] = U(rng);
-        Collider ball;
-        ball.shape = ColliderShape::sphere, ball.radius = 0.1;
-        const Collider& foot = d.demo.colliders[0];
-        double stamp_ms = 0, update_ms = 0, redisp_ms = 0, frame_ms = 0;
-        size_t moved = 0, rects = 0;
-        const int frames = a.quick ? 2 : 5;
-        std::vector<double> frame_times;
-        for (int fnum = 0; fnum <= frames; ++fnum) {
-            for (size_t i = 0; i < nc; ++i) pts[3 * i] += D(rng), pts[3 * i + 2] += D(rng);
-            f.cast_down(h.data(), pts.data(), nc);
-            auto t0 = std::chrono::steady_clock::now();
-            for (size_t i = 0; i < nc; ++i) {
-                if (std::isnan(h[i])) continue;
-                const bool is_ball = i % 4 == 0;
-                ColliderPose p{{pts[3 * i], h[i] + (is_ball ? 0.07 : 0.0), pts[3 * i + 2]}, double(i * 13 % 360), 0};
-                require_ok(f.stamp(is_ball ? ball : foot, p, is_ball && fnum ? &prev[i] : nullptr), "stamp");
-                prev[i] = p;
-            }
-            auto t1 = std::chrono::steady_clock::now();
-            const auto dirty = f.update();
-            auto t2 = std::chrono::steady_clock::now();
-            const size_t m = dg.update(f.heightmap(), dirty, pos.data(), nor.data());
-            auto t3 = std::chrono::steady_clock::now();
-            if (fnum == 0) continue; // warm-up
-            auto ms = [](auto x, auto y) { return std::chrono::duration<double>(y - x).count() * 1e3; };
-            stamp_ms += ms(t0, t1), update_ms += ms(t1, t2), redisp_ms += ms(t2, t3);
-            frame_times.push_back(ms(t0, t3));
-            moved += m, rects += dirty.size();
+struct WalkerStamp {
+    bool ball = false, swept = false;
+    ColliderPose pose, previous;
+};
+
+// One configuration (rim or not) at the current thread count: per-frame means of each step, the full pass
+// per point, and the consistency checks (incremental against from scratch).
+struct FrameRun {
+    double stamp_ms = 0, rim_ms = 0, update_ms = 0, redisplace_ms = 0, frame_ms = 0;
+    double moved = 0, rects = 0, full_ms = 0, full_rim_ms = 0, rim_texels = 0, grid_texels = 0;
+    size_t welded = 0;
+    double max_displace_diff = 0; // max |incremental − displace_all| over positions and normals
+    double max_scratch_diff = 0;  // max |incremental − from scratch| over the heightmap
+    bool scratch_bytes_equal = false;
+    std::vector<float> heightmap;  // final output, to compare thread counts
+};
+
+void stamp_walkers(SnowField& f, const std::vector<WalkerStamp>& ws, const Collider& ball, const Collider& foot) {
+    for (const WalkerStamp& w : ws) require_ok(f.stamp(w.ball ? ball : foot, w.pose, w.swept ? &w.previous : nullptr), "stamp");
+}
+
+FrameRun run_walker_frames(const Args& a, const DemoGround& d, const TessellateOutput& tess, bool rim) {
+    SnowOptions fo;
+    fo.texel = 0.02;
+    if (rim) fo.rim_width = 0.06;
+    SnowField f;
+    require_ok(f.create(d.P.data(), d.P.size() / 3, d.I.data(), d.I.size(), fo), "ground.glb");
+    DisplacedGround dg;
+    require_ok(dg.prepare(tess.positions.data(), tess.positions.size() / 3, tess.indices.data(), tess.indices.size(), f.frame()), "ground");
+    std::vector<float> pos(tess.positions.size()), nor(tess.positions.size());
+    f.update();
+    FrameRun run;
+    run.welded = dg.welded_count();
+    run.full_ms = 1e3 * median_seconds(a.repeat, [&] { dg.displace_all(f.heightmap(), pos.data(), nor.data()); });
+    // 256 walkers: footprints and small balls, each a step from where it was last frame.
+    std::mt19937 rng(2);
+    std::uniform_real_distribution<double> U(-9, 9), D(-0.2, 0.2);
+    const size_t nc = 256;
+    std::vector<ColliderPose> prev(nc);
+    std::vector<double> pts(3 * nc), h(nc);
+    for (size_t i = 0; i < nc; ++i) pts[3 * i] = U(rng), pts[3 * i + 1] = 10, pts[3 * i + 2] = U(rng);
+    Collider ball;
+    ball.shape = ColliderShape::sphere, ball.radius = 0.1;
+    const Collider& foot = d.demo.colliders[0];
+    const int frames = a.quick ? 2 : 5;
+    std::vector<double> frame_times;
+    std::vector<WalkerStamp> history;
+    using clock = std::chrono::steady_clock;
+    auto ms = [](auto x, auto y) { return std::chrono::duration<double>(y - x).count() * 1e3; };
+    for (int fnum = 0; fnum <= frames; ++fnum) {
+        for (size_t i = 0; i < nc; ++i) pts[3 * i] += D(rng), pts[3 * i + 2] += D(rng);
+        f.cast_down(h.data(), pts.data(), nc);
+        std::vector<WalkerStamp> ws;
+        for (size_t i = 0; i < nc; ++i) {
+            if (std::isnan(h[i])) continue;
+            const bool is_ball = i % 4 == 0;
+            const ColliderPose p{{pts[3 * i], h[i] + (is_ball ? 0.07 : 0.0), pts[3 * i + 2]}, double(i * 13 % 360), 0};
+            ws.push_back({is_ball, is_ball && fnum > 0, p, prev[i]});
+            prev[i] = p;
         }
-        std::sort(frame_times.begin(), frame_times.end());
-        frame_ms = frame_times[frame_times.size() / 2];
-        const double nf = frames;
-        fr.add({rim ? "with rim 6 cm" : "no rim", std::to_string(tess.indices.size() / 3), std::to_string(nc), fmt(rects / nf, 0),
-                fmt(moved / nf, 0), fmt(stamp_ms / nf, 2), fmt(update_ms / nf, 2), fmt(redisp_ms / nf, 2), fmt(frame_ms, 2),
-                fmt(full_s * 1e3, 2), fmt(frame_ms / (full_s * 1e3), 2)});
-        J["frame"].push_back({{"rim", rim}, {"triangles", tess.indices.size() / 3}, {"colliders", nc}, {"frame_ms", frame_ms},
-                              {"stamp_ms", stamp_ms / nf}, {"update_ms", update_ms / nf}, {"redisplace_ms", redisp_ms / nf},
-                              {"full_redisplace_ms", full_s * 1e3}, {"points_moved", moved / nf}});
+        const auto t0 = clock::now();
+        stamp_walkers(f, ws, ball, foot);
+        const auto t1 = clock::now();
+        SnowUpdateStats us;
+        const auto dirty = f.update(&us);
+        const auto t2 = clock::now();
+        const size_t m = dg.update(f.heightmap(), dirty, pos.data(), nor.data());
+        const auto t3 = clock::now();
+        history.insert(history.end(), ws.begin(), ws.end());
+        if (fnum == 0) continue; // warm-up
+        run.stamp_ms += ms(t0, t1), run.rim_ms += us.rim_seconds * 1e3, run.update_ms += us.output_seconds * 1e3;
+        run.redisplace_ms += ms(t2, t3);
+        frame_times.push_back(ms(t0, t3));
+        run.moved += double(m), run.rects += double(dirty.size()), run.rim_texels += double(us.rim_texels);
+    }
+    for (double* v : {&run.stamp_ms, &run.rim_ms, &run.update_ms, &run.redisplace_ms, &run.moved, &run.rects, &run.rim_texels}) *v /= frames;
+    run.grid_texels = double(f.frame().width) * double(f.frame().height);
+    std::sort(frame_times.begin(), frame_times.end());
+    run.frame_ms = frame_times[frame_times.size() / 2];
+    // Consistency: the incremental buffers against one full pass, the heightmap against a field that took the
+    // same stamps and updated once.
+    std::vector<float> full_pos(pos.size()), full_nor(nor.size());
+    dg.displace_all(f.heightmap(), full_pos.data(), full_nor.data());
+    for (size_t k = 0; k < pos.size(); ++k)
+        run.max_displace_diff = std::max({run.max_displace_diff, double(std::abs(pos[k] - full_pos[k])), double(std::abs(nor[k] - full_nor[k]))});
+    SnowField scratch;
+    require_ok(scratch.create(d.P.data(), d.P.size() / 3, d.I.data(), d.I.size(), fo), "ground.glb");
+    stamp_walkers(scratch, history, ball, foot);
+    SnowUpdateStats full;
+    scratch.update(&full);
+    run.full_rim_ms = full.rim_seconds * 1e3;
+    run.heightmap = f.heightmap().values;
+    const std::vector<float>& ref = scratch.heightmap().values;
+    run.scratch_bytes_equal = ref.size() == run.heightmap.size() && std::memcmp(ref.data(), run.heightmap.data(), ref.size() * sizeof(float)) == 0;
+    for (size_t k = 0; k < ref.size(); ++k) run.max_scratch_diff = std::max(run.max_scratch_diff, double(std::abs(ref[k] - run.heightmap[k])));
+    return run;
+}
+
+// Prints the table, adds results["frame"]: each configuration at 1 and 2 threads in the same run.
+void bench_walker_frame(const Args& a, const DemoGround& d, bool text, nlohmann::json& J) {
+    const TessellateOutput tess = tessellate_ground(d, a.quick ? 2 : 6);
+    Table fr({"frame", "-j", "ground tris", "dirty rects", "points moved", "rim texels", "stamp ms", "rim ms", "update ms", "redisplace ms", "frame ms",
+              "full redisplace ms", "us/pt incr", "us/pt full", "incr/full per pt", "full rim ms", "max|incr-full|", "= scratch"});
+    for (bool rim : {false, true}) {
+        std::vector<float> first;
+        for (int threads : {1, 2}) {
+            FrameRun r;
+            {
+                tbb::global_control limit(tbb::global_control::max_allowed_parallelism, size_t(threads));
+                r = run_walker_frames(a, d, tess, rim);
+            }
+            if (first.empty()) first = r.heightmap;
+            else if (first != r.heightmap) throw InputError("bench stamp", "the frame's heightmap differs between 1 and 2 threads");
+            const double inc_us = r.moved > 0 ? r.redisplace_ms * 1e3 / r.moved : 0, full_us = r.full_ms * 1e3 / double(r.welded);
+            fr.add({rim ? "with rim 6 cm" : "no rim", std::to_string(threads), std::to_string(tess.indices.size() / 3), fmt(r.rects, 0),
+                    fmt(r.moved, 0), fmt(r.rim_texels, 0) + " of " + fmt(r.grid_texels, 0), fmt(r.stamp_ms, 2), fmt(r.rim_ms, 2), fmt(r.update_ms, 2), fmt(r.redisplace_ms, 2), fmt(r.frame_ms, 2),
+                    fmt(r.full_ms, 2), fmt(inc_us, 3), fmt(full_us, 3), fmt(inc_us / full_us, 2), fmt(r.full_rim_ms, 2),
+                    fmt_sci(std::max(r.max_displace_diff, r.max_scratch_diff)), r.scratch_bytes_equal ? "bytes" : "NO"});
+            J["frame"].push_back({{"rim", rim}, {"threads", threads}, {"triangles", tess.indices.size() / 3}, {"colliders", 256},
+                                  {"frame_ms", r.frame_ms}, {"stamp_ms", r.stamp_ms}, {"rim_ms", r.rim_ms}, {"update_ms", r.update_ms},
+                                  {"redisplace_ms", r.redisplace_ms}, {"full_redisplace_ms", r.full_ms}, {"points_moved", r.moved}, {"rim_texels", r.rim_texels},
+                                  {"welded_points", r.welded}, {"per_point_ratio", inc_us / full_us}, {"full_rim_ms", r.full_rim_ms},
+                                  {"max_displace_diff", r.max_displace_diff}, {"max_scratch_diff", r.max_scratch_diff},
+                                  {"scratch_bytes_equal", r.scratch_bytes_equal}});
+        }
     }
     if (text) {
-        std::printf("\n4. a frame: 256 walkers on ground.glb (uniformly tessellated, fixed mesh) — 3 in 4 stamp a footprint, 1 in 4 a\n"
-                    "ball swept from its last position; then update() (rim, output) and re-displacement of the points under the dirty\n"
-                    "rectangles with their normals. Baseline: re-displacing the whole ground. Mean of %d frames (frame ms: median).\n",
+        std::printf("\n4. a frame: 256 walkers on ground.glb (uniformly tessellated, fixed mesh) - 3 in 4 stamp a footprint, 1 in 4 a\n"
+                    "ball swept from its last position; then update() (rim; update = output over the changed tiles) and\n"
+                    "re-displacement of the points under the dirty rectangles with their normals, at 1 and 2 threads. Baseline:\n"
+                    "re-displacing the whole ground (per point: redisplace ms / points moved against full ms / welded points) and\n"
+                    "the rim of a field that took the same stamps in one update (full rim ms). max|incr-full|: positions and normals\n"
+                    "against one full pass, heightmap against that field; = scratch: its bytes equal. Mean of %d frames (frame ms:\n"
+                    "median); the heightmap is checked equal at 1 and 2 threads.\n",
                     a.quick ? 2 : 5);
         fr.print();
     }
@@ -471,17 +542,28 @@ void bench_displacement(const Args& a, const DemoGround& d, bool text, nlohmann:
 // `tables`) and adds its rows to the results.
 static nlohmann::json run_bench_stamp(const Args& a, const GlobalFlags& g, bool tables) {
     nlohmann::json J;
-    info(g, "bench stamp: analytic oracle");
-    const std::vector<PlotPoint> points = bench_imprint_accuracy(a, tables, J);
-    info(g, "bench stamp: contact rays");
-    bench_contact_rays(a, g, tables, J);
-    info(g, "bench stamp: stamps");
+    std::vector<PlotPoint> points;
+    if (a.wants(1)) {
+        info(g, "bench stamp: analytic oracle");
+        points = bench_imprint_accuracy(a, tables, J);
+    }
+    if (a.wants(2)) {
+        info(g, "bench stamp: contact rays");
+        bench_contact_rays(a, g, tables, J);
+    }
     const DemoGround ground = load_demo_ground();
-    bench_stamp_throughput(a, ground, tables, J);
-    info(g, "bench stamp: frame");
-    bench_walker_frame(a, ground, tables, J);
-    info(g, "bench stamp: displacement");
-    bench_displacement(a, ground, tables, J);
+    if (a.wants(3)) {
+        info(g, "bench stamp: stamps");
+        bench_stamp_throughput(a, ground, tables, J);
+    }
+    if (a.wants(4)) {
+        info(g, "bench stamp: frame");
+        bench_walker_frame(a, ground, tables, J);
+    }
+    if (a.wants(5)) {
+        info(g, "bench stamp: displacement");
+        bench_displacement(a, ground, tables, J);
+    }
     return {{"bench", "stamp"}, {"repeat", a.repeat}, {"results", J}, {"plot", plot_json("max deviation (mm)", points)}};
 }
 
@@ -499,7 +581,9 @@ void register_bench_stamp(CLI::App& bench, GlobalFlags& g) {
     cmd->add_option("--repeat", a->repeat, "Runs per measurement; the median is reported (default 3)")->check(finite_range(1, 1000));
     add_bench_output_flags(*cmd, *out);
     cmd->add_flag("--quick", a->quick, "Fewer sizes and samples (a smoke run)");
-    cmd->footer("Examples:\n  furrow bench stamp\n  furrow bench stamp --quick --json\n  furrow bench stamp -j 1 --repeat 5");
+    cmd->add_option("--section", a->sections, "Run only these sections (1 oracle, 2 rays, 3 stamps, 4 frame, 5 displacement); default all")
+        ->check(CLI::Range(1, 5));
+    cmd->footer("Examples:\n  furrow bench stamp\n  furrow bench stamp --quick --json\n  furrow bench stamp -j 1 --repeat 5\n  furrow bench stamp --section 4");
     cmd->callback([a, out, &g] { finish_bench(run_bench_stamp(*a, g, !out->json), *out, g); });
 }
 

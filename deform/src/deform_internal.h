@@ -4,6 +4,7 @@
 #include <furrow/deform.h>
 #include <furrow_kernel/vec3.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <numbers>
@@ -110,28 +111,41 @@ struct RimInput {
     double max_height = 1.0;        // conserve: rim height <= this × the nearby print depth (0 = no limit)
     double max_slope_degrees = 40;  // conserve: steepest rim slope (0 or >= 90 = no limit)
     double max_width_m = 0;         // conserve: how far the rim may widen to keep those limits (>= width_m)
+    bool parallel = true;           // false: one thread per window (the caller runs windows in parallel)
 };
 // The texels a rim computation owns: the tiles of one connected dirty region. It counts only the imprints
 // inside them and writes only them.
 struct RimOwner {
     const uint8_t* tiles = nullptr; // per tile, 1 = owned
     int tiles_x = 0, tile = 16;
-    bool owns(int i, int j) const { return tiles[size_t(j / tile) * size_t(tiles_x) + size_t(i / tile)] != 0; }
+    uint8_t* changed = nullptr;     // optional, per tile: set to 1 where a written rim value differs (in bits)
+    size_t tile_of(int i, int j) const { return size_t(j / tile) * size_t(tiles_x) + size_t(i / tile); }
+    bool owns(int i, int j) const { return tiles[tile_of(i, j)] != 0; }
 };
-// Recomputes the rim on the owned texels of `window` from the imprints on owned texels; with conserve, the
-// raised volume written equals the removed volume × (1 − compaction). rim is the full-grid layer. Returns the
-// volume (m³) that could not be placed (no receiver near any imprint).
-double compute_rim(float* rim, const RimInput& in, const TexelRect& window, const RimOwner& owner);
+// Recomputes the rim on the owned texels of `out` (within `window`) from the imprints in the window; with
+// conserve, only the imprints on owned texels count and the raised volume written equals their removed volume
+// × (1 − compaction). rim is the full-grid layer. Returns the volume (m³) that could not be placed (no
+// receiver near any imprint). The sums are exact and in a fixed order, so a cosmetic rim's texel does not
+// depend on the window as long as the window holds the texel's rim_reach (below).
+double compute_rim(float* rim, const RimInput& in, const TexelRect& window, const RimOwner& owner, const TexelRect& out);
+
+// Gathering radius (texels) of a rim: an imprint's half-width (gather_m) plus the rim's width, halved (the
+// sums are smoothed twice), so that a rim point sees the volume it carries. At most kRimMaxGather: a fixed
+// cap (not the window's size), so that every window gathers alike; it also keeps the exact sums in range
+// and i + n + 1 from overflowing for a collider of 1e30 m.
+constexpr int kRimMaxGather = 64;
+inline int rim_gather_radius(double width_m, double gather_m, double texel) {
+    return std::max(2, clamped_int(std::ceil((width_m + gather_m) / texel / 2), 0, kRimMaxGather));
+}
+// How far (texels, Chebyshev) a cosmetic rim texel depends on the carve: the blur (2), and the farther of
+// the gathered sums (2n) and the distance to the nearest imprint (the rim's width + half a texel).
+inline int rim_reach(double width_m, double gather_m, double texel) {
+    const int profile = clamped_int(std::ceil(width_m / texel + 0.5), 0, 1 << 20);
+    return 2 + std::max(2 * rim_gather_radius(width_m, gather_m, texel), profile);
+}
 
 // ---- heightmap_io.cpp -------------------------------------------------------------------------------------
 // (public save_heightmap / load_heightmap)
-
-// ---- welded normals (displaced_ground.cpp) -----------------------------------------------------------------
-// Angle-weighted normals (Thürmer & Wüthrich) of welded points `which` (all when null) from the faces in
-// `faces_of` (CSR: offsets per welded point, face indices), positions per welded point (double xyz).
-void welded_normals(double* normals, const std::vector<double>& points, const uint32_t* triangles,
-                    const std::vector<uint32_t>& face_offsets, const std::vector<uint32_t>& face_list,
-                    const uint32_t* which, size_t which_count);
 
 // ---- ground_detail_rates.cpp ------------------------------------------------------------------------------
 struct DetailRateOptions {

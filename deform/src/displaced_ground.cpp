@@ -9,6 +9,11 @@
 // the dirty rectangle and renormalises every point of the faces around them, which is exactly the set whose
 // angle-weighted normal can change. Each face's part of a normal, and which faces are degenerate, are the
 // kernel's (furrow_kernel/angle_weighted_normal.h), as in compute_vertex_normals.
+// Cost per point. Both passes cache each face's terms (unit normal, corner angles: three atan2) once per face,
+// not once per corner. An update skips the points whose position comes out bit-identical (a dirty tile is
+// rarely dirty everywhere): their faces, normals and buffer entries are already those a full pass writes. The
+// points and faces to redo are claimed in parallel chunks, so the update scales with threads as the full pass
+// does; the result bytes do not depend on which chunk claims what.
 #include "deform_internal.h"
 
 #include <furrow_kernel/angle_weighted_normal.h>
@@ -19,38 +24,64 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <atomic>
+#include <bit>
 
 namespace furrow {
 
 using namespace deform_detail;
 
-namespace deform_detail {
+namespace {
 
-void welded_normals(double* normals, const std::vector<double>& P, const uint32_t* tri, const std::vector<uint32_t>& off,
-                    const std::vector<uint32_t>& faces, const uint32_t* which, size_t which_count) {
-    const size_t n = which ? which_count : off.size() - 1;
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 512), [&](const tbb::blocked_range<size_t>& r) {
-        for (size_t q = r.begin(); q != r.end(); ++q) {
-            const uint32_t v = which ? which[q] : uint32_t(q);
-            kernel::Vec3 sum;
-            for (uint32_t k = off[v]; k < off[size_t(v) + 1]; ++k) {
-                const uint32_t* t = tri + 3 * size_t(faces[k]);
-                const int c = t[0] == v ? 0 : t[1] == v ? 1 : 2;
-                const kernel::Vec3 p[3] = {kernel::point_at(P.data(), t[0]), kernel::point_at(P.data(), t[1]),
-                                           kernel::point_at(P.data(), t[2])};
-                const auto face = kernel::face_normal(p[0], p[1], p[2]);
-                if (!face) continue; // the kernel's degenerate faces, as in compute_vertex_normals
-                sum = sum + kernel::corner_angle(p[c], p[(c + 1) % 3], p[(c + 2) % 3], face->double_area) * face->unit;
-            }
-            const double l = kernel::norm(sum);
-            double* o = normals + 3 * size_t(v);
-            if (l > 0) o[0] = sum.x / l, o[1] = sum.y / l, o[2] = sum.z / l;
-            else o[0] = o[1] = o[2] = 0;
-        }
+// One face's part of its corners' normals: the unit normal and the interior angle at each corner (the
+// kernel's weights). Cached per face, so that a full pass computes each face once rather than once per
+// corner, and an incremental update recomputes only the faces around the points it moves; a point's normal
+// then sums the cached terms of its faces in the same (CSR) order either way, so both give the same bits.
+struct FaceTerm {
+    double unit[3] = {0, 0, 0};
+    double angle[3] = {-1, -1, -1}; // < 0: degenerate (the kernel's rule), contributes nothing
+};
+
+FaceTerm face_term(const std::vector<double>& P, const uint32_t* t) {
+    FaceTerm f;
+    const kernel::Vec3 p[3] = {kernel::point_at(P.data(), t[0]), kernel::point_at(P.data(), t[1]), kernel::point_at(P.data(), t[2])};
+    const auto face = kernel::face_normal(p[0], p[1], p[2]);
+    if (!face) return f;
+    f.unit[0] = face->unit.x, f.unit[1] = face->unit.y, f.unit[2] = face->unit.z;
+    for (int c = 0; c < 3; ++c) f.angle[c] = kernel::corner_angle(p[c], p[(c + 1) % 3], p[(c + 2) % 3], face->double_area);
+    return f;
+}
+
+// Angle-weighted normal (Thürmer & Wüthrich) of welded point v from the cached terms of its faces.
+void gather_normal(double* o, uint32_t v, const std::vector<FaceTerm>& terms, const uint32_t* tri, const std::vector<uint32_t>& off,
+                   const std::vector<uint32_t>& faces) {
+    kernel::Vec3 sum;
+    for (uint32_t k = off[v]; k < off[size_t(v) + 1]; ++k) {
+        const uint32_t f = faces[k];
+        const uint32_t* t = tri + 3 * size_t(f);
+        const int c = t[0] == v ? 0 : t[1] == v ? 1 : 2;
+        const FaceTerm& ft = terms[f];
+        if (ft.angle[c] < 0) continue;
+        sum = sum + ft.angle[c] * kernel::Vec3{ft.unit[0], ft.unit[1], ft.unit[2]};
+    }
+    const double l = kernel::norm(sum);
+    if (l > 0) o[0] = sum.x / l, o[1] = sum.y / l, o[2] = sum.z / l;
+    else o[0] = o[1] = o[2] = 0;
+}
+
+// All faces' terms, then all points' normals.
+void all_normals(double* normals, std::vector<FaceTerm>& terms, const std::vector<double>& P, const std::vector<uint32_t>& tri,
+                 const std::vector<uint32_t>& off, const std::vector<uint32_t>& faces) {
+    terms.resize(tri.size() / 3);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, terms.size(), 1024), [&](const tbb::blocked_range<size_t>& r) {
+        for (size_t f = r.begin(); f != r.end(); ++f) terms[f] = face_term(P, &tri[3 * f]);
+    });
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, off.size() - 1, 1024), [&](const tbb::blocked_range<size_t>& r) {
+        for (size_t v = r.begin(); v != r.end(); ++v) gather_normal(normals + 3 * v, uint32_t(v), terms, tri.data(), off, faces);
     });
 }
 
-} // namespace deform_detail
+} // namespace
 
 struct DisplacedGround::Impl {
     HeightmapFrame frame;
@@ -68,7 +99,11 @@ struct DisplacedGround::Impl {
     // Points bucketed by 16 x 16-texel tiles of their footprint's lower corner.
     int tiles_x = 0, tiles_y = 0;
     std::vector<uint32_t> tile_off, tile_pts;
-    std::vector<uint32_t> mark;           // scratch for update()
+    std::vector<FaceTerm> terms;          // per triangle, as of the last displace_all/update
+    std::vector<uint32_t> mark, face_mark; // scratch for update()
+    std::vector<uint32_t> moved;          // points under the dirty rectangles
+    std::vector<std::vector<uint32_t>> claims; // per chunk of moved points: the points it renormalises
+    std::vector<uint8_t> shifted;         // per moved point: its position changed
     uint32_t epoch = 0;
     static constexpr int kTile = 16;
 
@@ -87,10 +122,18 @@ struct DisplacedGround::Impl {
             }
         }
     }
-    void displace(uint32_t p, const Heightmap& h) {
+    // Returns whether the position changed.
+    bool displace(uint32_t p, const Heightmap& h) {
         double d = 0;
         if (movable.empty() || movable[p]) d = h.sample(texel[2 * size_t(p)], texel[2 * size_t(p) + 1]);
-        for (int k = 0; k < 3; ++k) cur[3 * size_t(p) + size_t(k)] = rest[3 * size_t(p) + size_t(k)] + dir[3 * size_t(p) + size_t(k)] * d;
+        bool changed = false;
+        for (int k = 0; k < 3; ++k) {
+            double& c = cur[3 * size_t(p) + size_t(k)];
+            const double v = rest[3 * size_t(p) + size_t(k)] + dir[3 * size_t(p) + size_t(k)] * d;
+            changed = changed || std::bit_cast<uint64_t>(v) != std::bit_cast<uint64_t>(c); // -0 vs 0 too
+            c = v;
+        }
+        return changed;
     }
     void fix_normal(uint32_t p) {
         double* o = &nrm[3 * size_t(p)];
@@ -163,7 +206,8 @@ Status DisplacedGround::prepare(const float* positions, size_t vertex_count, con
             for (size_t p = 0; p < points; ++p)
                 for (int d = 0; d < 3; ++d) m->dir[3 * p + size_t(d)] = frame.up[size_t(d)];
         } else {
-            welded_normals(m->dir.data(), m->rest, m->tris.data(), m->face_off, m->faces, nullptr, 0);
+            std::vector<FaceTerm> rest_terms;
+            all_normals(m->dir.data(), rest_terms, m->rest, m->tris, m->face_off, m->faces);
             for (size_t p = 0; p < points; ++p) {
                 double* o = &m->dir[3 * p];
                 if (o[0] == 0 && o[1] == 0 && o[2] == 0) o[0] = frame.up[0], o[1] = frame.up[1], o[2] = frame.up[2];
@@ -205,6 +249,7 @@ Status DisplacedGround::prepare(const float* positions, size_t vertex_count, con
         m->cur = m->rest;
         m->nrm.assign(3 * size_t(points), 0.0);
         m->mark.assign(points, 0);
+        m->face_mark.assign(m->tris.size() / 3, 0);
         impl_ = std::move(m);
         return Status::success();
     });
@@ -214,7 +259,7 @@ size_t DisplacedGround::displace_all(const Heightmap& h, float* pos, float* nor)
     Impl& m = *impl_;
     const size_t P = m.rest.size() / 3;
     tbb::parallel_for(size_t(0), P, [&](size_t p) { m.displace(uint32_t(p), h); });
-    welded_normals(m.nrm.data(), m.cur, m.tris.data(), m.face_off, m.faces, nullptr, 0);
+    all_normals(m.nrm.data(), m.terms, m.cur, m.tris, m.face_off, m.faces);
     tbb::parallel_for(size_t(0), P, [&](size_t p) {
         m.fix_normal(uint32_t(p));
         m.write(uint32_t(p), pos, nor);
@@ -226,52 +271,93 @@ size_t DisplacedGround::update(const Heightmap& h, const TexelRect& dirty, float
     return update(h, std::vector<TexelRect>{dirty}, pos, nor);
 }
 
-size_t DisplacedGround::update(const Heightmap& h, const std::vector<TexelRect>& rects, float* pos, float* nor) {
-    Impl& m = *impl_;
-    if (m.rest.empty()) return 0;
-    if (++m.epoch == 0) std::fill(m.mark.begin(), m.mark.end(), 0), m.epoch = 1;
-    const uint32_t moved_mark = m.epoch;
-    std::vector<uint32_t> moved;
+// The welded points whose bilinear footprint meets a dirty rectangle, each once. A point at (ti, tj) reads
+// texels floor(ti) .. floor(ti) + 1: it is affected when ti is in (x0 − 1, x1), and it lies in the tile of
+// floor(ti), so only the tiles from floor((x0 − 1) / 16) to (x1 − 1) / 16 are scanned; points of tiles wholly
+// inside the rectangle's span need no test.
+static void points_under(DisplacedGround::Impl& m, const std::vector<TexelRect>& rects, uint32_t stamp) {
+    constexpr int T = DisplacedGround::Impl::kTile;
     for (const TexelRect& dirty : rects) {
         if (dirty.empty()) continue;
-        // A point at (ti, tj) reads texels floor(ti) .. floor(ti) + 1: it is affected when that span meets the
-        // rectangle, i.e. ti in (x0 − 1, x1).
-        const int tx0 = std::clamp((dirty.x0 - 1) / Impl::kTile - 1, 0, m.tiles_x - 1), tx1 = std::clamp(dirty.x1 / Impl::kTile + 1, 0, m.tiles_x - 1);
-        const int ty0 = std::clamp((dirty.y0 - 1) / Impl::kTile - 1, 0, m.tiles_y - 1), ty1 = std::clamp(dirty.y1 / Impl::kTile + 1, 0, m.tiles_y - 1);
+        auto first = [](int x0) { return x0 >= 1 ? (x0 - 1) / T : 0; };
+        const int tx0 = std::clamp(first(dirty.x0), 0, m.tiles_x - 1), tx1 = std::clamp((dirty.x1 - 1) / T, 0, m.tiles_x - 1);
+        const int ty0 = std::clamp(first(dirty.y0), 0, m.tiles_y - 1), ty1 = std::clamp((dirty.y1 - 1) / T, 0, m.tiles_y - 1);
         for (int ty = ty0; ty <= ty1; ++ty)
             for (int tx = tx0; tx <= tx1; ++tx) {
                 const size_t t = size_t(ty) * size_t(m.tiles_x) + size_t(tx);
+                // Inside: every point of an inner tile has floor(ti) in [tx·16, tx·16 + 15], within [x0, x1 − 1].
+                const bool inside = tx * T >= dirty.x0 && tx * T + T <= dirty.x1 && ty * T >= dirty.y0 && ty * T + T <= dirty.y1 &&
+                                    tx + 1 < m.tiles_x && ty + 1 < m.tiles_y && tx > 0 && ty > 0;
                 for (uint32_t k = m.tile_off[t]; k < m.tile_off[t + 1]; ++k) {
                     const uint32_t p = m.tile_pts[k];
-                    if (m.mark[p] == moved_mark) continue;
+                    if (m.mark[p] == stamp) continue;
                     const double ti = m.texel[2 * size_t(p)], tj = m.texel[2 * size_t(p) + 1];
-                    if (ti > dirty.x0 - 1 && ti < dirty.x1 && tj > dirty.y0 - 1 && tj < dirty.y1) {
-                        m.mark[p] = moved_mark;
-                        moved.push_back(p);
+                    if (inside || (ti > double(dirty.x0) - 1 && ti < dirty.x1 && tj > double(dirty.y0) - 1 && tj < dirty.y1)) {
+                        m.mark[p] = stamp;
+                        m.moved.push_back(p);
                     }
                 }
             }
     }
-    if (moved.empty()) return 0;
-    std::sort(moved.begin(), moved.end());
-    tbb::parallel_for(size_t(0), moved.size(), [&](size_t k) { m.displace(moved[k], h); });
-    // Every point of a face around a moved point may get a new normal.
-    if (++m.epoch == 0) std::fill(m.mark.begin(), m.mark.end(), 0), m.epoch = 1;
-    std::vector<uint32_t> renorm;
-    for (uint32_t p : moved)
-        for (uint32_t k = m.face_off[p]; k < m.face_off[size_t(p) + 1]; ++k)
-            for (int c = 0; c < 3; ++c) {
-                const uint32_t q = m.tris[3 * size_t(m.faces[k]) + size_t(c)];
-                if (m.mark[q] != m.epoch) m.mark[q] = m.epoch, renorm.push_back(q);
-            }
-    for (uint32_t p : moved)
-        if (m.mark[p] != m.epoch) m.mark[p] = m.epoch, renorm.push_back(p); // isolated points
-    welded_normals(m.nrm.data(), m.cur, m.tris.data(), m.face_off, m.faces, renorm.data(), renorm.size());
-    tbb::parallel_for(size_t(0), renorm.size(), [&](size_t k) {
-        m.fix_normal(renorm[k]);
-        m.write(renorm[k], pos, nor);
+}
+
+size_t DisplacedGround::update(const Heightmap& h, const std::vector<TexelRect>& rects, float* pos, float* nor) {
+    Impl& m = *impl_;
+    if (m.rest.empty()) return 0;
+    if (m.terms.size() != m.tris.size() / 3) { // no displace_all yet: the cached face terms are those of rest
+        m.terms.resize(m.tris.size() / 3);
+        tbb::parallel_for(size_t(0), m.terms.size(), [&](size_t f) { m.terms[f] = face_term(m.cur, &m.tris[3 * f]); });
+    }
+    auto next_epoch = [&] {
+        if (++m.epoch == 0) std::fill(m.mark.begin(), m.mark.end(), 0), std::fill(m.face_mark.begin(), m.face_mark.end(), 0), m.epoch = 1;
+        return m.epoch;
+    };
+    m.moved.clear();
+    points_under(m, rects, next_epoch());
+    if (m.moved.empty()) return 0;
+    // Re-displaced; a point whose position came out bit-identical (its texels did not change: a dirty tile is
+    // rarely dirty everywhere) changes no face, and is already in the buffers.
+    m.shifted.resize(m.moved.size());
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, m.moved.size(), 256), [&](const tbb::blocked_range<size_t>& r) {
+        for (size_t k = r.begin(); k != r.end(); ++k) m.shifted[k] = m.displace(m.moved[k], h);
     });
-    return moved.size();
+    // The faces around a shifted point change; every corner of such a face gets a new normal.
+    const uint32_t e = next_epoch();
+    // Each face and point is claimed by the first chunk that reaches it (an atomic exchange of its mark); which
+    // chunk does does not matter, a face's terms and a point's normal are functions of positions alone.
+    constexpr size_t kChunk = 1024;
+    const size_t chunks = (m.moved.size() + kChunk - 1) / kChunk;
+    if (m.claims.size() < chunks) m.claims.resize(chunks);
+    auto claim = [e](uint32_t& mark) { // a plain load first: most faces and points are claimed already
+        std::atomic_ref<uint32_t> a(mark);
+        return a.load(std::memory_order_relaxed) != e && a.exchange(e, std::memory_order_relaxed) != e;
+    };
+    tbb::parallel_for(size_t(0), chunks, [&](size_t c) {
+        std::vector<uint32_t>& points = m.claims[c];
+        points.clear();
+        for (size_t i = c * kChunk; i < std::min(m.moved.size(), (c + 1) * kChunk); ++i) {
+            if (!m.shifted[i]) continue;
+            const uint32_t p = m.moved[i];
+            for (uint32_t k = m.face_off[p]; k < m.face_off[size_t(p) + 1]; ++k) {
+                const uint32_t f = m.faces[k];
+                if (!claim(m.face_mark[f])) continue;
+                m.terms[f] = face_term(m.cur, &m.tris[3 * size_t(f)]);
+                for (int corner = 0; corner < 3; ++corner) {
+                    const uint32_t q = m.tris[3 * size_t(f) + size_t(corner)];
+                    if (claim(m.mark[q])) points.push_back(q);
+                }
+            }
+            if (claim(m.mark[p])) points.push_back(p); // isolated points
+        }
+    });
+    tbb::parallel_for(size_t(0), chunks, [&](size_t c) {
+        for (const uint32_t p : m.claims[c]) {
+            gather_normal(&m.nrm[3 * size_t(p)], p, m.terms, m.tris.data(), m.face_off, m.faces);
+            m.fix_normal(p);
+            m.write(p, pos, nor);
+        }
+    });
+    return m.moved.size();
 }
 
 } // namespace furrow

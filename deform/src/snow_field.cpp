@@ -9,6 +9,12 @@
 // then stamping equals stamping every stamp pre-decayed by its own age — the result does not depend on the
 // order of stamps, only on their times. The rim is linear in the removed depth with a fixed receiver set,
 // so it decays with the same factor.
+//
+// update() is a game's per-frame cost, so it redoes only what the stamps since the last call can change: the
+// output on the stamped tiles, and a cosmetic rim within its reach of the stamped texels (the rim is local
+// and computed exactly, snow_rim.cpp, so this equals recomputing everything); a wider reach (a larger
+// collider) redoes the rim around every imprint. A volume-conserving rim is recomputed per connected region,
+// each balancing its own volume.
 #include "deform_internal.h"
 #include <furrow_kernel/no_throw.h>
 
@@ -16,6 +22,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <chrono>
 #include <tuple>
 
 namespace furrow {
@@ -32,7 +39,9 @@ struct SnowField::Impl {
     // Dirty state per 16 x 16-texel tile: stamped since the last update, output changed by refill.
     static constexpr int kTile = 16;
     int tiles_x = 0, tiles_y = 0;
-    std::vector<uint8_t> carve_tiles, out_tiles;
+    std::vector<uint8_t> carve_tiles, out_tiles, rim_tiles, rim_changed; // rim: recomputed, changed in bits
+    std::vector<TexelRect> stamped_rects; // texels stamped since the last update (the cosmetic rim's sources)
+    int rim_reach = -1;                   // the cosmetic rim's reach (texels) at the last update
     void mark(std::vector<uint8_t>& tiles, const TexelRect& r) {
         if (r.empty()) return;
         for (int ty = r.y0 / kTile; ty <= (r.y1 - 1) / kTile; ++ty)
@@ -144,7 +153,7 @@ Status SnowField::create(const float* positions, size_t vertex_count, const uint
         impl->tiles_x = (f.width + Impl::kTile - 1) / Impl::kTile;
         impl->tiles_y = (f.height + Impl::kTile - 1) / Impl::kTile;
         impl->carve_tiles.assign(size_t(impl->tiles_x) * size_t(impl->tiles_y), 0);
-        impl->out_tiles = impl->carve_tiles;
+        impl->out_tiles = impl->rim_tiles = impl->carve_tiles;
         impl->overhangs = rasterize_ground(impl->ground.values.data(), f, positions, vertex_count, indices, index_count);
         bool any = false;
         for (float g : impl->ground.values)
@@ -257,6 +266,12 @@ static StampStats run_jobs(SnowField::Impl& m, const std::vector<Job>& jobs, Sta
         ++st.stamps;
         st.texels_written += r.written;
         m.mark(m.carve_tiles, r.rect);
+        if (!r.rect.empty()) m.stamped_rects.push_back(r.rect);
+        if (m.stamped_rects.size() > 4096) { // many stamps between updates: their bounding box (more rim, same bits)
+            TexelRect box;
+            for (const TexelRect& q : m.stamped_rects) box.unite(q);
+            m.stamped_rects.assign(1, box);
+        }
         m.content.unite(r.rect);
         m.max_reach = std::max(m.max_reach, r.reach);
     }
@@ -433,92 +448,176 @@ static std::vector<TexelRect> tile_rects(const std::vector<uint8_t>& tiles, int 
     return out;
 }
 
-std::vector<TexelRect> SnowField::update() {
-    Impl& m = *impl_;
-    if (m.ground.values.empty()) return {};
+static RimInput rim_input(const SnowField::Impl& m) {
     const HeightmapFrame& f = m.ground.frame;
-    const int T = Impl::kTile, TX = m.tiles_x, TY = m.tiles_y;
-    if (m.all_dirty) std::fill(m.carve_tiles.begin(), m.carve_tiles.end(), 1);
-    std::vector<uint8_t> region = m.carve_tiles; // tiles whose output is recomputed
-    const double rw = m.rim_width();
-    if (rw > 0) {
-        // The rim reaches rw beyond an imprint and gathers volume from up to max_reach inside it: a region is
-        // the stamped tiles grown by that margin, and each connected region is recomputed on its own.
-        // A reach beyond the grid covers all of it: capped there before it can overflow an int.
-        const int pad = clamped_int(std::ceil((m.rim_max_width() + m.max_reach) / f.texel), 0, std::max(f.width, f.height)) + 2;
-        const int tp = (pad + T - 1) / T;
-        for (int y = 0; y < TY; ++y)
-            for (int x = 0; x < TX; ++x) {
-                if (!m.carve_tiles[size_t(y) * size_t(TX) + size_t(x)]) continue;
-                for (int yy = std::max(0, y - tp); yy <= std::min(TY - 1, y + tp); ++yy)
-                    for (int xx = std::max(0, x - tp); xx <= std::min(TX - 1, x + tp); ++xx) region[size_t(yy) * size_t(TX) + size_t(xx)] = 1;
-            }
-        // Connected regions (8-connected tiles), each with its window (bounding box + margin); regions whose
-        // windows overlap are merged, so that no texel is computed twice and each computation owns whole rims.
-        struct Group {
-            TexelRect window;
-            std::vector<size_t> tiles;
+    RimInput in;
+    in.carve = m.carve.data();
+    in.base = m.base.empty() ? nullptr : m.base.data();
+    in.ground = m.ground.values.data();
+    in.width = f.width, in.height = f.height;
+    in.texel = f.texel;
+    in.width_m = m.rim_width();
+    in.gather_m = m.max_reach;
+    in.height_ratio = m.opt.rim_height;
+    in.conserve = m.opt.conserve_volume;
+    in.compaction = m.opt.compaction;
+    in.max_height = m.opt.rim_max_height;
+    in.max_slope_degrees = m.opt.repose_degrees;
+    in.max_width_m = m.rim_max_width();
+    return in;
+}
+
+// Volume-conserving rim: the stamped tiles grown by the rim's reach and gathering radius form regions, each
+// recomputed on its own so that it balances its own removed and raised volume (`region` receives the tiles).
+static void update_conserving_rim(SnowField::Impl& m, std::vector<uint8_t>& region, SnowUpdateStats& st) {
+    const HeightmapFrame& f = m.ground.frame;
+    const int T = SnowField::Impl::kTile, TX = m.tiles_x, TY = m.tiles_y;
+    // A reach beyond the grid covers all of it: capped there before it can overflow an int.
+    const int pad = clamped_int(std::ceil((m.rim_max_width() + m.max_reach) / f.texel), 0, std::max(f.width, f.height)) + 2;
+    const int tp = (pad + T - 1) / T;
+    for (int y = 0; y < TY; ++y)
+        for (int x = 0; x < TX; ++x) {
+            if (!m.carve_tiles[size_t(y) * size_t(TX) + size_t(x)]) continue;
+            for (int yy = std::max(0, y - tp); yy <= std::min(TY - 1, y + tp); ++yy)
+                for (int xx = std::max(0, x - tp); xx <= std::min(TX - 1, x + tp); ++xx) region[size_t(yy) * size_t(TX) + size_t(xx)] = 1;
+        }
+    // Connected regions (8-connected tiles), each with its window (bounding box + margin); regions whose
+    // windows overlap are merged, so that no texel is computed twice and each computation owns whole rims.
+    struct Group {
+        TexelRect window;
+        std::vector<size_t> tiles;
+    };
+    std::vector<Group> groups;
+    std::vector<uint8_t> seen(region.size(), 0);
+    for (size_t s0 = 0; s0 < region.size(); ++s0) {
+        if (!region[s0] || seen[s0]) continue;
+        Group gr;
+        std::vector<size_t> stack{s0};
+        seen[s0] = 1;
+        TexelRect box;
+        while (!stack.empty()) {
+            const size_t c = stack.back();
+            stack.pop_back();
+            gr.tiles.push_back(c);
+            const int cx = int(c % size_t(TX)), cy = int(c / size_t(TX));
+            box.unite({cx * T, cy * T, std::min(f.width, (cx + 1) * T), std::min(f.height, (cy + 1) * T)});
+            for (int dy = -1; dy <= 1; ++dy)
+                for (int dx = -1; dx <= 1; ++dx) {
+                    const int nx = cx + dx, ny = cy + dy;
+                    if (nx < 0 || ny < 0 || nx >= TX || ny >= TY) continue;
+                    const size_t nb = size_t(ny) * size_t(TX) + size_t(nx);
+                    if (region[nb] && !seen[nb]) seen[nb] = 1, stack.push_back(nb);
+                }
+        }
+        gr.window = {std::max(0, box.x0 - pad), std::max(0, box.y0 - pad), std::min(f.width, box.x1 + pad), std::min(f.height, box.y1 + pad)};
+        groups.push_back(std::move(gr));
+    }
+    auto overlap = [](const TexelRect& a, const TexelRect& b) { return a.x0 < b.x1 && b.x0 < a.x1 && a.y0 < b.y1 && b.y0 < a.y1; };
+    for (bool merged = true; merged;) {
+        merged = false;
+        for (size_t a = 0; a < groups.size() && !merged; ++a)
+            for (size_t b = a + 1; b < groups.size(); ++b)
+                if (overlap(groups[a].window, groups[b].window)) {
+                    groups[a].window.unite(groups[b].window);
+                    groups[a].tiles.insert(groups[a].tiles.end(), groups[b].tiles.begin(), groups[b].tiles.end());
+                    groups.erase(groups.begin() + long(b));
+                    merged = true;
+                    break;
+                }
+    }
+    std::vector<uint8_t> own(region.size(), 0);
+    const RimInput in = rim_input(m);
+    for (const Group& gr : groups) {
+        for (size_t c : gr.tiles) own[c] = 1;
+        m.lost_rim += compute_rim(m.rim.data(), in, gr.window, RimOwner{own.data(), TX, T}, gr.window);
+        ++st.rim_windows;
+        st.rim_texels += gr.tiles.size() * size_t(T) * size_t(T);
+        for (size_t c : gr.tiles) own[c] = 0;
+        m.content.unite(gr.window);
+    }
+}
+
+// Cosmetic rim, incrementally: a rim texel depends only on the carve within rim_reach of it (exact, ordered
+// sums), so only the tiles within that reach of a stamped rectangle change, and each is recomputed from a
+// window holding its reach: the same bits as recomputing the whole field. The tiles are gathered per band
+// of four tile rows into runs of columns (runs whose windows would overlap merged), one window per run.
+// Only the tiles whose rim came out different in bits join the output's changed region: the reach is a bound,
+// and most of it lies where no older imprint is near.
+static void update_local_rim(SnowField::Impl& m, std::vector<uint8_t>& region, SnowUpdateStats& st) {
+    const HeightmapFrame& f = m.ground.frame;
+    const int T = SnowField::Impl::kTile, TX = m.tiles_x, TY = m.tiles_y;
+    const int reach = m.rim_reach;
+    std::vector<uint8_t>& rim_tiles = m.rim_tiles;
+    std::fill(rim_tiles.begin(), rim_tiles.end(), 0);
+    m.rim_changed.assign(rim_tiles.size(), 0);
+    for (const TexelRect& r : m.stamped_rects)
+        m.mark(rim_tiles, {std::max(0, r.x0 - reach), std::max(0, r.y0 - reach), std::min(f.width, r.x1 + reach), std::min(f.height, r.y1 + reach)});
+    RimInput in = rim_input(m);
+    std::vector<TexelRect> outs; // the texels each window writes
+    const int band = 64 / T, gap = (2 * reach + T - 1) / T; // bands of 64 texel rows
+    for (int b0 = 0; b0 < TY; b0 += band) {
+        const int b1 = std::min(TY, b0 + band);
+        auto column_dirty = [&](int x, int& y_lo, int& y_hi) {
+            for (int y = b0; y < b1; ++y)
+                if (rim_tiles[size_t(y) * size_t(TX) + size_t(x)]) y_lo = std::min(y_lo, y), y_hi = std::max(y_hi, y + 1);
         };
-        std::vector<Group> groups;
-        std::vector<uint8_t> seen(region.size(), 0);
-        for (size_t s0 = 0; s0 < region.size(); ++s0) {
-            if (!region[s0] || seen[s0]) continue;
-            Group gr;
-            std::vector<size_t> stack{s0};
-            seen[s0] = 1;
-            TexelRect box;
-            while (!stack.empty()) {
-                const size_t c = stack.back();
-                stack.pop_back();
-                gr.tiles.push_back(c);
-                const int cx = int(c % size_t(TX)), cy = int(c / size_t(TX));
-                box.unite({cx * T, cy * T, std::min(f.width, (cx + 1) * T), std::min(f.height, (cy + 1) * T)});
-                for (int dy = -1; dy <= 1; ++dy)
-                    for (int dx = -1; dx <= 1; ++dx) {
-                        const int nx = cx + dx, ny = cy + dy;
-                        if (nx < 0 || ny < 0 || nx >= TX || ny >= TY) continue;
-                        const size_t nb = size_t(ny) * size_t(TX) + size_t(nx);
-                        if (region[nb] && !seen[nb]) seen[nb] = 1, stack.push_back(nb);
-                    }
+        for (int x = 0; x < TX;) {
+            int y_lo = b1, y_hi = b0;
+            column_dirty(x, y_lo, y_hi);
+            if (y_hi <= y_lo) {
+                ++x;
+                continue;
             }
-            gr.window = {std::max(0, box.x0 - pad), std::max(0, box.y0 - pad), std::min(f.width, box.x1 + pad), std::min(f.height, box.y1 + pad)};
-            groups.push_back(std::move(gr));
-        }
-        auto overlap = [](const TexelRect& a, const TexelRect& b) { return a.x0 < b.x1 && b.x0 < a.x1 && a.y0 < b.y1 && b.y0 < a.y1; };
-        for (bool merged = true; merged;) {
-            merged = false;
-            for (size_t a = 0; a < groups.size() && !merged; ++a)
-                for (size_t b = a + 1; b < groups.size(); ++b)
-                    if (overlap(groups[a].window, groups[b].window)) {
-                        groups[a].window.unite(groups[b].window);
-                        groups[a].tiles.insert(groups[a].tiles.end(), groups[b].tiles.begin(), groups[b].tiles.end());
-                        groups.erase(groups.begin() + long(b));
-                        merged = true;
-                        break;
-                    }
-        }
-        std::vector<uint8_t> own(region.size(), 0);
-        for (const Group& gr : groups) {
-            for (size_t c : gr.tiles) own[c] = 1;
-            RimInput in;
-            in.carve = m.carve.data();
-            in.base = m.base.empty() ? nullptr : m.base.data();
-            in.ground = m.ground.values.data();
-            in.width = f.width, in.height = f.height;
-            in.texel = f.texel;
-            in.width_m = rw;
-            in.gather_m = m.max_reach;
-            in.height_ratio = m.opt.rim_height;
-            in.conserve = m.opt.conserve_volume;
-            in.compaction = m.opt.compaction;
-            in.max_height = m.opt.rim_max_height;
-            in.max_slope_degrees = m.opt.repose_degrees;
-            in.max_width_m = m.rim_max_width();
-            m.lost_rim += compute_rim(m.rim.data(), in, gr.window, RimOwner{own.data(), TX, T});
-            for (size_t c : gr.tiles) own[c] = 0;
-            m.content.unite(gr.window);
+            int e = x + 1, last = x;
+            for (; e < TX && e - last <= gap + 1; ++e) { // extend while the next dirty column is near
+                int lo = b1, hi = b0;
+                column_dirty(e, lo, hi);
+                if (hi > lo) last = e, y_lo = std::min(y_lo, lo), y_hi = std::max(y_hi, hi);
+            }
+            const TexelRect out{x * T, y_lo * T, std::min(f.width, (last + 1) * T), std::min(f.height, y_hi * T)};
+            outs.push_back(out);
+            x = last + 1;
         }
     }
+    // The windows write disjoint texels and each is computed alone: in parallel, one thread per window.
+    in.parallel = false;
+    tbb::parallel_for(size_t(0), outs.size(), [&](size_t k) {
+        const TexelRect& out = outs[k];
+        const TexelRect win{std::max(0, out.x0 - reach), std::max(0, out.y0 - reach), std::min(f.width, out.x1 + reach),
+                            std::min(f.height, out.y1 + reach)};
+        compute_rim(m.rim.data(), in, win, RimOwner{rim_tiles.data(), TX, T, m.rim_changed.data()}, out); // loses nothing
+    });
+    for (const TexelRect& out : outs) m.content.unite(out);
+    st.rim_windows += outs.size();
+    for (size_t k = 0; k < region.size(); ++k) { // the output changes where the rim did
+        region[k] |= m.rim_changed[k];
+        if (rim_tiles[k]) st.rim_texels += size_t(T) * size_t(T);
+    }
+}
+
+std::vector<TexelRect> SnowField::update(SnowUpdateStats* stats) {
+    Impl& m = *impl_;
+    if (m.ground.values.empty()) return {};
+    using clock = std::chrono::steady_clock;
+    const auto t0 = clock::now();
+    const HeightmapFrame& f = m.ground.frame;
+    const int T = Impl::kTile, TX = m.tiles_x, TY = m.tiles_y;
+    const double rw = m.rim_width();
+    const bool local_rim = rw > 0 && !m.opt.conserve_volume;
+    if (local_rim) { // another reach (a larger collider) changes the rim around every imprint
+        const int reach = rim_reach(rw, m.max_reach, f.texel);
+        if (reach != m.rim_reach && !m.content.empty()) m.stamped_rects.push_back(m.content);
+        m.rim_reach = reach;
+    }
+    if (m.all_dirty) {
+        std::fill(m.carve_tiles.begin(), m.carve_tiles.end(), 1);
+        m.stamped_rects.assign(1, m.full());
+    }
+    std::vector<uint8_t> region = m.carve_tiles; // tiles whose output is recomputed
+    SnowUpdateStats st;
+    if (local_rim) update_local_rim(m, region, st);
+    else if (rw > 0) update_conserving_rim(m, region, st);
+    const auto t1 = clock::now();
     const std::vector<TexelRect> rects = tile_rects(region, TX, TY, T, f.width, f.height);
     for (const TexelRect& A : rects)
         tbb::parallel_for(A.y0, A.y1, [&](int j) {
@@ -531,8 +630,13 @@ std::vector<TexelRect> SnowField::update() {
     for (size_t k = 0; k < region.size(); ++k) region[k] = region[k] | m.out_tiles[k];
     std::fill(m.carve_tiles.begin(), m.carve_tiles.end(), 0);
     std::fill(m.out_tiles.begin(), m.out_tiles.end(), 0);
+    m.stamped_rects.clear();
     m.all_dirty = false;
-    return tile_rects(region, TX, TY, T, f.width, f.height);
+    std::vector<TexelRect> changed = tile_rects(region, TX, TY, T, f.width, f.height);
+    st.rim_seconds = std::chrono::duration<double>(t1 - t0).count();
+    st.output_seconds = std::chrono::duration<double>(clock::now() - t1).count();
+    if (stats) *stats = st;
+    return changed;
 }
 
 const Heightmap& SnowField::heightmap() const { return impl_->out; }

@@ -20,12 +20,19 @@
 // width would break either, the rim widens before it rises: the same volume is spread over a wider ring,
 // found in a few rounds (height goes as 1 / width at a fixed volume, slope as 1 / width²), up to the width
 // the caller's window holds.
+// Windows. A game recomputes the rim only around what it stamped (SnowField::update), in small windows, and
+// the result must be the bytes a whole-field computation gives. Everything a cosmetic rim texel reads lies
+// within rim_reach of it, and every step gives that texel the same bits in any window that holds its reach:
+// the distance transform is exact (integers); the gathered sums are fixed point (2^-20 m) added in 64-bit
+// integers, where a running sum is exact wherever it starts (floating-point running sums round differently
+// from different starts); the blur adds its few terms in one fixed order per texel.
 #include "deform_internal.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <bit>
 #include <numbers>
 
 namespace furrow::deform_detail {
@@ -33,9 +40,11 @@ namespace {
 
 // Working arrays, kept between calls (a game calls update() every frame): no allocation, no page faults.
 struct Scratch {
-    std::vector<float> source, mass, profile, num, den, result, tmp, f, depth;
+    std::vector<float> source, mass, profile, result, tmp, f, depth;
+    std::vector<uint64_t> num, den, tmp_q;
     std::vector<uint8_t> is_source, receiver;
-    std::vector<int> row_of, nearest;
+    std::vector<int> row_of;
+    std::vector<double> dist2;
 };
 
 template <class T>
@@ -43,34 +52,44 @@ void fit(std::vector<T>& v, size_t n) {
     if (v.size() < n) v.resize(n);
 }
 
-// Separable box sum of radius n (zero outside). Both passes walk memory row by row (the vertical one keeps a
-// running sum per column); sums are carried in double, stored in float.
-void box_pass(float* v, float* tmp, int w, int h, int n) {
-    tbb::parallel_for(tbb::blocked_range<int>(0, h, 32), [&](const tbb::blocked_range<int>& r) {
+// A range of rows or columns in chunks: in parallel, or in order when the caller runs windows in parallel
+// (then each window's scratch stays with its thread).
+template <class F>
+void for_range(bool par, const tbb::blocked_range<int>& range, const F& f) {
+    if (par) tbb::parallel_for(range, f);
+    else if (!range.empty()) f(range);
+}
+
+// Separable box sum of radius n (zero outside the window) of fixed-point values. Both passes walk memory row
+// by row (the vertical one keeps a running sum per column). The sums are exact (unsigned 64-bit, where
+// wrap-around cancels: the true sums fit, see kRimMaxGather), so a texel's sum is the same in any window that
+// holds its neighbourhood: the rim recomputed in a small window around a stamp equals the whole field's.
+void box_pass(uint64_t* v, uint64_t* tmp, int w, int h, int n, bool par) {
+    for_range(par, tbb::blocked_range<int>(0, h, 32), [&](const tbb::blocked_range<int>& r) {
         for (int j = r.begin(); j != r.end(); ++j) {
-            const float* row = v + size_t(j) * size_t(w);
-            float* o = tmp + size_t(j) * size_t(w);
-            double acc = 0;
+            const uint64_t* row = v + size_t(j) * size_t(w);
+            uint64_t* o = tmp + size_t(j) * size_t(w);
+            uint64_t acc = 0;
             for (int i = 0; i <= std::min(n, w - 1); ++i) acc += row[i];
             for (int i = 0; i < w; ++i) {
-                o[i] = float(acc);
+                o[i] = acc;
                 if (i + n + 1 < w) acc += row[i + n + 1];
                 if (i - n >= 0) acc -= row[i - n];
             }
         }
     });
-    tbb::parallel_for(tbb::blocked_range<int>(0, w, 256), [&](const tbb::blocked_range<int>& r) {
+    for_range(par, tbb::blocked_range<int>(0, w, 256), [&](const tbb::blocked_range<int>& r) {
         const int i0 = r.begin(), i1 = r.end();
-        std::vector<double> acc(size_t(i1 - i0), 0.0);
+        std::vector<uint64_t> acc(size_t(i1 - i0), 0);
         for (int j = 0; j <= std::min(n, h - 1); ++j)
             for (int i = i0; i < i1; ++i) acc[size_t(i - i0)] += tmp[size_t(j) * size_t(w) + size_t(i)];
         for (int j = 0; j < h; ++j) {
-            float* o = v + size_t(j) * size_t(w);
-            const float* add = j + n + 1 < h ? tmp + size_t(j + n + 1) * size_t(w) : nullptr;
-            const float* sub = j - n >= 0 ? tmp + size_t(j - n) * size_t(w) : nullptr;
+            uint64_t* o = v + size_t(j) * size_t(w);
+            const uint64_t* add = j + n + 1 < h ? tmp + size_t(j + n + 1) * size_t(w) : nullptr;
+            const uint64_t* sub = j - n >= 0 ? tmp + size_t(j - n) * size_t(w) : nullptr;
             for (int i = i0; i < i1; ++i) {
-                double& a = acc[size_t(i - i0)];
-                o[i] = float(a);
+                uint64_t& a = acc[size_t(i - i0)];
+                o[i] = a;
                 if (add) a += add[i];
                 if (sub) a -= sub[i];
             }
@@ -78,8 +97,34 @@ void box_pass(float* v, float* tmp, int w, int h, int n) {
     });
 }
 
+// Box sum of radius r in float, each texel's terms added in one fixed order (rows j − r .. j + r, then
+// columns i − r .. i + r; zero outside the window): the same bits in any window that holds the neighbourhood.
+void box_pass_ordered(float* v, float* tmp, int w, int h, int r, bool par) {
+    for_range(par, tbb::blocked_range<int>(0, h, 16), [&](const tbb::blocked_range<int>& rows) {
+        for (int j = rows.begin(); j != rows.end(); ++j) {
+            float* o = tmp + size_t(j) * size_t(w);
+            std::fill(o, o + w, 0.0f);
+            for (int k = std::max(0, j - r); k <= std::min(h - 1, j + r); ++k) {
+                const float* in = v + size_t(k) * size_t(w);
+                for (int i = 0; i < w; ++i) o[i] += in[i];
+            }
+        }
+    });
+    for_range(par, tbb::blocked_range<int>(0, h, 16), [&](const tbb::blocked_range<int>& rows) {
+        for (int j = rows.begin(); j != rows.end(); ++j) {
+            const float* in = tmp + size_t(j) * size_t(w);
+            float* o = v + size_t(j) * size_t(w);
+            for (int i = 0; i < w; ++i) {
+                float acc = 0.0f;
+                for (int k = std::max(0, i - r); k <= std::min(w - 1, i + r); ++k) acc += in[k];
+                o[i] = acc;
+            }
+        }
+    });
+}
+
 // Running maximum over a (2n + 1)² box (zero outside), separable, O(N) with a monotone queue per line.
-void max_pass(float* v, float* tmp, int w, int h, int n) {
+void max_pass(float* v, float* tmp, int w, int h, int n, bool par) {
     auto line = [n](const float* in, float* out, int len, size_t stride, std::vector<int>& q) {
         q.clear();
         size_t head = 0;
@@ -94,32 +139,39 @@ void max_pass(float* v, float* tmp, int w, int h, int n) {
             out[size_t(c) * stride] = in[size_t(q[head]) * stride];
         }
     };
-    tbb::parallel_for(tbb::blocked_range<int>(0, h, 32), [&](const tbb::blocked_range<int>& r) {
+    for_range(par, tbb::blocked_range<int>(0, h, 32), [&](const tbb::blocked_range<int>& r) {
         std::vector<int> q;
         for (int j = r.begin(); j != r.end(); ++j) line(v + size_t(j) * size_t(w), tmp + size_t(j) * size_t(w), w, 1, q);
     });
-    tbb::parallel_for(tbb::blocked_range<int>(0, w, 64), [&](const tbb::blocked_range<int>& r) {
+    for_range(par, tbb::blocked_range<int>(0, w, 64), [&](const tbb::blocked_range<int>& r) {
         std::vector<int> q;
         for (int i = r.begin(); i != r.end(); ++i) line(tmp + size_t(i), v + size_t(i), h, size_t(w), q);
     });
 }
 
-// Two box passes: a smooth (quadratic B-spline) kernel of radius 2n in O(N).
-void smooth(float* v, float* tmp, int w, int h, int n) {
-    box_pass(v, tmp, w, h, n);
-    box_pass(v, tmp, w, h, n);
+// Two box passes: a smooth (quadratic B-spline) kernel of radius 2n in O(N), exact.
+void smooth(uint64_t* v, uint64_t* tmp, int w, int h, int n, bool par) {
+    box_pass(v, tmp, w, h, n, par);
+    box_pass(v, tmp, w, h, n, par);
 }
 
-// Nearest texel of a mask (exact Euclidean) for every texel of a w × h window: index into the window, or -1.
-void nearest_in_mask(Scratch& S, const uint8_t* mask, int w, int h) {
+// The same kernel in float with each texel's sum in a fixed order, O(r) per texel: the blur of the ridge.
+void blur(float* v, float* tmp, int w, int h, int r, bool par) {
+    box_pass_ordered(v, tmp, w, h, r, par);
+    box_pass_ordered(v, tmp, w, h, r, par);
+}
+
+// Squared distance (texels, exact Euclidean) to the nearest texel of a mask for every texel of a w × h window,
+// infinite when the mask is empty (S.dist2).
+void distance_to_mask(Scratch& S, const uint8_t* mask, int w, int h, bool par) {
     const size_t N = size_t(w) * size_t(h);
     const float big = 1e30f;
     fit(S.f, N);
     fit(S.row_of, N);
-    fit(S.nearest, N);
+    fit(S.dist2, N);
     float* f = S.f.data();
     int* row_of = S.row_of.data();
-    int* nearest = S.nearest.data();
+    double* dist2 = S.dist2.data();
     // Pass 1, per column: the nearest marked row above and below (row-major sweeps, a running row per column).
     {
         std::vector<int> last(size_t(w), -1);
@@ -140,12 +192,12 @@ void nearest_in_mask(Scratch& S, const uint8_t* mask, int w, int h) {
             }
     }
     // Pass 2, per row: lower envelope of the parabolas (i − q)² + f(q).
-    tbb::parallel_for(tbb::blocked_range<int>(0, h, 16), [&](const tbb::blocked_range<int>& r) {
+    for_range(par, tbb::blocked_range<int>(0, h, 16), [&](const tbb::blocked_range<int>& r) {
         std::vector<int> v(static_cast<size_t>(w));
         std::vector<double> z(static_cast<size_t>(w) + 1);
         for (int j = r.begin(); j != r.end(); ++j) {
             const float* fr = f + size_t(j) * size_t(w);
-            int* out = nearest + size_t(j) * size_t(w);
+            double* out = dist2 + size_t(j) * size_t(w);
             int k = -1;
             for (int q = 0; q < w; ++q) {
                 if (fr[q] >= big) continue;
@@ -167,14 +219,15 @@ void nearest_in_mask(Scratch& S, const uint8_t* mask, int w, int h) {
                 v[size_t(k)] = q, z[size_t(k)] = s, z[size_t(k) + 1] = kInf;
             }
             if (k < 0) {
-                std::fill(out, out + w, -1);
+                std::fill(out, out + w, kInf);
                 continue;
             }
             int m = 0;
             for (int i = 0; i < w; ++i) {
                 while (z[size_t(m) + 1] < i) ++m;
                 const int q = v[size_t(m)];
-                out[i] = row_of[size_t(j) * size_t(w) + size_t(q)] * w + q;
+                const int row = row_of[size_t(j) * size_t(w) + size_t(q)];
+                out[i] = double(i - q) * (i - q) + double(row - j) * (row - j);
             }
         }
     });
@@ -189,7 +242,8 @@ namespace {
 struct Window {
     int w = 0, h = 0;
     size_t N = 0;
-    float *source, *mass, *profile, *num, *den, *result, *tmp;
+    float *source, *mass, *profile, *result, *tmp;
+    uint64_t *num, *den, *tmp_q;
     uint8_t *is_source, *receiver;
 };
 
@@ -206,7 +260,8 @@ bool gather_sources(Window& W, const RimInput& in, const TexelRect& win, const R
             if (s > 0) {
                 W.source[x] = s;
                 W.is_source[x] = 1;
-                if (own.owns(i + win.x0, j + win.y0)) {
+                // A cosmetic rim rises around any imprint; a conserving one counts the owned imprints' volume.
+                if (!in.conserve || own.owns(i + win.x0, j + win.y0)) {
                     W.mass[x] = s;
                     any_source = true;
                 }
@@ -219,48 +274,58 @@ bool gather_sources(Window& W, const RimInput& in, const TexelRect& win, const R
 
 // φ(τ) on the receivers, τ = distance from the imprint over the rim's width (texel centres; the outline is
 // half a texel out).
-void rim_profile(Window& W, const int* nearest, double texel, double width_m) {
+void rim_profile(Window& W, const double* dist2, double texel, double width_m) {
     const double reach2 = (width_m / texel + 0.5) * (width_m / texel + 0.5);
     for (int j = 0; j < W.h; ++j)
         for (int i = 0; i < W.w; ++i) {
             const size_t x = size_t(j) * size_t(W.w) + size_t(i);
             W.profile[x] = 0;
-            if (!W.receiver[x] || nearest[x] < 0) continue;
-            const int qi = nearest[x] % W.w, qj = nearest[x] / W.w;
-            const double d2 = double(i - qi) * (i - qi) + double(j - qj) * (j - qj);
-            if (d2 >= reach2) continue;
+            if (!W.receiver[x]) continue;
+            const double d2 = dist2[x];
+            if (!(d2 < reach2)) continue;
             const double tau = texel * (std::sqrt(d2) - 0.5) / width_m;
             if (tau > 0 && tau < 1) W.profile[x] = float(16 * tau * tau * (1 - tau) * (1 - tau));
         }
 }
 
-// Gathering radius (texels): an imprint's half-width plus its rim, so that a rim point sees the volume it
-// carries. Beyond the window's size a box covers all of it, so the cap changes nothing but keeps i + n + 1
-// (in box_pass) from overflowing for a collider of 1e30 m.
-int gather_radius(const Window& W, const RimInput& in, double width_m) {
-    return std::max(2, clamped_int(std::ceil((width_m + in.gather_m) / in.texel / 2), 0, std::max(W.w, W.h)));
+// Fixed point of the gathered sums: 2^-20 m (about a micrometre) per unit, each value capped so that the
+// smoothed sum (a box of box sums, (2n + 1)⁴ terms, n <= kRimMaxGather) stays below 2^62: 16 km of depth
+// per texel at the largest radius.
+constexpr double kQuantum = 1.0 / 1048576.0;
+double quantum_cap(int n) {
+    const double side = 2.0 * n + 1;
+    return std::floor(4.6e18 / (side * side * side * side));
 }
+uint64_t quantized(double x, double cap) { return x > 0 ? uint64_t(std::min(x / kQuantum, cap) + 0.5) : 0; } // half up
 
 // The rim for one width: local amplitude (ratio of two smoothed fields) × profile, blurred, kept on owned
 // receivers, scaled (conserve: to the removed volume × (1 − compaction); cosmetic: by rim_height). Returns
 // the volume that could not be placed.
 double rim_amplitude(Window& W, const RimInput& in, const TexelRect& win, const RimOwner& own, double width_m) {
     const size_t N = W.N;
-    const int n = gather_radius(W, in, width_m);
-    std::copy(in.conserve ? W.mass : W.source, (in.conserve ? W.mass : W.source) + N, W.num);
-    if (in.conserve) std::copy(W.profile, W.profile + N, W.den);
-    else
-        for (size_t x = 0; x < N; ++x) W.den[x] = W.is_source[x];
-    smooth(W.num, W.tmp, W.w, W.h, n);
-    smooth(W.den, W.tmp, W.w, W.h, n);
+    const int n = rim_gather_radius(width_m, in.gather_m, in.texel);
+    const double cap = quantum_cap(n);
+    for (size_t x = 0; x < N; ++x) {
+        W.num[x] = quantized(in.conserve ? W.mass[x] : W.source[x], cap);
+        W.den[x] = quantized(in.conserve ? W.profile[x] : double(W.is_source[x]), cap);
+    }
+    smooth(W.num, W.tmp_q, W.w, W.h, n, in.parallel);
+    smooth(W.den, W.tmp_q, W.w, W.h, n, in.parallel);
     double removed = 0;
     for (size_t x = 0; x < N; ++x) {
         removed += W.mass[x];
-        W.result[x] = (W.profile[x] > 0 && W.den[x] > 0) ? W.profile[x] * W.num[x] / W.den[x] : 0.0f;
+        // The true sums are < 2^62: the wrapped unsigned sums read back as themselves.
+        const double num = double(int64_t(W.num[x])), den = double(int64_t(W.den[x]));
+        W.result[x] = (W.profile[x] > 0 && den > 0) ? float(double(W.profile[x]) * num / den) : 0.0f;
     }
     // Staircase noise of the texel-centre distances, blurred away (over a radius that grows with a widened
     // rim: its stripes are as long as it is wide); imprinted texels stay untouched.
-    smooth(W.result, W.tmp, W.w, W.h, in.conserve ? std::clamp(int(width_m / (6 * in.texel)), 1, 16) : 1);
+    blur(W.result, W.tmp, W.w, W.h, in.conserve ? std::clamp(int(width_m / (6 * in.texel)), 1, 16) : 1, in.parallel);
+    if (!in.conserve) { // kept on receivers (the caller writes only its owned texels)
+        const float k = float(in.height_ratio / 81.0); // the blur kernel sums to 81 (two 3 x 3 box passes)
+        for (size_t x = 0; x < N; ++x) W.result[x] = W.receiver[x] ? W.result[x] * k : 0.0f;
+        return 0.0;
+    }
     double raised = 0;
     for (int j = 0; j < W.h; ++j)
         for (int i = 0; i < W.w; ++i) {
@@ -268,11 +333,6 @@ double rim_amplitude(Window& W, const RimInput& in, const TexelRect& win, const 
             if (!W.receiver[x] || !own.owns(i + win.x0, j + win.y0)) W.result[x] = 0;
             raised += W.result[x];
         }
-    if (!in.conserve) {
-        const float k = float(in.height_ratio / 81.0); // the blur kernel sums to 81 (two 3 x 3 box passes)
-        for (size_t x = 0; x < N; ++x) W.result[x] *= k;
-        return 0.0;
-    }
     // The region owns its imprints and, by its margin, their whole rims: the raised volume written here
     // equals the volume removed here × (1 − compaction).
     const double target = removed * (1.0 - in.compaction);
@@ -305,36 +365,51 @@ double rim_excess(Window& W, const RimInput& in, const float* local_depth) {
 
 } // namespace
 
-double compute_rim(float* rim, const RimInput& in, const TexelRect& win, const RimOwner& own) {
+double compute_rim(float* rim, const RimInput& in, const TexelRect& win, const RimOwner& own, const TexelRect& out) {
     const int w = win.x1 - win.x0, h = win.y1 - win.y0;
     if (w <= 0 || h <= 0) return 0.0;
     const size_t N = size_t(w) * size_t(h);
     static thread_local Scratch S;
-    for (auto* v : {&S.source, &S.mass, &S.profile, &S.num, &S.den, &S.result, &S.tmp, &S.depth}) fit(*v, N);
+    for (auto* v : {&S.source, &S.mass, &S.profile, &S.result, &S.tmp, &S.depth}) fit(*v, N);
+    for (auto* v : {&S.num, &S.den, &S.tmp_q}) fit(*v, N);
     fit(S.is_source, N);
     fit(S.receiver, N);
-    Window W{w, h, N, S.source.data(), S.mass.data(), S.profile.data(), S.num.data(), S.den.data(), S.result.data(), S.tmp.data(),
-             S.is_source.data(), S.receiver.data()};
+    Window W{w, h, N, S.source.data(), S.mass.data(), S.profile.data(), S.result.data(), S.tmp.data(), S.num.data(),
+             S.den.data(), S.tmp_q.data(), S.is_source.data(), S.receiver.data()};
+    // The owned texels of `out`, a tile's run of columns at a time (its owner and changed flag looked up once).
     auto write = [&](const float* result) {
-        for (int j = 0; j < h; ++j)
-            for (int i = 0; i < w; ++i)
-                if (own.owns(i + win.x0, j + win.y0))
-                    rim[size_t(j + win.y0) * size_t(in.width) + size_t(i + win.x0)] = result ? result[size_t(j) * size_t(w) + size_t(i)] : 0.0f;
+        const int i0 = std::max(0, out.x0 - win.x0), i1 = std::min(w, out.x1 - win.x0);
+        for (int j = std::max(0, out.y0 - win.y0); j < std::min(h, out.y1 - win.y0); ++j)
+            for (int a = i0; a < i1;) {
+                const int b = std::min(i1, ((a + win.x0) / own.tile + 1) * own.tile - win.x0); // end of this tile's run
+                const size_t t = own.tile_of(a + win.x0, j + win.y0);
+                if (own.tiles[t]) {
+                    bool changed = false;
+                    for (int i = a; i < b; ++i) {
+                        const float v = result ? result[size_t(j) * size_t(w) + size_t(i)] : 0.0f;
+                        float& dst = rim[size_t(j + win.y0) * size_t(in.width) + size_t(i + win.x0)];
+                        changed = changed || std::bit_cast<uint32_t>(dst) != std::bit_cast<uint32_t>(v);
+                        dst = v;
+                    }
+                    if (changed && own.changed) own.changed[t] = 1;
+                }
+                a = b;
+            }
     };
     if (!gather_sources(W, in, win, own) || in.width_m <= 0) {
         write(nullptr);
         return 0.0;
     }
-    nearest_in_mask(S, W.is_source, w, h);
+    distance_to_mask(S, W.is_source, w, h, in.parallel);
     double width = in.width_m;
-    rim_profile(W, S.nearest.data(), in.texel, width);
+    rim_profile(W, S.dist2.data(), in.texel, width);
     double lost = rim_amplitude(W, in, win, own, width);
     if (in.conserve && (in.max_height > 0 || (in.max_slope_degrees > 0 && in.max_slope_degrees < 90))) {
         // The local print depth a rim point may rise to: the deepest imprint within the gathering radius
         // of the caller's width (what the rim's volume comes from).
         float* depth = S.depth.data();
         std::copy(W.source, W.source + N, depth);
-        max_pass(depth, W.tmp, w, h, 2 * gather_radius(W, in, in.width_m));
+        max_pass(depth, W.tmp, w, h, 2 * rim_gather_radius(in.width_m, in.gather_m, in.texel), in.parallel);
         // The rim widens before it rises: while it is taller than the print is deep, or steeper than the
         // snow's angle of repose, the same volume is spread over a wider ring (up to max_width_m, what the
         // caller's window holds).
@@ -342,7 +417,7 @@ double compute_rim(float* rim, const RimInput& in, const TexelRect& win, const R
             const double excess = rim_excess(W, in, depth);
             if (excess <= 1.0 || width >= in.max_width_m) break;
             width = std::min(in.max_width_m, width * std::max(1.05, 1.02 * excess));
-            rim_profile(W, S.nearest.data(), in.texel, width);
+            rim_profile(W, S.dist2.data(), in.texel, width);
             lost = rim_amplitude(W, in, win, own, width);
         }
     }

@@ -153,3 +153,25 @@ TEST(bench_cli, IoFormatThroughputPeerAndGeneratedObj) {
     EXPECT_NE(r.out.find(peer ? "gltfpack: installed" : "peer not installed"), std::string::npos) << r.out;
     EXPECT_NE(r.out.find("load MB/s"), std::string::npos) << r.out;
 }
+
+// The stamp benchmark's frame section: each configuration at 1 and 2 threads, the incremental re-displacement
+// equal to a full pass and the incrementally updated heightmap equal to a from-scratch one, byte for byte.
+TEST(bench_cli, StampFrameIsConsistentAtOneAndTwoThreads) {
+    RunResult r = run_furrow({"bench", "stamp", "--quick", "--repeat", "1", "--section", "4", "--json"});
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    nlohmann::json j = nlohmann::json::parse(r.out, nullptr, false);
+    ASSERT_FALSE(j.is_discarded()) << r.out.substr(0, 500);
+    const auto& frame = j["results"]["frame"];
+    ASSERT_EQ(frame.size(), 4u); // no rim, rim; 1 and 2 threads each
+    EXPECT_FALSE(j["results"].contains("oracle")); // only the section asked for
+    for (const auto& row : frame) {
+        EXPECT_GT(row["points_moved"].get<double>(), 0.0);
+        EXPECT_EQ(row["max_displace_diff"].get<double>(), 0.0);
+        EXPECT_EQ(row["max_scratch_diff"].get<double>(), 0.0);
+        EXPECT_TRUE(row["scratch_bytes_equal"].get<bool>());
+        EXPECT_TRUE(std::isfinite(row["per_point_ratio"].get<double>()));
+    }
+    EXPECT_EQ(frame[0]["threads"], 1);
+    EXPECT_EQ(frame[1]["threads"], 2);
+    EXPECT_GT(frame[2]["rim_texels"].get<double>(), 0.0);
+}

@@ -2,7 +2,10 @@
 #include "deform_test_util.h"
 #include "test_support.h"
 
+#include <tbb/global_control.h>
+
 #include <algorithm>
+#include <cstring>
 #include <random>
 
 using namespace furrow;
@@ -603,4 +606,91 @@ TEST(SnowField, ConservingRimWidensBeforeItRises) {
     EXPECT_LT(g.steepest_degrees, 20.0);
     EXPECT_LE(g.tallest, limited.tallest);
     EXPECT_NEAR(g.raised, g.removed, 0.01 * g.removed);
+}
+
+namespace {
+
+// One frame of random walkers: balls swept from their last place, boxes and footprint images, random headings;
+// at frame `big_at` a large ball joins (a wider reach: every rim texel changes).
+struct WalkerStep {
+    Collider shape;
+    ColliderPose pose, previous;
+    bool swept = false;
+};
+
+std::vector<std::vector<WalkerStep>> random_walk(unsigned seed, int frames, int walkers, int big_at) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<double> U(-1.7, 1.7), D(-0.08, 0.08), H(0, 360), S(0.02, 0.09);
+    std::vector<ColliderPose> last(static_cast<size_t>(walkers));
+    for (auto& p : last) p.centre = {U(rng), 0, U(rng)};
+    std::vector<std::vector<WalkerStep>> out(static_cast<size_t>(frames));
+    for (int f = 0; f < frames; ++f) {
+        for (int w = 0; w < walkers; ++w) {
+            ColliderPose p = last[size_t(w)];
+            p.centre[0] += D(rng), p.centre[2] += D(rng), p.heading_degrees = H(rng);
+            const double x = p.centre[0], z = p.centre[2];
+            WalkerStep s;
+            if (w % 3 == 0) s.shape = sphere(0.08, {}), s.swept = f > 0;
+            else if (w % 3 == 1) s.shape = box({0.1, 0.1, 0.2}, 0, {});
+            else s.shape = image(8, 16, 0.1, 0.25, 0.04, 0, {0, 0, 0}, [](int i, int j) { return ((i + j) % 5) / 4.0; });
+            p.centre[1] = hill_height(x, z) + (w % 3 == 0 ? 0.08 - S(rng) : w % 3 == 1 ? 0.05 - S(rng) : 0.0);
+            s.pose = p, s.previous = last[size_t(w)];
+            last[size_t(w)] = p;
+            out[size_t(f)].push_back(s);
+        }
+        if (f == big_at) {
+            WalkerStep s;
+            s.shape = sphere(0.4, {});
+            s.pose.centre = {0.3, hill_height(0.3, -0.2) + 0.33, -0.2};
+            out[size_t(f)].push_back(s);
+        }
+    }
+    return out;
+}
+
+void stamp_frame(SnowField& f, const std::vector<WalkerStep>& steps) {
+    for (const WalkerStep& s : steps) ASSERT_TRUE(f.stamp(s.shape, s.pose, s.swept ? &s.previous : nullptr).ok());
+}
+
+} // namespace
+
+// Property: update() after every frame leaves the same heightmap bytes as one update() after all the same
+// stamps, and the same bytes at 1 and 2 threads (cosmetic rims of several widths, none, a base map).
+TEST(SnowField, IncrementalRimEqualsFromScratchByteForByte) {
+    const Primitive g = hill_ground(4, 40);
+    Heightmap base;
+    {
+        SnowField pre = make_field(g, fine(0.02));
+        base.frame = pre.frame();
+        base.values.assign(pre.heightmap().values.size(), 0.0f);
+        for (size_t k = 0; k < base.values.size(); ++k) base.values[k] = (k % 97 == 0) ? -0.03f : 0.0f; // old pits
+    }
+    for (double rim_width : {0.0, 0.05, 0.12})
+        for (bool with_base : {false, true}) {
+            SCOPED_TRACE("rim " + std::to_string(rim_width) + (with_base ? " with a base" : ""));
+            SnowOptions o = fine(0.02);
+            o.rim_width = rim_width;
+            const auto frames = random_walk(7 + unsigned(rim_width * 100), 24, 24, 12);
+            std::vector<float> at_one_thread;
+            for (int threads : {1, 2}) {
+                tbb::global_control limit(tbb::global_control::max_allowed_parallelism, size_t(threads));
+                SnowField inc = make_field(g, o), scratch = make_field(g, o);
+                if (with_base) ASSERT_TRUE(inc.set_base(base).ok() && scratch.set_base(base).ok());
+                size_t changed = 0;
+                for (const auto& frame : frames) {
+                    stamp_frame(inc, frame);
+                    stamp_frame(scratch, frame);
+                    for (const TexelRect& r : inc.update()) changed += size_t(r.x1 - r.x0) * size_t(r.y1 - r.y0);
+                }
+                scratch.update();
+                const std::vector<float>& a = inc.heightmap().values;
+                const std::vector<float>& b = scratch.heightmap().values;
+                ASSERT_EQ(a.size(), b.size());
+                EXPECT_EQ(std::memcmp(a.data(), b.data(), a.size() * sizeof(float)), 0) << threads << " threads";
+                EXPECT_GT(changed, 0u);
+                if (rim_width > 0) EXPECT_GT(*std::max_element(a.begin(), a.end()), 0.0f); // a rim rose
+                if (threads == 1) at_one_thread = a;
+                else EXPECT_EQ(std::memcmp(at_one_thread.data(), a.data(), a.size() * sizeof(float)), 0) << "1 vs 2 threads";
+            }
+        }
 }

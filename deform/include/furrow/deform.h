@@ -190,6 +190,14 @@ struct StampStats {
     double deepest = 0.0;    // deepest penetration found by a contact ray (metres)
 };
 
+// What one SnowField::update() did, for a frame budget.
+struct SnowUpdateStats {
+    double rim_seconds = 0;    // recomputing the rim
+    double output_seconds = 0; // output = carve + rim over the changed tiles
+    size_t rim_texels = 0;     // texels whose rim was recomputed (written)
+    size_t rim_windows = 0;    // rim computations (each reads its texels' reach around them)
+};
+
 class SnowField {
 public:
     SnowField();
@@ -224,9 +232,11 @@ public:
     // Brings the rim and the output heightmap up to date and returns where the output changed since the last
     // call: disjoint rectangles aligned to 16-texel tiles (empty when nothing changed), so that colliders far
     // apart do not dirty everything between them. The rim is recomputed over the stamped tiles grown by the
-    // rim's reach; with conserve_volume each such region balances its own removed and raised volume, so a
-    // one-shot update is exact and incremental updates keep every recomputed region exact.
-    std::vector<TexelRect> update();
+    // rim's reach. A cosmetic rim is local: each texel depends only on the carve within its reach, summed
+    // exactly, so incremental updates give the same bytes as one update after the same stamps (without refill,
+    // whose decay scales the rim as it is). With conserve_volume each region balances its own removed and
+    // raised volume, so a one-shot update is exact and incremental updates keep every recomputed region exact.
+    std::vector<TexelRect> update(SnowUpdateStats* stats = nullptr);
     // The output (imprint + rim), as of the last update().
     const Heightmap& heightmap() const;
     // Undeformed ground height per texel (NaN where no ground lies below), same frame.
