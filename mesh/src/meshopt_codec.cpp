@@ -11,7 +11,10 @@
 //      no data; the encoded bytes go to buffer 0 and the view's extension object says where. With no data in
 //      the fallback, a loader without the decoder cannot read the file: the extension is required (the
 //      extension's specification; Blender 3.4 refuses such a file, hence plain output stays the default).
-//   Both meshoptimizer encoders are deterministic; no filter is used, so the decoded bytes equal the input.
+//   Normals and tangents (normalized int8) go through the OCTAHEDRAL filter first (gltfpack -cc does the
+//   same): decoded, each is the nearest 8-bit octahedral unit vector to what was written, within 1/127 per
+//   component. Every other view decodes to exactly the bytes --quantize writes. Both encoders and the filter
+//   are deterministic.
 //
 // Loader (decode_meshopt_views), on the parsed model, before any accessor is read: each view with the
 // extension is checked (buffer, offset and length inside the buffer; mode; stride and count within the
@@ -58,6 +61,7 @@ struct ViewUse {
     size_t element = 0;   // bytes per element (the view's byteStride when it has one)
     size_t count = 0;     // elements
     bool triangles = false;
+    bool unit_vectors = false; // NORMAL or TANGENT as normalized int8 in 4 bytes: the OCTAHEDRAL filter
 };
 
 // Step 1: element size and count of every view from its accessor; which index views are triangle lists.
@@ -73,20 +77,41 @@ std::map<size_t, ViewUse> view_uses(const json& j) {
         if (v < views.size() && views[v].contains("byteStride")) u.element = views[v]["byteStride"].get<size_t>();
         u.count = a.value("count", size_t(0));
     }
+    auto mark_unit_vectors = [&](const json& attributes) {
+        for (const char* name : {"NORMAL", "TANGENT"}) {
+            if (!attributes.contains(name)) continue;
+            const size_t ai = attributes[name].get<size_t>();
+            if (ai < acc.size() && acc[ai].contains("bufferView") && acc[ai].value("componentType", 0) == 5120 &&
+                acc[ai].value("normalized", false))
+                uses[acc[ai]["bufferView"].get<size_t>()].unit_vectors = true;
+        }
+    };
     if (j.contains("meshes"))
         for (const json& m : j["meshes"])
-            for (const json& p : m.value("primitives", json::array()))
+            for (const json& p : m.value("primitives", json::array())) {
+                if (p.contains("attributes")) mark_unit_vectors(p["attributes"]);
                 if (p.contains("indices") && p.value("mode", 4) == 4) {
                     const size_t ai = p["indices"].get<size_t>();
                     if (ai < acc.size() && acc[ai].contains("bufferView"))
                         uses[acc[ai]["bufferView"].get<size_t>()].triangles = true;
                 }
+            }
     return uses;
 }
 
 // Step 1 for one view: the encoded bytes and the extension's mode, or false to copy it as it is.
-bool encode_view(std::vector<uint8_t>& out, std::string& mode, const uint8_t* data, size_t bytes, int target,
-                 const ViewUse& u) {
+// The OCTAHEDRAL filter (meshopt_encodeFilterOct, 8 bits): a unit vector as its octahedral x, y and a scale,
+// which the vertex codec packs tighter than x, y, z; the decoder gives normalized int8 x, y, z back (w kept).
+std::vector<uint8_t> octahedral(const uint8_t* data, size_t count) {
+    std::vector<float> v(count * 4);
+    for (size_t i = 0; i < count * 4; ++i) v[i] = std::max(float(int8_t(data[i])) / 127.0f, -1.0f);
+    std::vector<uint8_t> out(count * 4);
+    meshopt_encodeFilterOct(out.data(), count, 4, 8, v.data());
+    return out;
+}
+
+bool encode_view(std::vector<uint8_t>& out, std::string& mode, std::string& filter, const uint8_t* data, size_t bytes,
+                 int target, const ViewUse& u) {
     if (u.element == 0 || u.count == 0 || u.count * u.element != bytes) return false;
     if (target == k_element_array_buffer && (u.element == 2 || u.element == 4)) {
         std::vector<uint32_t> idx(u.count);
@@ -112,6 +137,12 @@ bool encode_view(std::vector<uint8_t>& out, std::string& mode, const uint8_t* da
         return true;
     }
     if (target == k_array_buffer && u.element % 4 == 0 && u.element <= 256) {
+        std::vector<uint8_t> filtered;
+        if (u.unit_vectors && u.element == 4) {
+            filtered = octahedral(data, u.count);
+            data = filtered.data();
+            filter = "OCTAHEDRAL";
+        }
         out.resize(meshopt_encodeVertexBufferBound(u.count, u.element));
         const size_t n = meshopt_encodeVertexBuffer(out.data(), out.size(), data, u.count, u.element);
         if (n == 0) return false;
@@ -146,11 +177,13 @@ void compress_buffer_views(CompressedBin& out, json& j, const std::vector<uint8_
         if (offset > bin.size() || length > bin.size() - offset) continue; // the writer made it; cannot happen
         while (out.bin.size() % 4) out.bin.push_back(0);
         std::vector<uint8_t> encoded;
-        std::string mode;
+        std::string mode, filter;
         auto it = uses.find(v);
-        if (it != uses.end() && encode_view(encoded, mode, bin.data() + offset, length, view.value("target", 0), it->second)) {
+        if (it != uses.end() &&
+            encode_view(encoded, mode, filter, bin.data() + offset, length, view.value("target", 0), it->second)) {
             json ext = {{"buffer", 0}, {"byteOffset", out.bin.size()}, {"byteLength", encoded.size()},
                         {"byteStride", it->second.element}, {"count", it->second.count}, {"mode", mode}};
+            if (!filter.empty()) ext["filter"] = filter;
             if (mode == "ATTRIBUTES") view["byteStride"] = it->second.element;
             view["buffer"] = 1;
             view["extensions"]["EXT_meshopt_compression"] = ext;
