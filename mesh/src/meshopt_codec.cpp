@@ -12,8 +12,10 @@
 //      the fallback, a loader without the decoder cannot read the file: the extension is required (the
 //      extension's specification; Blender 3.4 refuses such a file, hence plain output stays the default).
 //   Normals and tangents (normalized int8) go through the OCTAHEDRAL filter first (gltfpack -cc does the
-//   same): decoded, each is the nearest 8-bit octahedral unit vector to what was written, within 1/127 per
-//   component. Every other view decodes to exactly the bytes --quantize writes. Both encoders and the filter
+//   same): decoded, each is the nearest 8-bit octahedral unit vector to what was written. Texture
+//   coordinates that stayed float (outside [0, 1], such as the fur's tiling strand UVs) go through the
+//   EXPONENTIAL filter with 16-bit mantissas (k_uv_mantissa_bits). Every other view decodes to exactly the
+//   bytes --quantize writes. Both encoders and the filter
 //   are deterministic.
 //
 // Loader (decode_meshopt_views), on the parsed model, before any accessor is read: each view with the
@@ -62,7 +64,12 @@ struct ViewUse {
     size_t count = 0;     // elements
     bool triangles = false;
     bool unit_vectors = false; // NORMAL or TANGENT as normalized int8 in 4 bytes: the OCTAHEDRAL filter
+    bool float_uvs = false;    // TEXCOORD_n kept float (outside [0, 1]): the EXPONENTIAL filter
 };
+
+// Mantissa bits of the EXPONENTIAL filter on float texture coordinates: each (u, v) keeps a shared exponent
+// and 16-bit signed mantissas, so its error is at most 2^-15 of its larger component (3e-4 at u = 10).
+constexpr int k_uv_mantissa_bits = 16;
 
 // Step 1: element size and count of every view from its accessor; which index views are triangle lists.
 std::map<size_t, ViewUse> view_uses(const json& j) {
@@ -77,6 +84,14 @@ std::map<size_t, ViewUse> view_uses(const json& j) {
         if (v < views.size() && views[v].contains("byteStride")) u.element = views[v]["byteStride"].get<size_t>();
         u.count = a.value("count", size_t(0));
     }
+    auto mark_float_uvs = [&](const json& attributes) {
+        for (const auto& [name, index] : attributes.items()) {
+            if (name.rfind("TEXCOORD_", 0) != 0 || !index.is_number_unsigned()) continue;
+            const size_t ai = index.get<size_t>();
+            if (ai < acc.size() && acc[ai].contains("bufferView") && acc[ai].value("componentType", 0) == 5126)
+                uses[acc[ai]["bufferView"].get<size_t>()].float_uvs = true;
+        }
+    };
     auto mark_unit_vectors = [&](const json& attributes) {
         for (const char* name : {"NORMAL", "TANGENT"}) {
             if (!attributes.contains(name)) continue;
@@ -89,7 +104,7 @@ std::map<size_t, ViewUse> view_uses(const json& j) {
     if (j.contains("meshes"))
         for (const json& m : j["meshes"])
             for (const json& p : m.value("primitives", json::array())) {
-                if (p.contains("attributes")) mark_unit_vectors(p["attributes"]);
+                if (p.contains("attributes")) mark_unit_vectors(p["attributes"]), mark_float_uvs(p["attributes"]);
                 if (p.contains("indices") && p.value("mode", 4) == 4) {
                     const size_t ai = p["indices"].get<size_t>();
                     if (ai < acc.size() && acc[ai].contains("bufferView"))
@@ -142,6 +157,13 @@ bool encode_view(std::vector<uint8_t>& out, std::string& mode, std::string& filt
             filtered = octahedral(data, u.count);
             data = filtered.data();
             filter = "OCTAHEDRAL";
+        } else if (u.float_uvs && u.element == 8) {
+            std::vector<float> v(u.count * 2);
+            std::memcpy(v.data(), data, v.size() * 4);
+            filtered.resize(u.count * 8);
+            meshopt_encodeFilterExp(filtered.data(), u.count, 8, k_uv_mantissa_bits, v.data());
+            data = filtered.data();
+            filter = "EXPONENTIAL";
         }
         out.resize(meshopt_encodeVertexBufferBound(u.count, u.element));
         const size_t n = meshopt_encodeVertexBuffer(out.data(), out.size(), data, u.count, u.element);
