@@ -28,8 +28,9 @@ std::vector<uint16_t> quantize_positions(const std::vector<float>& positions, co
 // Unit vectors (3 or 4 components in `stride`) as normalized int8, 4 bytes per vertex (w = the tangent's sign
 // for stride 4, else 0).
 std::vector<int8_t> quantize_unit_vectors(const std::vector<float>& v, size_t stride);
-// Values in [0, 1] as normalized uint16; false when one is outside (the caller keeps floats).
+// Values in [0, 1] as normalized uint16 / uint8; false when one is outside (the caller keeps floats).
 bool quantize_unorm16(std::vector<uint16_t>& out, const std::vector<float>& v);
+bool quantize_unorm8(std::vector<uint8_t>& out, const std::vector<float>& v);
 
 // meshopt_codec.cpp: EXT_meshopt_compression.
 // Writer: every vertex and index buffer view of `bin` (described by the glTF JSON `j`) is encoded with

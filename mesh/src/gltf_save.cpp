@@ -234,6 +234,12 @@ int add_unorm(BinWriter& w, const std::vector<float>& v, int components, bool qu
     return w.add_integers(q, TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT, components, size_t(components) * 2, true, false);
 }
 
+int add_colors(BinWriter& w, const std::vector<float>& rgba, bool quantize) {
+    std::vector<uint8_t> q;
+    if (!quantize || !mesh_detail::quantize_unorm8(q, rgba)) return w.add_floats(rgba, 4, false);
+    return w.add_integers(q, TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE, 4, 4, true, false);
+}
+
 Status write_primitive(tinygltf::Primitive& out, const Primitive& src, bool needs_tangents, BinWriter& w,
                        const std::string& where, const SaveOptions& options, const mesh_detail::PositionGrid& grid) {
     const bool quantize = options.encoding != Encoding::plain;
@@ -285,7 +291,7 @@ Status write_primitive(tinygltf::Primitive& out, const Primitive& src, bool need
                                                      quantize_vectors);
     if (!tri.uv0.empty()) out.attributes["TEXCOORD_0"] = add_unorm(w, tri.uv0, 2, quantize);
     if (!tri.uv1.empty()) out.attributes["TEXCOORD_1"] = add_unorm(w, tri.uv1, 2, quantize);
-    if (!tri.colors.empty()) out.attributes["COLOR_0"] = add_unorm(w, clamped01(tri.colors), 4, quantize);
+    if (!tri.colors.empty()) out.attributes["COLOR_0"] = add_colors(w, clamped01(tri.colors), quantize);
     if (!tri.joints.empty()) {
         std::vector<float> weights = normalized_weights(tri.weights);
         // A joint with zero weight has no effect; glTF wants it written as 0 (ACCESSOR_JOINTS_USED_ZERO_WEIGHT).

@@ -8,7 +8,8 @@
 //   ignored, glTF 2.0 §3.7.3) and meshes with morph targets (their deltas would need the same grid) keep
 //   float positions.
 //   Unit vectors: normalized int8 (the validator accepts a length within its tolerance for 8-bit vectors).
-//   Texture coordinates and colours: normalized uint16 when every value lies in [0, 1].
+//   Texture coordinates: normalized uint16 when every value lies in [0, 1]. Colours (clamped to [0, 1] by the
+//   writer): normalized uint8, as gltfpack's default -vc 8.
 // Every value is rounded to the nearest integer, so the output is the same bytes at any thread count.
 #include "encoding.h"
 
@@ -69,6 +70,15 @@ bool quantize_unorm16(std::vector<uint16_t>& out, const std::vector<float>& v) {
     for (size_t i = 0; i < v.size(); ++i) {
         if (!(v[i] >= 0.0f && v[i] <= 1.0f)) return false;
         out[i] = uint16_t(std::lround(double(v[i]) * 65535.0));
+    }
+    return true;
+}
+
+bool quantize_unorm8(std::vector<uint8_t>& out, const std::vector<float>& v) {
+    out.resize(v.size());
+    for (size_t i = 0; i < v.size(); ++i) {
+        if (!(v[i] >= 0.0f && v[i] <= 1.0f)) return false;
+        out[i] = uint8_t(std::lround(double(v[i]) * 255.0));
     }
     return true;
 }

@@ -146,7 +146,7 @@ TEST(mesh_encoding, QuantizedAndCompressedReadBackWithinTheDocumentedPrecision) 
             // int8 x, y, z: half a step, plus the renormalisation; compressed: the 8-bit octahedral filter.
             expect_same_floats(pa.normals, pb.normals, e == Encoding::compress ? 0.02f : 1.0f / 127, "normals");
             expect_same_floats(pa.uv0, pb.uv0, 0.5f / 65535, "uv0");
-            expect_same_floats(pa.colors, pb.colors, 0.5f / 65535, "colors");
+            expect_same_floats(pa.colors, pb.colors, 0.5f / 255 + 1e-7f, "colors");
             ASSERT_EQ(pb.custom.size(), 1u);
             expect_same_floats(pa.custom[0].values, pb.custom[0].values, 0.0f, "custom");
         }
