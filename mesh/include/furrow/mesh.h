@@ -250,6 +250,7 @@ struct LoadOptions {
 enum class Encoding : int {
     plain = 0,    // float attributes, uint16/uint32 indices: every glTF 2.0 reader (Blender 3.4 included)
     quantize = 1, // KHR_mesh_quantization (required): integer positions, int8 normals/tangents, uint16 UVs
+                  // in [0, 1] (else float), uint8 colours
     compress = 2, // quantize + EXT_meshopt_compression (required, no fallback data): three.js needs its
                   // MeshoptDecoder; Blender 3.4 cannot read it
 };
