@@ -80,6 +80,22 @@ void add_camera_flags(CLI::App& cmd, CameraFlags& f, CameraUse use) {
     add_size_flag(cmd, f, "Image size WxH in pixels, each 1..16384 (default 1024x768)");
 }
 
+void add_save_flags(CLI::App& cmd, SaveOptions& o) {
+    cmd.add_flag_callback("--no-optimize", [&o] { o.optimize = false; },
+                          "Keep the vertex and triangle order (default: meshoptimizer's vertex cache and fetch order)");
+    cmd.add_flag_callback("--quantize", [&o] { if (o.encoding == Encoding::plain) o.encoding = Encoding::quantize; },
+                          "Integer positions, normals, tangents, UVs and colours (KHR_mesh_quantization, required); "
+                          "positions on a grid of the mesh's bounding box, see --position-bits");
+    cmd.add_flag_callback("--compress", [&o] { o.encoding = Encoding::compress; },
+                          "--quantize, then EXT_meshopt_compression (required: three.js needs its MeshoptDecoder, "
+                          "Blender 3.4 cannot read the file)");
+    cmd.add_option("--position-bits", o.position_bits,
+                   "Bits per quantized position axis: step = the mesh's largest extent / (2^N - 1), error <= step/2 "
+                   "(default " + std::to_string(default_position_bits) + ", as gltfpack -vp)")
+        ->type_name("N")
+        ->check(finite_range(1, 16).description(""));
+}
+
 void add_load_flags(CLI::App& cmd, LoadOptions& o) {
     const LoadOptions d;
     // An empty or missing folder is a bad option value (exit 2), before any input is read.
@@ -188,9 +204,10 @@ void refuse_overwriting_input(const std::string& out_path, const std::string& in
             throw InputError(out_path, "its buffer file " + bin + " is a file of the input; refusing to overwrite the input");
 }
 
-void save_or_throw(const Scene& scene, const std::string& out_path, const std::string& in_path) {
+void save_or_throw(const Scene& scene, const std::string& out_path, const std::string& in_path,
+                   const SaveOptions& options) {
     refuse_overwriting_input(out_path, in_path);
-    require_ok(save_scene(scene, out_path), out_path);
+    require_ok(save_scene(scene, out_path, options), out_path);
 }
 
 // stderr is shared by info() lines and a Progress ticker thread: one writer at a time, and a line printed

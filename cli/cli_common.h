@@ -66,11 +66,16 @@ constexpr size_t kDefaultTriangleBudget = 20'000'000;
 // (external buffers and images only from DIR and below; default: the input's folder), --max-resource-bytes,
 // --max-image-pixels, --max-nodes, --max-primitives (defaults: LoadOptions's).
 void add_load_flags(CLI::App& cmd, LoadOptions& options);
+// The flags of every command that writes a glTF, into `options` (README "Output size"): --no-optimize
+// (keep the vertex order), --quantize (KHR_mesh_quantization), --compress (quantization +
+// EXT_meshopt_compression; wins over --quantize), --position-bits N (1..16; default 14).
+void add_save_flags(CLI::App& cmd, SaveOptions& options);
 
 // Loads a scene or throws InputError naming the file.
 Scene load_or_throw(const std::string& path, const LoadOptions& options = {});
 // Saves or throws InputError naming the output; refuses output == input.
-void save_or_throw(const Scene& scene, const std::string& out_path, const std::string& in_path = {});
+void save_or_throw(const Scene& scene, const std::string& out_path, const std::string& in_path = {},
+                   const SaveOptions& options = {});
 bool same_file(const std::string& a, const std::string& b);
 // Throws InputError naming the output if writing out_path would overwrite in_path or, for a .gltf output, if
 // its .bin would overwrite a buffer or image file the .gltf input reads.

@@ -10,7 +10,7 @@ void run_convert(const ConvertArgs& a, const GlobalFlags& g) {
     Scene scene = load_or_throw(a.in, lo);
     for (const auto& w : scene.warnings) info(g, "Warning: " + a.in + ": " + w);
     refuse_overwriting_input(a.out, a.in);
-    SaveOptions so;
+    SaveOptions so = a.save;
     so.pretty_json = a.pretty;
     require_ok(save_scene(scene, a.out, so), a.out);
     size_t tris = 0;
@@ -30,6 +30,7 @@ void register_convert(CLI::App& app, GlobalFlags& g) {
                   "Keep far-from-origin positions as they are (default: store them relative to the bounding-box "
                   "centre and move the centre into the node translation)");
     add_load_flags(*cmd, args->load);
+    add_save_flags(*cmd, args->save);
     cmd->footer("Examples:\n  furrow convert bunny.obj -o bunny.glb\n  furrow convert Duck.glb -o duck.gltf --pretty");
     cmd->callback([args, &g] { run_convert(*args, g); });
 }

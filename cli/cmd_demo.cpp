@@ -86,6 +86,16 @@ Scene demo_fur(const fs::path& model, const fs::path& mask, const RenderCamera& 
     const fs::path glb = out / "creature_fur.glb";
     save_or_throw(scene, glb.string(), model.string());
     outputs.push_back(glb.string());
+    // A compressed copy beside it (KHR_mesh_quantization + EXT_meshopt_compression, both required): for
+    // three.js with its MeshoptDecoder. The plain file stays the one to use elsewhere (Blender 3.4 cannot read
+    // EXT_meshopt_compression).
+    const fs::path compressed = out / "creature_fur.compressed.glb";
+    SaveOptions so;
+    so.encoding = Encoding::compress;
+    save_or_throw(scene, compressed.string(), model.string(), so);
+    outputs.push_back(compressed.string());
+    info(g, "fur: " + glb.filename().string() + " " + std::to_string(fs::file_size(glb)) + " bytes, " +
+                compressed.filename().string() + " " + std::to_string(fs::file_size(compressed)) + " bytes");
     RenderOptions ro = preview_options(cam, a);
     write_render(scene, ro, out / "creature_fur_shaded.png", outputs);
     return scene;

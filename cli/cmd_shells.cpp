@@ -68,7 +68,7 @@ void run_shells(const ShellsArgs& a, const GlobalFlags& g) {
     require_ok(add_fur_shells(scene, fur, &r), a.in);
     for (const auto& w : r.warnings) info(g, "Warning: " + a.in + ": " + w);
     progress.stage("writing " + a.out);
-    save_or_throw(scene, a.out, a.in);
+    save_or_throw(scene, a.out, a.in, a.save);
     std::string line = "Wrote " + a.out + ": " + plural(size_t(fur.shells.layers), "shell") + " on " +
                        plural(r.primitives, "primitive") + ", " + std::to_string(r.shell_triangles) + " triangles added";
     if (r.dropped_triangles) line += " (" + std::to_string(r.dropped_triangles) + " bald shell triangles dropped)";
@@ -140,6 +140,7 @@ void register_shells(CLI::App& app, GlobalFlags& g) {
                     "(default 20000000)")
         ->check(positive());
     add_load_flags(*cmd, a->load);
+    add_save_flags(*cmd, a->save);
     cmd->footer("Examples:\n"
                 "  furrow shells models/creature.glb -o furry.glb --layers 32 --length 0.04 --mask models/creature_fur_mask.png\n"
                 "  furrow shells Fox.glb -o fox_fur.glb --layers 16 --length 3 --fins --lod 3\n"

@@ -51,7 +51,7 @@ void write_outputs(const StampArgs& a, const Scene& scene, const Heightmap& out_
     const bool had_map = !a.heightmap_out.empty() && std::filesystem::exists(a.heightmap_out);
     if (!a.heightmap_out.empty()) require_ok(save_heightmap(out_map, a.heightmap_out), a.heightmap_out);
     try {
-        save_or_throw(scene, a.out, a.in);
+        save_or_throw(scene, a.out, a.in, a.save);
     } catch (...) {
         if (!a.heightmap_out.empty() && !had_map) std::filesystem::remove(a.heightmap_out);
         throw;
@@ -157,6 +157,7 @@ void register_stamp(CLI::App& app, GlobalFlags& g) {
     cmd->add_option("--heightmap-in", a->heightmap_in, "Start from a heightmap written by --heightmap-out (new stamps are min-composited)");
     add_camera_flags(*cmd, a->camera, CameraUse::eye);
     add_load_flags(*cmd, a->load);
+    add_save_flags(*cmd, a->save);
     cmd->footer("Examples:\n"
                 "  furrow stamp models/ground.glb -o snow.glb --colliders models/colliders.json\n"
                 "  furrow stamp models/ground.glb -o snow.glb --colliders models/colliders.json --texel 0.01 --rim 0.08 --conserve-volume\n"

@@ -124,7 +124,7 @@ void run_tessellate(const TessellateArgs& a, const GlobalFlags& g) {
     const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     for (const auto& w : rep.warnings) info(g, "Warning: " + a.in + ": " + w);
     progress.stage("writing " + a.out);
-    save_or_throw(scene, a.out, a.in);
+    save_or_throw(scene, a.out, a.in, a.save);
     report_tessellation(a, g, rep, ms);
 }
 
@@ -177,6 +177,7 @@ void register_tessellate(CLI::App& app, GlobalFlags& g) {
                   "Refuse input that needs repair (degenerate, flipped or non-manifold faces) "
                   "instead of repairing it or tessellating those faces linearly");
     add_load_flags(*cmd, a->load);
+    add_save_flags(*cmd, a->save);
     cmd->footer("Criteria combine: each edge takes the largest rate any of them asks for, capped by --max-rate.\n"
                 "Only the camera's position, --fov and the height of --size matter (distances are measured from\n"
                 "the eye, so the result does not depend on where the camera looks).\n\n"

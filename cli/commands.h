@@ -43,6 +43,7 @@ struct RenderArgs {
 // `furrow stamp`
 struct StampArgs {
     LoadOptions load; // --resource-root and the input limits (add_load_flags)
+    SaveOptions save; // --no-optimize, --quantize, --compress, --position-bits (add_save_flags)
     std::string in, out, colliders, heightmap_out, heightmap_in;
     StampOptions opt;
     CameraFlags camera;
@@ -55,6 +56,7 @@ struct StampArgs {
 // `furrow tessellate`
 struct TessellateArgs {
     LoadOptions load; // --resource-root and the input limits (add_load_flags)
+    SaveOptions save; // --no-optimize, --quantize, --compress, --position-bits (add_save_flags)
     std::string in, out;
     std::string scheme = "catmark", boundary = "corner", uv = "corners";
     CameraFlags camera;
@@ -84,6 +86,7 @@ struct BenchAllArgs {
 // `furrow convert`
 struct ConvertArgs {
     LoadOptions load; // --resource-root and the input limits (add_load_flags)
+    SaveOptions save; // --no-optimize, --quantize, --compress, --position-bits (add_save_flags)
     std::string in, out;
     bool pretty = false;
     bool no_recentre = false;
@@ -92,6 +95,7 @@ struct ConvertArgs {
 // `furrow shells`
 struct ShellsArgs {
     LoadOptions load; // --resource-root and the input limits (add_load_flags)
+    SaveOptions save; // --no-optimize, --quantize, --compress, --position-bits (add_save_flags)
     std::string in, out;
     std::string mask; // FILE[:r|g|b|a]
     std::string comb;

@@ -6,6 +6,16 @@ find_package(TBB REQUIRED)               # deterministic parallel_for over fixed
 find_package(CLI11 REQUIRED)
 find_package(nlohmann_json REQUIRED)
 find_package(glm REQUIRED)
+# meshoptimizer (Debian libmeshoptimizer-dev 0.18 ships a CMake config): vertex cache/fetch order, and the
+# EXT_meshopt_compression codec. Private to furrow::mesh; no meshoptimizer type crosses a public header.
+find_package(meshoptimizer CONFIG QUIET)
+if(NOT TARGET meshoptimizer::meshoptimizer)
+  find_path(MESHOPTIMIZER_INCLUDE_DIR meshoptimizer.h REQUIRED)
+  find_library(MESHOPTIMIZER_LIBRARY NAMES meshoptimizer REQUIRED)
+  add_library(meshoptimizer::meshoptimizer UNKNOWN IMPORTED)
+  set_target_properties(meshoptimizer::meshoptimizer PROPERTIES IMPORTED_LOCATION ${MESHOPTIMIZER_LIBRARY}
+    INTERFACE_INCLUDE_DIRECTORIES ${MESHOPTIMIZER_INCLUDE_DIR})
+endif()
 
 # tinygltf: Debian ships a shared libtinygltf built with stb + nlohmann; we compile the header ourselves
 # (mesh/src/tinygltf_impl.cpp) so that the image loader can be replaced and no ABI surprise leaks.

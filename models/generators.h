@@ -482,11 +482,14 @@ inline std::vector<std::string> model_files() {
 inline Status generate_all(const std::filesystem::path& dir) {
     const auto points = creature_texel_points(creature_texture_width, creature_texture_height);
     const auto albedo = creature_albedo_rgba8(points);
+    // The generator's own vertex order (no meshoptimizer reordering): the committed files stay as they were.
+    SaveOptions as_generated;
+    as_generated.optimize = false;
     Status st = save_scene(creature_scene(encode_png_rgba8(albedo.data(), creature_texture_width, creature_texture_height)),
-                           (dir / "creature.glb").string());
+                           (dir / "creature.glb").string(), as_generated);
     if (st.ok()) st = save_png(creature_fur_mask(points, creature_texture_width, creature_texture_height),
                                (dir / "creature_fur_mask.png").string());
-    if (st.ok()) st = save_scene(ground_scene(), (dir / "ground.glb").string());
+    if (st.ok()) st = save_scene(ground_scene(), (dir / "ground.glb").string(), as_generated);
     if (st.ok()) st = save_png(footprint_brush(), (dir / "footprint.png").string());
     if (st.ok()) st = write_text_file(dir / "colliders.json", colliders_json());
     if (st.ok()) st = write_text_file(dir / "scene.json", scene_json());

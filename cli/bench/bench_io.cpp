@@ -1,13 +1,18 @@
 // `furrow bench io`: load + save time per model as a ratio to memcpy of the same bytes, the load throughput
 // (MB/s) per format, peak memory, the round-trip error, and `furrow convert` against gltfpack (an optional
 // peer, run as a subprocess like furrow itself) on what gltfpack reads. Unless --quick, a generated ~100 MB
-// OBJ grid (models/obj_grid.h) is one more row: text meshes of that size are what the loader is for.
+// OBJ grid (models/obj_grid.h) is one more row: text meshes of that size are what the loader is for. Then,
+// per model and setting (plain, --quantize, --compress), the output's bytes, its round-trip position error in
+// % of the diagonal, and encode and decode times, with gltfpack at the matching setting (-vp 14, -cc -vp 14)
+// beside it as the peer ("peer not installed" without it).
 #include "bench_common.h"
 #include "data_dirs.h"
 #include "cli_common.h"
 #include "obj_grid.h"
 
 #include <algorithm>
+#include <array>
+#include <map>
 #include <cmath>
 #include <cstring>
 #include <unistd.h>
@@ -27,6 +32,17 @@ struct IoRow {
     double peak_mib = 0;
     double roundtrip_max_error = 0; // max |position difference| after save + reload (object space)
 };
+
+// The scene in the vertex order save_scene writes (triangulated, SaveOptions::optimize's order), so that
+// vertex i of a reloaded file meets vertex i of the scene.
+Scene in_writer_order(Scene scene) {
+    for (Mesh& m : scene.meshes)
+        for (Primitive& p : m.primitives) {
+            triangulate(p);
+            optimize_vertex_order(p);
+        }
+    return scene;
+}
 
 double max_position_error(const Scene& a, const Scene& b) {
     if (a.meshes.size() != b.meshes.size()) return INFINITY;
@@ -120,12 +136,171 @@ IoRow bench_one(const fs::path& file, const fs::path& tmp, int repeat, bool gltf
     row.peak_mib = peak.peak_mib();
     Scene back;
     require_ok(load_scene(back, out.string()), out.string());
-    row.roundtrip_max_error = max_position_error(scene, back);
+    row.roundtrip_max_error = max_position_error(in_writer_order(scene), back);
     fs::remove(out);
     bench_convert(row, file, tmp, repeat, gltfpack);
     return row;
 }
 
+
+// ---- bytes against error against time, per setting (README "Output size")
+
+// World-space positions of every drawn mesh vertex, in double (node order, then primitive, then vertex).
+std::vector<std::array<double, 3>> world_points(const Scene& s) {
+    std::vector<std::array<double, 3>> out;
+    const auto world = s.world_matrices();
+    for (int n : s.drawn_nodes()) {
+        const int mi = s.nodes[size_t(n)].mesh;
+        if (mi < 0 || size_t(mi) >= s.meshes.size()) continue;
+        const auto& m = world[size_t(n)];
+        for (const Primitive& p : s.meshes[size_t(mi)].primitives)
+            for (size_t i = 0; i + 2 < p.positions.size(); i += 3) {
+                const double x = p.positions[i], y = p.positions[i + 1], z = p.positions[i + 2];
+                out.push_back({m[0] * x + m[4] * y + m[8] * z + m[12], m[1] * x + m[5] * y + m[9] * z + m[13],
+                               m[2] * x + m[6] * y + m[10] * z + m[14]});
+            }
+    }
+    return out;
+}
+
+double diagonal_of(const std::vector<std::array<double, 3>>& v) {
+    std::array<double, 3> lo{INFINITY, INFINITY, INFINITY}, hi{-INFINITY, -INFINITY, -INFINITY};
+    for (const auto& x : v)
+        for (size_t k = 0; k < 3; ++k) lo[k] = std::min(lo[k], x[k]), hi[k] = std::max(hi[k], x[k]);
+    return v.empty() ? 0.0 : std::hypot(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]);
+}
+
+// furrow's error: vertex i of the reloaded file against vertex i of the scene in the order the writer gives
+// it (triangulated, optimize_vertex_order), so nothing is matched by guess.
+double indexed_error(const std::vector<std::array<double, 3>>& a, const std::vector<std::array<double, 3>>& b) {
+    if (a.size() != b.size()) return INFINITY;
+    double worst = 0;
+    for (size_t i = 0; i < a.size(); ++i)
+        worst = std::max(worst, std::hypot(a[i][0] - b[i][0], a[i][1] - b[i][1], a[i][2] - b[i][2]));
+    return worst;
+}
+
+// The peer's error: gltfpack reorders, welds and merges vertices, so each of its vertices is matched to the
+// nearest original vertex (a hash grid of cell `cell`, the 27 cells around); the largest such distance.
+double nearest_error(const std::vector<std::array<double, 3>>& ref, const std::vector<std::array<double, 3>>& out,
+                     double cell) {
+    if (ref.empty() || !(cell > 0)) return out.empty() ? 0.0 : INFINITY;
+    auto key = [cell](double x, double y, double z) {
+        return std::array<long long, 3>{(long long)std::floor(x / cell), (long long)std::floor(y / cell), (long long)std::floor(z / cell)};
+    };
+    std::map<std::array<long long, 3>, std::vector<size_t>> grid;
+    for (size_t i = 0; i < ref.size(); ++i) grid[key(ref[i][0], ref[i][1], ref[i][2])].push_back(i);
+    double worst = 0;
+    for (const auto& p : out) {
+        const auto k = key(p[0], p[1], p[2]);
+        double best = INFINITY;
+        for (long long dx = -1; dx <= 1; ++dx)
+            for (long long dy = -1; dy <= 1; ++dy)
+                for (long long dz = -1; dz <= 1; ++dz) {
+                    auto it = grid.find({k[0] + dx, k[1] + dy, k[2] + dz});
+                    if (it == grid.end()) continue;
+                    for (size_t i : it->second)
+                        best = std::min(best, std::hypot(p[0] - ref[i][0], p[1] - ref[i][1], p[2] - ref[i][2]));
+                }
+        worst = std::max(worst, std::isfinite(best) ? best : cell);
+    }
+    return worst;
+}
+
+struct SizeRow {
+    std::string model, setting;
+    size_t bytes = 0;
+    double error_percent = 0; // max |world position change| / world diagonal × 100
+    double encode_s = 0, decode_s = 0;
+    bool peer = false, available = true;
+};
+
+Scene load_quiet(const fs::path& f) {
+    Scene s;
+    require_ok(load_scene(s, f.string()), f.string());
+    return s;
+}
+
+// One furrow setting: encode (save_scene) and decode (load_scene) times, the file's bytes, the error.
+SizeRow furrow_setting(const Scene& scene, const std::string& model, const std::string& name, Encoding e,
+                       const fs::path& tmp, int repeat, const std::vector<std::array<double, 3>>& reference, double diag) {
+    SizeRow r{model, name};
+    SaveOptions o;
+    o.encoding = e;
+    const fs::path out = tmp / (name + ".glb");
+    r.encode_s = median_seconds(repeat, [&] { require_ok(save_scene(scene, out.string(), o), out.string()); });
+    r.bytes = size_t(fs::file_size(out));
+    Scene back;
+    r.decode_s = median_seconds(repeat, [&] { back = load_quiet(out); });
+    r.error_percent = indexed_error(reference, world_points(back)) / diag * 100;
+    fs::remove(out);
+    return r;
+}
+
+// The peer: gltfpack at the setting that matches --compress (-cc, -vp 14) and --quantize (-vp 14 alone).
+SizeRow gltfpack_setting(const fs::path& input, const std::string& model, const std::string& name,
+                         const std::vector<std::string>& flags, const fs::path& tmp, int repeat,
+                         const std::vector<std::array<double, 3>>& reference, double diag) {
+    SizeRow r{model, name};
+    r.peer = true;
+    const fs::path out = tmp / (name + ".glb");
+    std::vector<std::string> argv{"gltfpack", "-i", input.string(), "-o", out.string()};
+    argv.insert(argv.end(), flags.begin(), flags.end());
+    int code = 0;
+    r.encode_s = median_seconds(std::min(repeat, 3), [&] { code = run_peer(argv); });
+    if (code != 0 || !fs::exists(out)) {
+        r.available = false;
+        return r;
+    }
+    r.bytes = size_t(fs::file_size(out));
+    Scene back;
+    r.decode_s = median_seconds(repeat, [&] { back = load_quiet(out); });
+    r.error_percent = nearest_error(reference, world_points(back), diag * 0.01) / diag * 100;
+    fs::remove(out);
+    return r;
+}
+
+std::vector<SizeRow> size_rows(const fs::path& file, const fs::path& tmp, int repeat) {
+    const std::string model = file.filename().string();
+    const Scene scene = load_quiet(file);
+    const auto reference = world_points(in_writer_order(scene)); // furrow's error is vertex by vertex
+    const double diag = std::max(diagonal_of(reference), 1e-30);
+    std::vector<SizeRow> rows;
+    rows.push_back(furrow_setting(scene, model, "plain", Encoding::plain, tmp, repeat, reference, diag));
+    rows.push_back(furrow_setting(scene, model, "--quantize", Encoding::quantize, tmp, repeat, reference, diag));
+    rows.push_back(furrow_setting(scene, model, "--compress", Encoding::compress, tmp, repeat, reference, diag));
+    // gltfpack reads glTF only; an OBJ/PLY input goes through furrow's plain GLB first (not timed as its).
+    fs::path input = file;
+    const std::string ext = lower_extension(file.string());
+    if (ext != ".glb" && ext != ".gltf") {
+        input = tmp / "peer-input.glb";
+        require_ok(save_scene(scene, input.string()), input.string());
+    }
+    rows.push_back(gltfpack_setting(input, model, "gltfpack -vp 14", {"-vp", "14"}, tmp, repeat, reference, diag));
+    rows.push_back(gltfpack_setting(input, model, "gltfpack -cc -vp 14", {"-cc", "-vp", "14"}, tmp, repeat, reference, diag));
+    return rows;
+}
+
+void print_size_table(const std::vector<SizeRow>& rows, int repeat) {
+    Table t({"model", "setting", "bytes", "vs plain", "max error % diag", "encode ms", "decode ms"});
+    size_t plain = 0;
+    for (const auto& r : rows) {
+        if (r.setting == "plain") plain = r.bytes;
+        if (!r.available) {
+            t.add({r.model, r.setting, "peer not installed", "", "", "", ""});
+            continue;
+        }
+        t.add({r.model, r.setting, std::to_string(r.bytes), plain ? fmt(double(r.bytes) / double(plain), 3) : "",
+               fmt_sci(r.error_percent), fmt(r.encode_s * 1e3, 2), fmt(r.decode_s * 1e3, 2)});
+    }
+    std::printf("\nfurrow bench io: output bytes against position error against time, median of %d runs; encode = "
+                "save_scene (furrow) or the gltfpack process (peer, median of at most 3); decode = furrow's "
+                "load_scene of the output; error = max world-position change after the round trip in %% of the world "
+                "diagonal (furrow: vertex by vertex; gltfpack, which welds and reorders: each vertex to its nearest "
+                "original)\n",
+                repeat);
+    t.print();
+}
 
 std::string ms_or_dash(double s) { return s < 0 ? "-" : fmt(s * 1e3, 1); }
 
@@ -157,9 +332,11 @@ nlohmann::json run_bench_io(const BenchArgs& args, const GlobalFlags& g, bool ta
     fs::create_directories(tmp);
     const bool gltfpack = on_path("gltfpack");
     std::vector<IoRow> rows;
+    std::vector<SizeRow> sizes;
     for (const auto& f : files) {
         info(g, "bench io: " + f.string());
         rows.push_back(bench_one(f, tmp, args.repeat, gltfpack));
+        for (SizeRow& r : size_rows(f, tmp, args.repeat)) sizes.push_back(std::move(r));
     }
     if (generated_mb > 0) {
         const int n = models::obj_grid_side_for_bytes(generated_mb * 1e6);
@@ -170,6 +347,11 @@ nlohmann::json run_bench_io(const BenchArgs& args, const GlobalFlags& g, bool ta
         rows.back().name = "generated " + rows.back().name;
     }
     fs::remove_all(tmp);
+    nlohmann::json size_json = nlohmann::json::array();
+    for (const auto& r : sizes)
+        size_json.push_back({{"model", r.model}, {"setting", r.setting}, {"peer", r.peer}, {"available", r.available},
+                             {"bytes", r.bytes}, {"max_error_percent_of_diagonal", r.error_percent},
+                             {"encode_s", r.encode_s}, {"decode_s", r.decode_s}});
 
     Table t({"model", "format", "input KiB", "triangles", "load ms", "save ms", "memcpy us", "load/memcpy", "save/memcpy",
              "load MB/s", "peak MiB", "roundtrip max|dp|", "convert ms", "gltfpack ms", "convert/gltfpack"});
@@ -194,8 +376,9 @@ nlohmann::json run_bench_io(const BenchArgs& args, const GlobalFlags& g, bool ta
                     "subprocess on .obj/.gltf/.glb inputs (gltfpack: %s)\n",
                     args.repeat, generated_runs.c_str(), gltfpack ? "installed" : "peer not installed");
         t.print();
+        print_size_table(sizes, args.repeat);
     }
-    return {{"bench", "io"}, {"repeat", args.repeat}, {"peer", peer}, {"rows", j}, {"plot", plot_json("round-trip max |dp|", points)}};
+    return {{"bench", "io"}, {"repeat", args.repeat}, {"peer", peer}, {"rows", j}, {"sizes", size_json}, {"plot", plot_json("round-trip max |dp|", points)}};
 }
 
 nlohmann::json bench_io_default(const BenchRun& r, const GlobalFlags& g) {

@@ -2,6 +2,7 @@
 // KHR_mesh_quantization). tinygltf parses the JSON/GLB container; accessors are decoded here, with every
 // offset checked, because tinygltf trusts the file's numbers.
 #include "document.h"
+#include "encoding.h"
 
 #include <algorithm>
 #include <cmath>
@@ -411,12 +412,14 @@ bool keep_image_bytes(tinygltf::Image* image, const int index, std::string* err,
 }
 
 // Required extensions furrow reads or carries through faithfully (glTF 2.0, 3.12: a loader must refuse an
-// asset that requires an extension it does not support). KHR_mesh_quantization is decoded; the others only
+// asset that requires an extension it does not support). KHR_mesh_quantization and EXT_meshopt_compression
+// are decoded; the others only
 // touch materials, textures or lights, which are written back unchanged. Anything else that is required
-// (Draco, meshopt, GPU instancing, a vendor's private extension) changes what the data means: refused, by
+// (Draco, GPU instancing, a vendor's private extension) changes what the data means: refused, by
 // name, rather than read as if it were plain glTF.
 bool required_extension_supported(const std::string& e) {
-    static const std::set<std::string> k_supported{"KHR_mesh_quantization", "KHR_texture_transform", "KHR_texture_basisu",
+    static const std::set<std::string> k_supported{"KHR_mesh_quantization", "EXT_meshopt_compression",
+                                                   "KHR_texture_transform", "KHR_texture_basisu",
                                                    "KHR_lights_punctual", "EXT_texture_webp"};
     return k_supported.count(e) || e.rfind("KHR_materials_", 0) == 0;
 }
@@ -545,6 +548,8 @@ Status convert_model(Scene& out, tinygltf::Model&& model, const LoadOptions& opt
         if (!required_extension_supported(e))
             return Status::error(StatusCode::unsupported, "required extension " + e + " is not supported");
     }
+    // EXT_meshopt_compression: decoded first, so that every accessor below reads plain bytes.
+    if (Status d = mesh_detail::decode_meshopt_views(model, options.max_file_bytes); !d.ok()) return d;
     size_t primitives = 0;
     for (const auto& mesh : model.meshes) primitives += mesh.primitives.size();
     Status s = mesh_detail::check_scene_counts(model.nodes.size(), primitives, options);

@@ -21,6 +21,8 @@
 //      URI becomes a token that tinygltf's file callbacks (load_gltf_bytes) answer from memory. Every other
 //      path tinygltf asks for does not exist, so tinygltf can read nothing on its own, whatever it makes
 //      of a URI. The URIs as written are kept for the scene (Image::source_uri) and restored after parsing.
+//   An EXT_meshopt_compression fallback buffer is never read (its views are decoded from the compressed
+//   bytes): it becomes the 1-byte data URI too, as it may have no data at all.
 //   A GLB is rebuilt around the new JSON chunk only when it was rewritten (rare: a GLB with external or
 //   unused resources); its binary chunk is copied as it is.
 #include "document.h"
@@ -172,7 +174,23 @@ void find_used(const json& j, std::vector<char>& images, std::vector<char>& buff
         if (images[i]) views.insert(index_of(img[i], "bufferView"));
     const json& bv = array_of(j, "bufferViews");
     for (int v : views)
-        if (v >= 0 && size_t(v) < bv.size()) mark(buffers, index_of(bv[size_t(v)], "buffer"));
+        if (v >= 0 && size_t(v) < bv.size()) {
+            mark(buffers, index_of(bv[size_t(v)], "buffer"));
+            // EXT_meshopt_compression: the compressed bytes lie in the extension's buffer.
+            const json& x = bv[size_t(v)];
+            if (x.is_object() && x.contains("extensions") && x["extensions"].is_object() &&
+                x["extensions"].contains("EXT_meshopt_compression"))
+                mark(buffers, index_of(x["extensions"]["EXT_meshopt_compression"], "buffer"));
+        }
+}
+
+// An EXT_meshopt_compression fallback buffer: it may hold no data at all (no uri, and in a GLB it is not the
+// binary chunk), and furrow decodes the compressed views instead of reading it.
+bool is_meshopt_fallback(const json& b) {
+    if (!b.is_object() || !b.contains("extensions") || !b["extensions"].is_object()) return false;
+    const json& e = b["extensions"];
+    return e.contains("EXT_meshopt_compression") && e["EXT_meshopt_compression"].is_object() &&
+           e["EXT_meshopt_compression"].value("fallback", false) == true;
 }
 
 // Step 3 for one resource: checked, resolved, counted against the budget.
@@ -286,6 +304,12 @@ Status prepare_gltf(PreparedGltf& out, const uint8_t* data, size_t size, const R
     size_t budget = options.max_resource_bytes;
     for (size_t i = 0; i < used_buffers.size(); ++i) {
         json& b = j["buffers"][i];
+        if (is_meshopt_fallback(b)) { // never read: its views are decoded (meshopt_codec.cpp)
+            if (b.contains("uri") && b["uri"].is_string()) out.buffer_uris[i] = b["uri"].get<std::string>();
+            b = {{"byteLength", 1}, {"uri", "data:application/octet-stream;base64,AA=="}};
+            rewrite = true;
+            continue;
+        }
         if (!b.is_object() || !b.contains("uri")) continue;
         if (!used_buffers[i]) { // nothing refers into it: not read
             if (b["uri"].is_string()) out.buffer_uris[i] = b["uri"].get<std::string>();

@@ -2,6 +2,7 @@
 // accessor, every image embedded, and the rest of the source document (animations, cameras, extras, unknown
 // extensions) carried over. Target: the Khronos glTF-Validator reports 0 errors and 0 warnings.
 #include "document.h"
+#include "encoding.h"
 
 #include <furrow_kernel/atomic_file.h>
 #include <furrow_kernel/no_throw.h>
@@ -29,12 +30,13 @@ public:
     std::vector<unsigned char> bin;
     explicit BinWriter(tinygltf::Model& model) : m(model) {}
 
-    int add_view(const void* data, size_t bytes, int target) {
+    int add_view(const void* data, size_t bytes, int target, size_t stride = 0) {
         while (bin.size() % 4) bin.push_back(0);
         tinygltf::BufferView bv;
         bv.buffer = 0;
         bv.byteOffset = bin.size();
         bv.byteLength = bytes;
+        bv.byteStride = stride;
         bv.target = target;
         const auto* p = static_cast<const unsigned char*>(data);
         bin.insert(bin.end(), p, p + bytes);
@@ -61,6 +63,32 @@ public:
                 a.minValues[c] = std::min(a.minValues[c], double(v[i]));
                 a.maxValues[c] = std::max(a.maxValues[c], double(v[i]));
             }
+        }
+        m.accessors.push_back(std::move(a));
+        return int(m.accessors.size() - 1);
+    }
+
+    // An integer vertex attribute (KHR_mesh_quantization) of `components` values in elements of `stride`
+    // bytes (4-byte aligned: a VEC3 of uint16 is stored in 8 bytes). min/max when asked (POSITION).
+    template <class T>
+    int add_integers(const std::vector<T>& v, int component_type, int components, size_t stride, bool normalized,
+                     bool min_max) {
+        tinygltf::Accessor a;
+        const size_t per = stride / sizeof(T);
+        a.bufferView = add_view(v.data(), v.size() * sizeof(T), TINYGLTF_TARGET_ARRAY_BUFFER,
+                                per == size_t(components) ? 0 : stride);
+        a.componentType = component_type;
+        a.normalized = normalized;
+        a.count = v.size() / per;
+        a.type = components == 2 ? TINYGLTF_TYPE_VEC2 : components == 3 ? TINYGLTF_TYPE_VEC3 : TINYGLTF_TYPE_VEC4;
+        if (min_max) {
+            a.minValues.assign(size_t(components), INFINITY);
+            a.maxValues.assign(size_t(components), -INFINITY);
+            for (size_t i = 0; i < a.count; ++i)
+                for (size_t c = 0; c < size_t(components); ++c) {
+                    a.minValues[c] = std::min(a.minValues[c], double(v[i * per + c]));
+                    a.maxValues[c] = std::max(a.maxValues[c], double(v[i * per + c]));
+                }
         }
         m.accessors.push_back(std::move(a));
         return int(m.accessors.size() - 1);
@@ -196,8 +224,34 @@ std::vector<float> generate_tangents(const std::vector<float>& pos, const std::v
     return out;
 }
 
+// The three attribute kinds that KHR_mesh_quantization shrinks (mesh_quantize.cpp); float otherwise.
+int add_position(BinWriter& w, const std::vector<float>& positions, const mesh_detail::PositionGrid& grid) {
+    if (!grid.quantized) return w.add_floats(positions, 3, true);
+    return w.add_integers(mesh_detail::quantize_positions(positions, grid), TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT, 3,
+                          8, false, true);
+}
+
+int add_unit_vectors(BinWriter& w, const std::vector<float>& v, int components, bool quantize) {
+    if (!quantize) return w.add_floats(v, components, false);
+    return w.add_integers(mesh_detail::quantize_unit_vectors(v, size_t(components)), TINYGLTF_COMPONENT_TYPE_BYTE,
+                          components, 4, true, false);
+}
+
+int add_unorm(BinWriter& w, const std::vector<float>& v, int components, bool quantize) {
+    std::vector<uint16_t> q;
+    if (!quantize || !mesh_detail::quantize_unorm16(q, v)) return w.add_floats(v, components, false);
+    return w.add_integers(q, TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT, components, size_t(components) * 2, true, false);
+}
+
+int add_colors(BinWriter& w, const std::vector<float>& rgba, bool quantize) {
+    std::vector<uint8_t> q;
+    if (!quantize || !mesh_detail::quantize_unorm8(q, rgba)) return w.add_floats(rgba, 4, false);
+    return w.add_integers(q, TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE, 4, 4, true, false);
+}
+
 Status write_primitive(tinygltf::Primitive& out, const Primitive& src, bool needs_tangents, BinWriter& w,
-                       const std::string& where) {
+                       const std::string& where, const SaveOptions& options, const mesh_detail::PositionGrid& grid) {
+    const bool quantize = options.encoding != Encoding::plain;
     const size_t n = src.vertex_count();
     if (n == 0 || src.positions.size() != n * 3)
         return Status::error(StatusCode::invalid_argument, where + ": has no vertices");
@@ -225,6 +279,7 @@ Status write_primitive(tinygltf::Primitive& out, const Primitive& src, bool need
         if (i >= n) return Status::error(StatusCode::invalid_argument, where + ": index " + std::to_string(i) + " out of range");
     if (tri.mode == PrimitiveMode::triangles && tri.indices.empty())
         return Status::error(StatusCode::invalid_argument, where + ": has no faces");
+    if (options.optimize) optimize_vertex_order(tri);
 
     // Fallback for zero-length normals, and the source when NORMAL is missing: computed only when needed (on a
     // 3 MB OBJ with normals, welding and computing them was a tenth of `convert`).
@@ -233,17 +288,21 @@ Status write_primitive(tinygltf::Primitive& out, const Primitive& src, bool need
         welded_normals.resize(n * 3);
         compute_vertex_normals(welded_normals.data(), tri.positions.data(), n, tri.indices.data(), tri.indices.size());
     }
-    out.attributes["POSITION"] = w.add_floats(tri.positions, 3, true);
+    out.attributes["POSITION"] = add_position(w, tri.positions, grid);
     std::vector<float> normals;
     if (!tri.normals.empty()) normals = unit_vectors(tri.normals, 3, welded_normals);
     else if (needs_tangents && !tri.uv0.empty()) normals = unit_vectors(welded_normals, 3, {});
-    if (!normals.empty()) out.attributes["NORMAL"] = w.add_floats(normals, 3, false);
-    if (!tri.tangents.empty()) out.attributes["TANGENT"] = w.add_floats(unit_vectors(tri.tangents, 4, {}), 4, false);
+    // Morph targets' normal and tangent deltas are float; their base vectors stay float with them.
+    const bool quantize_vectors = quantize && tri.targets.empty();
+    if (!normals.empty()) out.attributes["NORMAL"] = add_unit_vectors(w, normals, 3, quantize_vectors);
+    if (!tri.tangents.empty())
+        out.attributes["TANGENT"] = add_unit_vectors(w, unit_vectors(tri.tangents, 4, {}), 4, quantize_vectors);
     else if (needs_tangents && !tri.uv0.empty() && !normals.empty())
-        out.attributes["TANGENT"] = w.add_floats(generate_tangents(tri.positions, normals, tri.uv0, tri.indices), 4, false);
-    if (!tri.uv0.empty()) out.attributes["TEXCOORD_0"] = w.add_floats(tri.uv0, 2, false);
-    if (!tri.uv1.empty()) out.attributes["TEXCOORD_1"] = w.add_floats(tri.uv1, 2, false);
-    if (!tri.colors.empty()) out.attributes["COLOR_0"] = w.add_floats(clamped01(tri.colors), 4, false);
+        out.attributes["TANGENT"] = add_unit_vectors(w, generate_tangents(tri.positions, normals, tri.uv0, tri.indices), 4,
+                                                     quantize_vectors);
+    if (!tri.uv0.empty()) out.attributes["TEXCOORD_0"] = add_unorm(w, tri.uv0, 2, quantize);
+    if (!tri.uv1.empty()) out.attributes["TEXCOORD_1"] = add_unorm(w, tri.uv1, 2, quantize);
+    if (!tri.colors.empty()) out.attributes["COLOR_0"] = add_colors(w, clamped01(tri.colors), quantize);
     if (!tri.joints.empty()) {
         std::vector<float> weights = normalized_weights(tri.weights);
         // A joint with zero weight has no effect; glTF wants it written as 0 (ACCESSOR_JOINTS_USED_ZERO_WEIGHT).
@@ -340,8 +399,22 @@ Status write_materials(tinygltf::Model& m, const Scene& scene, std::vector<bool>
 }
 
 // Meshes: every primitive's attributes into the binary chunk; extras and extensions kept from the source.
+// The position grid of every mesh (mesh_quantize.cpp); none for plain output, and none for a mesh that a
+// skinned node draws (its node transform is ignored, so it cannot carry the dequantization).
+std::vector<mesh_detail::PositionGrid> position_grids(const Scene& scene, const SaveOptions& options) {
+    std::vector<mesh_detail::PositionGrid> grids(scene.meshes.size());
+    if (options.encoding == Encoding::plain) return grids;
+    const int bits = options.position_bits == 0 ? default_position_bits : options.position_bits;
+    std::vector<char> skinned(scene.meshes.size(), 0);
+    for (const Node& n : scene.nodes)
+        if (n.mesh >= 0 && size_t(n.mesh) < scene.meshes.size() && n.skin >= 0) skinned[size_t(n.mesh)] = 1;
+    for (size_t i = 0; i < scene.meshes.size(); ++i)
+        if (!skinned[i]) grids[i] = mesh_detail::position_grid(scene.meshes[i], bits);
+    return grids;
+}
+
 Status write_meshes(tinygltf::Model& m, const Scene& scene, const tinygltf::Model& src, const std::vector<bool>& material_needs_tangents,
-                    BinWriter& w) {
+                    BinWriter& w, const SaveOptions& options, const std::vector<mesh_detail::PositionGrid>& grids) {
     auto bad = [](const std::string& what) { return Status::error(StatusCode::invalid_argument, what); };
     std::vector<tinygltf::Mesh> meshes(scene.meshes.size());
     for (size_t mi = 0; mi < scene.meshes.size(); ++mi) {
@@ -365,7 +438,7 @@ Status write_meshes(tinygltf::Model& m, const Scene& scene, const tinygltf::Mode
                 op.extensions = src.meshes[mi].primitives[pi].extensions;
             }
             bool tangents = p.material >= 0 && material_needs_tangents[size_t(p.material)];
-            Status s = write_primitive(op, p, tangents, w, where);
+            Status s = write_primitive(op, p, tangents, w, where, options, grids[mi]);
             if (!s.ok()) return s;
             o.primitives.push_back(std::move(op));
         }
@@ -379,8 +452,27 @@ Status write_meshes(tinygltf::Model& m, const Scene& scene, const tinygltf::Mode
     return Status::success();
 }
 
+// KHR_mesh_quantization's dequantization is a node transform: a node drawing a quantized mesh hands the mesh
+// to a new child (appended after the scene's nodes, so every existing index stays valid) whose translation
+// and uniform scale are the mesh's grid. The node's own transform, children, camera and animation channels
+// are untouched, so the world positions are the grid's.
+void add_dequantizing_nodes(tinygltf::Model& m, const Scene& scene, const std::vector<mesh_detail::PositionGrid>& grids) {
+    for (size_t i = 0; i < scene.nodes.size(); ++i) {
+        const int mesh = scene.nodes[i].mesh;
+        if (mesh < 0 || size_t(mesh) >= grids.size() || !grids[size_t(mesh)].quantized) continue;
+        const mesh_detail::PositionGrid& g = grids[size_t(mesh)];
+        tinygltf::Node child;
+        child.mesh = mesh;
+        child.translation = vec(g.offset.data(), 3);
+        child.scale = {g.scale, g.scale, g.scale};
+        m.nodes[i].mesh = -1;
+        m.nodes[i].children.push_back(int(m.nodes.size()));
+        m.nodes.push_back(std::move(child));
+    }
+}
+
 // Nodes (identity transforms left out) and the default scene's roots.
-void write_nodes(tinygltf::Model& m, const Scene& scene) {
+void write_nodes(tinygltf::Model& m, const Scene& scene, const std::vector<mesh_detail::PositionGrid>& grids) {
     m.nodes.resize(scene.nodes.size());
     for (size_t i = 0; i < scene.nodes.size(); ++i) {
         const Node& n = scene.nodes[i];
@@ -404,6 +496,7 @@ void write_nodes(tinygltf::Model& m, const Scene& scene) {
         }
         o.weights = n.weights;
     }
+    add_dequantizing_nodes(m, scene, grids);
     if (m.scenes.empty()) m.scenes.resize(1);
     int si = m.defaultScene >= 0 && size_t(m.defaultScene) < m.scenes.size() ? m.defaultScene : 0;
     m.scenes[size_t(si)].nodes = scene.roots;
@@ -503,7 +596,7 @@ Status write_animations(tinygltf::Model& m, const Scene& scene, const tinygltf::
     return Status::success();
 }
 
-Status build_model(tinygltf::Model& m, const Scene& scene) {
+Status build_model(tinygltf::Model& m, const Scene& scene, const SaveOptions& options) {
     static const tinygltf::Model empty;
     const tinygltf::Model& src = scene.document ? scene.document->model : empty;
     m = src;
@@ -514,16 +607,27 @@ Status build_model(tinygltf::Model& m, const Scene& scene) {
     if (Status s = check_references(scene, src); !s.ok()) return s;
     std::vector<bool> material_needs_tangents;
     if (Status s = write_materials(m, scene, material_needs_tangents); !s.ok()) return s;
-    if (Status s = write_meshes(m, scene, src, material_needs_tangents, w); !s.ok()) return s;
-    write_nodes(m, scene);
+    const std::vector<mesh_detail::PositionGrid> grids = position_grids(scene, options);
+    if (Status s = write_meshes(m, scene, src, material_needs_tangents, w, options, grids); !s.ok()) return s;
+    write_nodes(m, scene, grids);
     if (Status s = write_textures(m, scene, w); !s.ok()) return s;
     if (Status s = write_skins(m, scene, w); !s.ok()) return s;
     if (Status s = write_animations(m, scene, src, w); !s.ok()) return s;
 
     // --- the document block
     auto drop = [](std::vector<std::string>& v, const std::string& e) { v.erase(std::remove(v.begin(), v.end(), e), v.end()); };
-    drop(m.extensionsUsed, "KHR_mesh_quantization"); // positions are written dequantized, as float
+    drop(m.extensionsUsed, "KHR_mesh_quantization"); // a loaded file's are decoded; declared again if written
     drop(m.extensionsRequired, "KHR_mesh_quantization");
+    drop(m.extensionsUsed, "EXT_meshopt_compression"); // the loader decodes it; save_scene adds it back
+    drop(m.extensionsRequired, "EXT_meshopt_compression");
+    const bool quantized = std::any_of(m.accessors.begin(), m.accessors.end(), [](const tinygltf::Accessor& a) {
+        return a.componentType != TINYGLTF_COMPONENT_TYPE_FLOAT && a.componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT &&
+               (a.normalized || a.type == TINYGLTF_TYPE_VEC3); // not indices or joints
+    });
+    if (quantized) {
+        m.extensionsUsed.push_back("KHR_mesh_quantization");
+        m.extensionsRequired.push_back("KHR_mesh_quantization");
+    }
     m.asset.version = "2.0";
     m.asset.generator = "furrow " FURROW_VERSION_STRING;
     m.asset.minVersion.clear();
@@ -550,7 +654,10 @@ Status save_scene(const Scene& scene, const std::string& path, const SaveOptions
         if (ext != ".glb" && ext != ".gltf")
             return Status::error(StatusCode::unsupported, "cannot write '" + ext + "' (furrow writes .glb or .gltf)");
         tinygltf::Model m;
-        Status s = build_model(m, scene);
+        if (options.position_bits < 0 || options.position_bits > 16)
+            return Status::error(StatusCode::invalid_argument, "SaveOptions::position_bits " +
+                                                                   std::to_string(options.position_bits) + " is not in 0..16");
+        Status s = build_model(m, scene, options);
         if (!s.ok()) return s;
         tinygltf::TinyGLTF writer;
         writer.SetImageWriter(nullptr, nullptr); // images are embedded (or kept as references); never write files
@@ -571,8 +678,23 @@ Status save_scene(const Scene& scene, const std::string& path, const SaveOptions
                 for (auto& e : value)
                     if (e.is_null()) e = nlohmann::json::object();
         const std::string bin_name = std::filesystem::path(path).stem().string() + ".bin";
+        // EXT_meshopt_compression: buffer 0 gets the encoded views, buffer 1 is the data-less fallback.
+        nlohmann::json fallback;
+        if (options.encoding == Encoding::compress && !bin.empty()) {
+            mesh_detail::CompressedBin compressed;
+            mesh_detail::compress_buffer_views(compressed, j, bin);
+            bin = std::move(compressed.bin);
+            if (compressed.fallback_bytes > 0)
+                fallback = {{"byteLength", compressed.fallback_bytes},
+                            {"extensions", {{"EXT_meshopt_compression", {{"fallback", true}}}}}};
+        }
+        auto buffers = [&](nlohmann::json first) {
+            nlohmann::json list = nlohmann::json::array({std::move(first)});
+            if (!fallback.is_null()) list.push_back(fallback);
+            return list;
+        };
         if (ext == ".glb") {
-            if (!bin.empty()) j["buffers"] = nlohmann::json::array({{{"byteLength", bin.size()}}});
+            if (!bin.empty()) j["buffers"] = buffers({{"byteLength", bin.size()}});
             std::string text = j.dump();
             while (text.size() % 4) text.push_back(' ');
             while (bin.size() % 4) bin.push_back(0);
@@ -603,7 +725,7 @@ Status save_scene(const Scene& scene, const std::string& path, const SaveOptions
             return kernel::atomic_write(path, glb.data(), glb.size());
         }
         if (!bin.empty()) {
-            j["buffers"] = nlohmann::json::array({{{"byteLength", bin.size()}, {"uri", bin_name}}});
+            j["buffers"] = buffers({{"byteLength", bin.size()}, {"uri", bin_name}});
             const std::string bin_path = (std::filesystem::path(path).parent_path() / bin_name).string();
             const std::string text = j.dump(options.pretty_json ? 2 : -1);
             // Both files or neither (the .bin used to be renamed into place before the .gltf was tried, so an

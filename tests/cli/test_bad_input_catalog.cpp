@@ -350,13 +350,35 @@ std::vector<Case> catalog() {
                      j["extensionsRequired"] = {"KHR_draco_mesh_compression"};
                  }),
                  {"convert", "@/draco.gltf", "-o", "@/out.glb"}, 1, "@/draco.gltf", "KHR_draco_mesh_compression is not supported"});
-    // Meshopt compression required.
-    c.push_back({"MeshoptRequired", quad_gltf("meshopt.gltf", [](json& j) {
-                     j["extensionsUsed"] = {"EXT_meshopt_compression"};
-                     j["extensionsRequired"] = {"EXT_meshopt_compression"};
-                 }),
-                 {"render", "@/meshopt.gltf", "-o", "@/out.png", "--size", "32x24"}, 1, "@/meshopt.gltf",
-                 "EXT_meshopt_compression is not supported"});
+    // EXT_meshopt_compression is decoded; a compressed view that is corrupt or does not add up is refused.
+    // Each row makes bufferView 0 (the positions) a compressed view over its own plain bytes, then breaks it.
+    struct MeshoptRow {
+        const char* name;
+        std::function<void(json&)> edit;
+        const char* message;
+    };
+    const std::vector<MeshoptRow> meshopt_rows{
+        {"MeshoptCorruptData", [](json&) {}, "the compressed data is corrupt"},
+        {"MeshoptCountOverLength", [](json& e) { e["count"] = 1000000; }, "is not the view's byteLength"},
+        {"MeshoptStrideNotMultipleOf4", [](json& e) { e["byteStride"] = 6; e["count"] = 8; }, "ATTRIBUTES byteStride must be"},
+        {"MeshoptOutsideItsBuffer", [](json& e) { e["byteLength"] = 100000; }, "lies outside buffer 0"},
+        {"MeshoptUnknownMode", [](json& e) { e["mode"] = "STRIPS"; }, "unknown mode 'STRIPS'"},
+        {"MeshoptFilterOnIndices", [](json& e) { e["mode"] = "INDICES"; e["byteStride"] = 4; e["count"] = 12; e["filter"] = "OCTAHEDRAL"; },
+         "a filter is only allowed with ATTRIBUTES"},
+        {"MeshoptMissingBuffer", [](json& e) { e["buffer"] = 7; }, "buffer 7 does not exist"},
+    };
+    for (const MeshoptRow& r : meshopt_rows) {
+        const std::string file = std::string(r.name) + ".gltf";
+        c.push_back({r.name, quad_gltf(file, [edit = r.edit](json& j) {
+                         j["extensionsUsed"] = {"EXT_meshopt_compression"};
+                         j["extensionsRequired"] = {"EXT_meshopt_compression"};
+                         json e = {{"buffer", 0}, {"byteOffset", 0}, {"byteLength", 48}, {"byteStride", 12}, {"count", 4},
+                                   {"mode", "ATTRIBUTES"}};
+                         edit(e);
+                         j["bufferViews"][0]["extensions"]["EXT_meshopt_compression"] = e;
+                     }),
+                     {"render", "@/" + file, "-o", "@/out.png", "--size", "32x24"}, 1, "@/" + file, r.message});
+    }
     // A required extension nobody knows (glTF 3.12: the asset must not be loaded).
     c.push_back({"UnknownRequiredExtension", quad_gltf("vendor.gltf", [](json& j) {
                      j["extensionsUsed"] = {"VENDOR_secret_geometry"};

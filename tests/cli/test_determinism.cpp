@@ -66,6 +66,13 @@ std::vector<Job> jobs() {
              return std::vector<std::string>{"shells", s(in / "creature.glb"), "-o", s(out / "fur.gltf"), "--layers", "6", "--length", "0.04",
                                              "--mask", s(in / "mask.png"), "--fins", "--lod", "2", "--droop", "0.5", "--texture-size", "64"};
          }},
+        {"ShellsViewerCompressed", [=](const fs::path& in, const fs::path& out) {
+             return std::vector<std::string>{"shells", s(in / "creature.glb"), "-o", s(out / "fur.glb"), "--layers", "6", "--length", "0.04",
+                                             "--mask", s(in / "mask.png"), "--texture-size", "64", "--compress"};
+         }},
+        {"ConvertQuantizedGltf", [=](const fs::path& in, const fs::path& out) {
+             return std::vector<std::string>{"convert", s(in / "ground.glb"), "-o", s(out / "q.gltf"), "--quantize", "--position-bits", "12"};
+         }},
         {"ShellsEngine", [=](const fs::path& in, const fs::path& out) {
              return std::vector<std::string>{"shells", s(in / "creature.glb"), "-o", s(out / "fur.glb"), "--layers", "8", "--length", "0.03",
                                              "--layout", "engine", "--spacing-power", "1.5", "--texture-size", "64", "--seed", "9"};

@@ -81,9 +81,9 @@ Primitive to_primitive(const fuzz::SmallMesh& m) {
     return p;
 }
 
-std::vector<uint8_t> glb_of(const Scene& scene) {
+std::vector<uint8_t> glb_of(const Scene& scene, const SaveOptions& options = {}) {
     const std::string tmp = fuzz::scratch_path("seed.glb");
-    Status s = save_scene(scene, tmp);
+    Status s = save_scene(scene, tmp, options);
     if (!s.ok()) die("save_scene: " + s.message);
     std::vector<uint8_t> b = read_file(tmp);
     fs::remove(tmp);
@@ -494,6 +494,10 @@ int main(int argc, char** argv) {
         seed("load_scene", "ground_piece.gltf", prefixed(1, gltf_of_glb(gglb)));
         seed("load_scene", "creature_piece_skin_morph_texture.glb", prefixed(0, cglb));
         seed("load_scene", "creature_piece_skin_morph_texture.gltf", prefixed(1, gltf_of_glb(cglb)));
+        // KHR_mesh_quantization + EXT_meshopt_compression (the decoder's checks and meshoptimizer's decoders).
+        SaveOptions compress;
+        compress.encoding = Encoding::compress;
+        seed("load_scene", "ground_piece_compressed.glb", prefixed(0, glb_of(g, compress)));
         const Primitive gqp = to_primitive(gq), c2p = to_primitive(c2);
         // Loaded from the harness's scratch resource root (byte 0 bit 5): a triangle in data.bin, textured by
         // tex.png, both beside the file.

@@ -119,3 +119,38 @@ TEST(viewer, RasterizerPredictsMipmappedFur) {
                 "IoU %.4f, colour %.2f/255\n",
                 three.height / ref.height, ours.height / ref.height, base_level.height / ref.height, c.iou, 255 * c.colour);
 }
+
+// --compress (KHR_mesh_quantization + EXT_meshopt_compression) in the real client: three.js decodes it with
+// its MeshoptDecoder (render_three's page sets it) and draws what it draws of the plain file, silhouette
+// IoU >= 0.99 between the two three.js frames; and what furrow render shows of the compressed file.
+TEST(viewer, CompressedFurMatchesPlain) {
+    const fs::path dir = temp_dir(), creature = source_dir() / "models/creature.glb";
+    std::vector<ThreeJob> jobs;
+    for (const char* name : {"plain", "compressed"}) {
+        std::vector<std::string> args{"shells", creature.string(), "-o", (dir / (std::string(name) + ".glb")).string(),
+                                      "--layers", "16", "--length", "0.04", "-q"};
+        if (std::string(name) == "compressed") args.push_back("--compress");
+        RunResult r = run_furrow(args);
+        ASSERT_EQ(r.exit_code, 0) << name << ": " << r.err;
+        jobs.push_back({dir / (std::string(name) + ".glb"), dir / (std::string(name) + ".png"), kCreatureView});
+    }
+    ASSERT_EQ(render_three(jobs, dir), "");
+    const ImageF a = load_image(jobs[0].out), b = load_image(jobs[1].out);
+    ASSERT_EQ(a.pixels.size(), b.pixels.size());
+    ASSERT_EQ(a.channels, 4);
+    size_t both = 0, either = 0;
+    for (size_t i = 3; i < a.pixels.size(); i += 4) {
+        const bool x = a.pixels[i] > 0.5f, y = b.pixels[i] > 0.5f;
+        both += x && y;
+        either += x || y;
+    }
+    ASSERT_GT(either, 1000u);
+    const double iou = double(both) / double(either);
+    EXPECT_GE(iou, 0.99);
+    Compared c = compare_material(jobs[1].out, load_or_fail(jobs[1].model), kCreatureView);
+    EXPECT_GE(c.iou, kMinIoU);
+    std::printf("compressed vs plain in three.js: IoU %.4f; three.js vs furrow render of the compressed file: IoU %.4f, "
+                "colour %.2f/255; bytes %ju -> %ju\n",
+                iou, c.iou, 255 * c.colour, std::uintmax_t(fs::file_size(jobs[0].model)),
+                std::uintmax_t(fs::file_size(jobs[1].model)));
+}

@@ -246,9 +246,30 @@ struct LoadOptions {
     size_t max_primitives = size_t(1) << 20;     // primitives over all meshes of a glTF file
 };
 
+// How the vertex data of a written glTF is stored (README "Output size: --quantize and --compress").
+enum class Encoding : int {
+    plain = 0,    // float attributes, uint16/uint32 indices: every glTF 2.0 reader (Blender 3.4 included)
+    quantize = 1, // KHR_mesh_quantization (required): integer positions, int8 normals/tangents, uint16 UVs
+                  // in [0, 1] (else float), uint8 colours
+    compress = 2, // quantize + EXT_meshopt_compression (required, no fallback data): three.js needs its
+                  // MeshoptDecoder; Blender 3.4 cannot read it
+};
+
 struct SaveOptions {
     bool pretty_json = false; // .gltf only: indent the JSON
+    bool optimize = true;     // meshoptimizer's vertex cache order of the triangles, then vertex fetch order of
+                              // the vertices (every attribute remapped alike; the vertex count is unchanged);
+                              // false keeps the scene's order. Points and lines keep theirs either way.
+    Encoding encoding = Encoding::plain;
+    // Precision of quantized positions. Each mesh gets a grid: origin = its bounding-box minimum (stored in a
+    // node translation, in double, so a mesh far from the origin keeps its precision), step = its largest
+    // bounding-box extent / (2^bits − 1); every position moves at most step/2 per axis (with 14 bits,
+    // 0.0031 % of the largest extent). Skinned and morphed meshes keep float positions. 0 = 14, gltfpack's
+    // -vp default; 1..16 otherwise.
+    int position_bits = 0;
 };
+// The bits position_bits = 0 stands for.
+inline constexpr int default_position_bits = 14;
 
 Status load_scene(Scene& out, const std::string& path, const LoadOptions& options = {});
 // Loads from memory; `extension` is the format, e.g. ".glb". External URIs go to options.resolver; without
@@ -303,6 +324,13 @@ size_t weld_positions(uint32_t* remap, const float* positions, size_t vertex_cou
 // (indices.size() multiple of 3). Writes vertex_count normals.
 void compute_vertex_normals(float* normals_out, const float* positions, size_t vertex_count,
                             const uint32_t* indices, size_t index_count);
+
+// The vertex order save_scene writes (SaveOptions::optimize), with meshoptimizer: the triangles in vertex
+// cache order (meshopt_optimizeVertexCache), then the vertices in the order those triangles first use them
+// (meshopt_optimizeVertexFetchRemap), every per-vertex array (attributes, morph deltas, custom attributes)
+// permuted alike. Unreferenced vertices are kept, after the others; a triangle keeps its corners' order.
+// Only triangle primitives without n-gons; others are left as they are. Deterministic.
+void optimize_vertex_order(Primitive& primitive);
 
 // Boundary loops of a triangle mesh over welded positions, found on an OpenMesh halfedge structure; each
 // loop as welded vertex indices (first vertex of each position). Faces that would make the mesh non-manifold

@@ -1,0 +1,48 @@
+// Internal: the byte-level encodings of the glTF writer and loader (meshoptimizer stays behind these
+// functions; no meshoptimizer or tinygltf type reaches furrow/mesh.h).
+#pragma once
+
+#include <furrow/mesh.h>
+
+#include <nlohmann/json.hpp>
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+namespace tinygltf { class Model; }
+
+namespace furrow::mesh_detail {
+
+// mesh_quantize.cpp: the integer grid of one mesh's positions (KHR_mesh_quantization): position =
+// offset + scale × q, q an integer in [0, 2^bits − 1] per axis. offset = the mesh's bounding-box minimum
+// (double, so a far-from-origin mesh keeps its precision), scale = its largest extent / (2^bits − 1).
+struct PositionGrid {
+    bool quantized = false; // false: positions stay float (skinned or morphed meshes, empty meshes)
+    std::array<double, 3> offset{0, 0, 0};
+    double scale = 1.0;
+};
+PositionGrid position_grid(const Mesh& mesh, int bits);
+// Integer positions on `grid`, 4 uint16 per vertex (the 4th is 0: vertex attributes are 4-byte aligned).
+std::vector<uint16_t> quantize_positions(const std::vector<float>& positions, const PositionGrid& grid);
+// Unit vectors (3 or 4 components in `stride`) as normalized int8, 4 bytes per vertex (w = the tangent's sign
+// for stride 4, else 0).
+std::vector<int8_t> quantize_unit_vectors(const std::vector<float>& v, size_t stride);
+// Values in [0, 1] as normalized uint16 / uint8; false when one is outside (the caller keeps floats).
+bool quantize_unorm16(std::vector<uint16_t>& out, const std::vector<float>& v);
+bool quantize_unorm8(std::vector<uint8_t>& out, const std::vector<float>& v);
+
+// meshopt_codec.cpp: EXT_meshopt_compression.
+// Writer: every vertex and index buffer view of `bin` (described by the glTF JSON `j`) is encoded with
+// meshopt_encodeVertexBuffer / meshopt_encodeIndexBuffer / meshopt_encodeIndexSequence into a new binary
+// chunk; the views point into a fallback buffer without data, so the extension is required.
+struct CompressedBin {
+    std::vector<uint8_t> bin;  // buffer 0: compressed views and the untouched ones (images, animation)
+    size_t fallback_bytes = 0; // byteLength of buffer 1, the data-less fallback
+};
+void compress_buffer_views(CompressedBin& out, nlohmann::json& document, const std::vector<uint8_t>& bin);
+// Loader: decodes every buffer view that has the extension into a buffer of its own, checking every count,
+// stride and length first. `max_decoded_bytes` bounds the decoded data of the whole file.
+Status decode_meshopt_views(tinygltf::Model& model, size_t max_decoded_bytes);
+
+} // namespace furrow::mesh_detail

@@ -1,0 +1,71 @@
+// Vertex order of a triangle primitive for the GPU and for compression (meshoptimizer, Kapoulkine):
+//   1. meshopt_optimizeVertexCache reorders the triangles so that the post-transform cache hits more often
+//      (Forsyth's algorithm, as meshoptimizer tunes it); it only permutes triangles, nothing is dropped.
+//   2. meshopt_optimizeVertexFetchRemap numbers the vertices in the order the new triangles first use them,
+//      so vertex fetch walks memory forward; this is also what makes EXT_meshopt_compression's delta coding
+//      of neighbouring vertices effective. Unreferenced vertices, which meshoptimizer would drop, keep their
+//      data and go after the referenced ones in their old order, so the vertex count never changes.
+//   3. The remap is applied to every per-vertex array (positions, normals, tangents, UVs, colours, joints,
+//      weights, morph deltas, custom attributes) and to the indices.
+// Both meshoptimizer steps are single-threaded and depend only on the indices: the same input gives the same
+// bytes at any thread count.
+#include "encoding.h"
+
+#include <meshoptimizer.h>
+
+#include <algorithm>
+
+namespace furrow {
+
+namespace {
+
+template <class T>
+void remap_array(std::vector<T>& v, const std::vector<uint32_t>& remap, size_t per_vertex) {
+    if (v.empty() || per_vertex == 0 || v.size() != remap.size() * per_vertex) return;
+    std::vector<T> out(v.size());
+    for (size_t i = 0; i < remap.size(); ++i)
+        for (size_t c = 0; c < per_vertex; ++c) out[size_t(remap[i]) * per_vertex + c] = v[i * per_vertex + c];
+    v.swap(out);
+}
+
+// Step 2 with step 2's note on unreferenced vertices: a permutation of [0, n).
+std::vector<uint32_t> fetch_order(const std::vector<uint32_t>& indices, size_t n) {
+    std::vector<uint32_t> remap(n);
+    const size_t used = meshopt_optimizeVertexFetchRemap(remap.data(), indices.data(), indices.size(), n);
+    uint32_t next = uint32_t(used);
+    for (size_t i = 0; i < n; ++i)
+        if (remap[i] == ~0u) remap[i] = next++;
+    return remap;
+}
+
+} // namespace
+
+void optimize_vertex_order(Primitive& p) {
+    const size_t n = p.vertex_count();
+    if (p.mode != PrimitiveMode::triangles || !p.face_sizes.empty() || n == 0 || p.indices.size() < 3 ||
+        p.indices.size() % 3 != 0)
+        return;
+    for (uint32_t i : p.indices)
+        if (i >= n) return; // the writer reports it
+    std::vector<uint32_t> reordered(p.indices.size());
+    meshopt_optimizeVertexCache(reordered.data(), p.indices.data(), p.indices.size(), n);
+    const std::vector<uint32_t> remap = fetch_order(reordered, n);
+    for (uint32_t& i : reordered) i = remap[i];
+    p.indices.swap(reordered);
+    remap_array(p.positions, remap, 3);
+    remap_array(p.normals, remap, 3);
+    remap_array(p.tangents, remap, 4);
+    remap_array(p.uv0, remap, 2);
+    remap_array(p.uv1, remap, 2);
+    remap_array(p.colors, remap, 4);
+    remap_array(p.joints, remap, 4);
+    remap_array(p.weights, remap, 4);
+    for (MorphTarget& t : p.targets) {
+        remap_array(t.position_deltas, remap, 3);
+        remap_array(t.normal_deltas, remap, 3);
+        remap_array(t.tangent_deltas, remap, 3);
+    }
+    for (CustomAttribute& c : p.custom) remap_array(c.values, remap, size_t(std::max(c.components, 0)));
+}
+
+} // namespace furrow

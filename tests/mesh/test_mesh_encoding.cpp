@@ -1,0 +1,286 @@
+// save_scene's encodings: vertex order (SaveOptions::optimize), KHR_mesh_quantization (--quantize) and
+// EXT_meshopt_compression (--compress). Every written file passes the Khronos validator (0/0) and reads back
+// in furrow within the documented precision; gltfpack's output reads too; corrupt compressed data is a clean
+// error.
+#include "scene_compare.h"
+#include "test_support.h"
+
+#include <furrow/shapes.h>
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <set>
+
+using namespace furrow;
+using namespace furrow::test;
+
+namespace {
+
+// World-space position of every vertex of every drawn mesh, in double, per mesh in node order.
+std::vector<std::array<double, 3>> world_positions(const Scene& s) {
+    std::vector<std::array<double, 3>> out;
+    const auto world = s.world_matrices();
+    for (int n : s.drawn_nodes()) {
+        if (s.nodes[size_t(n)].mesh < 0) continue;
+        const auto& m = world[size_t(n)];
+        for (const Primitive& p : s.meshes[size_t(s.nodes[size_t(n)].mesh)].primitives)
+            for (size_t i = 0; i < p.vertex_count(); ++i) {
+                const double x = p.positions[i * 3], y = p.positions[i * 3 + 1], z = p.positions[i * 3 + 2];
+                out.push_back({m[0] * x + m[4] * y + m[8] * z + m[12], m[1] * x + m[5] * y + m[9] * z + m[13],
+                               m[2] * x + m[6] * y + m[10] * z + m[14]});
+            }
+    }
+    return out;
+}
+
+double max_distance(const std::vector<std::array<double, 3>>& a, const std::vector<std::array<double, 3>>& b) {
+    EXPECT_EQ(a.size(), b.size());
+    double worst = 0;
+    for (size_t i = 0; i < std::min(a.size(), b.size()); ++i)
+        for (int k = 0; k < 3; ++k) worst = std::max(worst, std::abs(a[i][size_t(k)] - b[i][size_t(k)]));
+    return worst;
+}
+
+Scene optimized(Scene s) {
+    for (Mesh& m : s.meshes)
+        for (Primitive& p : m.primitives) {
+            triangulate(p);
+            optimize_vertex_order(p);
+        }
+    return s;
+}
+
+// Each triangle starting at its lowest index, corners in the same cyclic order.
+std::vector<uint32_t> rotated_to_lowest(std::vector<uint32_t> v) {
+    for (size_t t = 0; t + 2 < v.size(); t += 3)
+        while (v[t] > v[t + 1] || v[t] > v[t + 2]) std::rotate(v.begin() + std::ptrdiff_t(t), v.begin() + std::ptrdiff_t(t + 1),
+                                                               v.begin() + std::ptrdiff_t(t + 3));
+    return v;
+}
+
+SaveOptions with(Encoding e, int bits = 0) {
+    SaveOptions o;
+    o.encoding = e;
+    o.position_bits = bits;
+    return o;
+}
+
+Scene load_as_stored(const std::filesystem::path& file) {
+    Scene s;
+    LoadOptions o;
+    o.recentre = false;
+    Status st = load_scene(s, file.string(), o);
+    EXPECT_TRUE(st.ok()) << file << ": " << st.message;
+    return s;
+}
+
+Primitive textured_sphere() {
+    Primitive p = shapes::uv_sphere(2.0f, 24, 12);
+    const size_t n = p.vertex_count();
+    p.colors.assign(n * 4, 0.25f);
+    p.custom = {CustomAttribute{"_FUR_LAYER", 1, std::vector<float>(n, 3.0f)}};
+    return p;
+}
+
+} // namespace
+
+TEST(mesh_encoding, OptimizedOrderKeepsEveryCornerAndAttribute) {
+    // The multiset of triangles, each as its three corners' (position, uv, colour, custom) tuples, is the same
+    // after optimize_vertex_order, and so is the vertex count.
+    Primitive p = textured_sphere();
+    for (size_t i = 0; i < p.vertex_count(); ++i) p.custom[0].values[i] = float(i), p.colors[i * 4] = float(i % 7) / 7;
+    Primitive q = p;
+    optimize_vertex_order(q);
+    ASSERT_EQ(q.vertex_count(), p.vertex_count());
+    EXPECT_NE(q.indices, p.indices);
+    auto corners = [](const Primitive& x) {
+        std::multiset<std::vector<float>> tris;
+        for (size_t t = 0; t + 2 < x.indices.size(); t += 3) {
+            std::vector<float> key;
+            for (size_t c = 0; c < 3; ++c) {
+                const size_t v = x.indices[t + c];
+                for (size_t k = 0; k < 3; ++k) key.push_back(x.positions[v * 3 + k]), key.push_back(x.normals[v * 3 + k]);
+                key.insert(key.end(), {x.uv0[v * 2], x.uv0[v * 2 + 1], x.colors[v * 4], x.custom[0].values[v]});
+            }
+            tris.insert(key);
+        }
+        return tris;
+    };
+    EXPECT_EQ(corners(p), corners(q));
+    Primitive again = p;
+    optimize_vertex_order(again);
+    EXPECT_EQ(again.indices, q.indices); // deterministic
+}
+
+TEST(mesh_encoding, NoOptimizeKeepsTheOrder) {
+    const Scene s = make_scene(textured_sphere(), "sphere");
+    SaveOptions o;
+    o.optimize = false;
+    const auto out = temp_dir() / "plain.glb";
+    ASSERT_TRUE(save_scene(s, out.string(), o).ok());
+    expect_same_scene(s, load_as_stored(out), false);
+    EXPECT_FALSE(gltf_json(out).contains("extensionsUsed")); // plain output needs no extension
+}
+
+TEST(mesh_encoding, QuantizedAndCompressedReadBackWithinTheDocumentedPrecision) {
+    const Scene s = make_scene(textured_sphere(), "sphere");
+    const Scene expected = optimized(s);
+    const double extent = 4.0; // the sphere's largest bounding-box extent
+    for (Encoding e : {Encoding::quantize, Encoding::compress})
+        for (const char* ext : {".glb", ".gltf"}) {
+            const auto out = temp_dir() / (std::string(e == Encoding::compress ? "c" : "q") + ext);
+            Status st = save_scene(s, out.string(), with(e));
+            ASSERT_TRUE(st.ok()) << st.message;
+            EXPECT_VALID_GLTF(out);
+            const nlohmann::json j = gltf_json(out);
+            EXPECT_EQ(j["extensionsRequired"].size(), e == Encoding::compress ? 2u : 1u) << j["extensionsRequired"];
+            const Scene b = load_as_stored(out);
+            const double step = extent / double((1 << default_position_bits) - 1);
+            const double err = max_distance(world_positions(expected), world_positions(b));
+            EXPECT_LE(err, step / 2 * (1 + 1e-6)) << out;
+            EXPECT_GT(err, 0.0) << "positions were not quantized";
+            const Primitive &pa = expected.meshes[0].primitives[0], &pb = b.meshes[0].primitives[0];
+            // meshopt's index codec may start a triangle at another corner (the winding is kept).
+            EXPECT_EQ(rotated_to_lowest(pa.indices), rotated_to_lowest(pb.indices));
+            // int8 x, y, z: half a step, plus the renormalisation; compressed: the 8-bit octahedral filter.
+            expect_same_floats(pa.normals, pb.normals, e == Encoding::compress ? 0.02f : 1.0f / 127, "normals");
+            expect_same_floats(pa.uv0, pb.uv0, 0.5f / 65535, "uv0");
+            expect_same_floats(pa.colors, pb.colors, 0.5f / 255 + 1e-7f, "colors");
+            ASSERT_EQ(pb.custom.size(), 1u);
+            expect_same_floats(pa.custom[0].values, pb.custom[0].values, 0.0f, "custom");
+        }
+}
+
+TEST(mesh_encoding, CompressedIsSmallerThanQuantizedIsSmallerThanPlain) {
+    const Scene s = make_scene(shapes::creature(), "creature");
+    const auto dir = temp_dir();
+    std::map<int, uintmax_t> size;
+    for (Encoding e : {Encoding::plain, Encoding::quantize, Encoding::compress}) {
+        const auto out = dir / ("e" + std::to_string(int(e)) + ".glb");
+        ASSERT_TRUE(save_scene(s, out.string(), with(e)).ok());
+        size[int(e)] = std::filesystem::file_size(out);
+    }
+    EXPECT_LT(size[1], size[0] * 7 / 10); // 0.64 measured
+    EXPECT_LT(size[2], size[1] * 7 / 10);
+}
+
+TEST(mesh_encoding, FarTerrainKeepsMillimetres) {
+    // A 10 m terrain 5e6 m from the origin (as load_scene's recentring leaves it: small positions, the offset
+    // in the node): quantized and compressed, its world positions stay within a millimetre.
+    Primitive p = shapes::grid(10.0f, 10.0f, 40, 40);
+    for (size_t i = 0; i < p.vertex_count(); ++i) p.positions[i * 3 + 1] = 0.3f * std::sin(float(i) * 0.37f);
+    Scene s = make_scene(p, "terrain");
+    s.nodes[0].translation = {5.0e6, 120.0, -5.0e6};
+    const Scene expected = optimized(s);
+    for (Encoding e : {Encoding::quantize, Encoding::compress}) {
+        const auto out = temp_dir() / ("terrain" + std::to_string(int(e)) + ".glb");
+        ASSERT_TRUE(save_scene(s, out.string(), with(e)).ok());
+        EXPECT_VALID_GLTF(out);
+        const double err = max_distance(world_positions(expected), world_positions(load_as_stored(out)));
+        EXPECT_LT(err, 0.5e-3) << "10 m / 16383 / 2 = 0.31 mm";
+    }
+}
+
+TEST(mesh_encoding, PositionBitsSetTheStep) {
+    const Scene s = make_scene(textured_sphere(), "sphere");
+    const Scene expected = optimized(s);
+    for (int bits : {8, 16}) {
+        const auto out = temp_dir() / ("b" + std::to_string(bits) + ".glb");
+        ASSERT_TRUE(save_scene(s, out.string(), with(Encoding::compress, bits)).ok());
+        EXPECT_VALID_GLTF(out);
+        const double step = 4.0 / double((1 << bits) - 1);
+        const double err = max_distance(world_positions(expected), world_positions(load_as_stored(out)));
+        EXPECT_LE(err, step / 2 * (1 + 1e-6));
+        EXPECT_GT(err, step / 8) << "the grid is coarser than asked";
+    }
+    EXPECT_EQ(save_scene(s, (temp_dir() / "x.glb").string(), with(Encoding::quantize, 17)).code,
+              StatusCode::invalid_argument);
+}
+
+TEST(mesh_encoding, SkinnedAndMorphedMeshesStayFloatAndValid) {
+    Primitive p = shapes::box(1, 1, 1, true);
+    MorphTarget t;
+    t.position_deltas.assign(p.positions.size(), 0.0f);
+    t.position_deltas[1] = 0.25f;
+    p.targets = {t};
+    Scene s = make_scene(p, "morph");
+    s.meshes[0].weights = {0.5f};
+    const auto out = temp_dir() / "morph.glb";
+    ASSERT_TRUE(save_scene(s, out.string(), with(Encoding::compress)).ok());
+    EXPECT_VALID_GLTF(out);
+    expect_same_scene(s, load_as_stored(out)); // float positions: exact
+}
+
+TEST(mesh_encoding, SameBytesEveryTime) {
+    const Scene s = make_scene(shapes::creature(), "creature");
+    const auto a = temp_dir() / "a.glb", b = temp_dir() / "b.glb";
+    ASSERT_TRUE(save_scene(s, a.string(), with(Encoding::compress)).ok());
+    ASSERT_TRUE(save_scene(s, b.string(), with(Encoding::compress)).ok());
+    EXPECT_EQ(read_bytes(a), read_bytes(b));
+}
+
+TEST(mesh_encoding, GltfpackOutputLoads) {
+    // gltfpack -cc: quantized, compressed with filters (OCTAHEDRAL normals), a fallback buffer without data.
+    if (!std::filesystem::exists("/usr/bin/gltfpack")) GTEST_SKIP() << "gltfpack is not installed";
+    const auto dir = temp_dir();
+    const auto in = models_dir() / "creature.glb", out = dir / "cc.glb";
+    RunResult r = run_program({"/usr/bin/gltfpack", "-i", in.string(), "-o", out.string(), "-cc"});
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const Scene a = load_as_stored(in), b = load_as_stored(out);
+    size_t ta = 0, tb = 0;
+    for (const Mesh& m : a.meshes)
+        for (const Primitive& p : m.primitives) ta += p.triangle_count();
+    for (const Mesh& m : b.meshes)
+        for (const Primitive& p : m.primitives) tb += p.triangle_count();
+    EXPECT_EQ(ta, tb);
+    // Same world bounding box within gltfpack's 14-bit grid.
+    auto box = [](const std::vector<std::array<double, 3>>& v) {
+        std::array<double, 6> r{1e300, 1e300, 1e300, -1e300, -1e300, -1e300};
+        for (const auto& x : v)
+            for (size_t k = 0; k < 3; ++k) r[k] = std::min(r[k], x[k]), r[k + 3] = std::max(r[k + 3], x[k]);
+        return r;
+    };
+    const auto ba = box(world_positions(a)), bb = box(world_positions(b));
+    for (size_t k = 0; k < 6; ++k) EXPECT_NEAR(ba[k], bb[k], 1e-3) << k;
+    for (const Mesh& m : b.meshes)
+        for (const Primitive& p : m.primitives)
+            for (size_t i = 0; i + 2 < p.normals.size(); i += 3)
+                ASSERT_NEAR(std::hypot(p.normals[i], p.normals[i + 1], p.normals[i + 2]), 1.0, 0.02) << "normal " << i / 3;
+    // furrow writes it back, plain and compressed, validator-clean.
+    for (Encoding e : {Encoding::plain, Encoding::compress}) {
+        const auto again = dir / ("again" + std::to_string(int(e)) + ".glb");
+        ASSERT_TRUE(save_scene(b, again.string(), with(e)).ok());
+        EXPECT_VALID_GLTF(again);
+    }
+}
+
+TEST(mesh_encoding, CorruptCompressedDataIsACleanError) {
+    const Scene s = make_scene(textured_sphere(), "sphere");
+    const auto dir = temp_dir();
+    const auto out = dir / "c.gltf";
+    ASSERT_TRUE(save_scene(s, out.string(), with(Encoding::compress)).ok());
+    const nlohmann::json j = gltf_json(out);
+    // Garbage in every compressed byte of the .bin: meshoptimizer's decoder refuses it.
+    std::vector<uint8_t> bin = read_bytes(dir / "c.bin");
+    for (size_t i = 0; i < bin.size(); ++i) bin[i] = uint8_t(i * 131 + 7);
+    write_bytes(dir / "c.bin", bin);
+    Scene b;
+    Status st = load_scene(b, out.string());
+    EXPECT_EQ(st.code, StatusCode::invalid_input) << st.message;
+    EXPECT_NE(st.message.find("EXT_meshopt_compression"), std::string::npos) << st.message;
+    // A count the view's length does not hold, and a stride the mode does not allow.
+    for (const char* field : {"count", "byteStride"}) {
+        nlohmann::json k = j;
+        for (auto& v : k["bufferViews"])
+            if (v.contains("extensions")) v["extensions"]["EXT_meshopt_compression"][field] = 1000003;
+        write_text(dir / "k.gltf", k.dump());
+        write_bytes(dir / "k.bin", read_bytes(dir / "c.bin"));
+        std::filesystem::copy_file(dir / "c.bin", dir / "k.bin", std::filesystem::copy_options::overwrite_existing);
+        nlohmann::json kk = k;
+        kk["buffers"][0]["uri"] = "c.bin";
+        write_text(dir / "k.gltf", kk.dump());
+        st = load_scene(b, (dir / "k.gltf").string());
+        EXPECT_EQ(st.code, StatusCode::invalid_input) << field << ": " << st.message;
+    }
+}
