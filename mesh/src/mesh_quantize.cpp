@@ -15,6 +15,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace furrow::mesh_detail {
 
@@ -65,22 +66,19 @@ std::vector<int8_t> quantize_unit_vectors(const std::vector<float>& v, size_t st
     return out;
 }
 
-bool quantize_unorm16(std::vector<uint16_t>& out, const std::vector<float>& v) {
+// Values in [0, 1] as unsigned normalized integers (round to nearest); false if any value is outside.
+template <class T>
+bool quantize_unorm(std::vector<T>& out, const std::vector<float>& v) {
+    constexpr double top = double(std::numeric_limits<T>::max());
     out.resize(v.size());
     for (size_t i = 0; i < v.size(); ++i) {
         if (!(v[i] >= 0.0f && v[i] <= 1.0f)) return false;
-        out[i] = uint16_t(std::lround(double(v[i]) * 65535.0));
+        out[i] = T(std::lround(double(v[i]) * top));
     }
     return true;
 }
 
-bool quantize_unorm8(std::vector<uint8_t>& out, const std::vector<float>& v) {
-    out.resize(v.size());
-    for (size_t i = 0; i < v.size(); ++i) {
-        if (!(v[i] >= 0.0f && v[i] <= 1.0f)) return false;
-        out[i] = uint8_t(std::lround(double(v[i]) * 255.0));
-    }
-    return true;
-}
+bool quantize_unorm16(std::vector<uint16_t>& out, const std::vector<float>& v) { return quantize_unorm(out, v); }
+bool quantize_unorm8(std::vector<uint8_t>& out, const std::vector<float>& v) { return quantize_unorm(out, v); }
 
 } // namespace furrow::mesh_detail
