@@ -16,11 +16,12 @@ void run_bench_all(const BenchAllArgs& a, const GlobalFlags& g) {
                                                           {"render", bench_render_default},
                                                           {"shells", bench_shells_default},
                                                           {"tessellate", bench_tessellate_default},
-                                                          {"stamp", bench_stamp_default}};
+                                                          {"stamp", bench_stamp_default},
+                                                          {"memory", bench_memory_default}};
     for (const auto& name : a.only) {
         bool known = false;
         for (const auto& [n, f] : tools) known |= n == name;
-        if (!known) throw CLI::ValidationError("--only", "unknown benchmark \"" + name + "\" (io, render, shells, tessellate, stamp)");
+        if (!known) throw CLI::ValidationError("--only", "unknown benchmark \"" + name + "\" (io, render, shells, tessellate, stamp, memory)");
     }
     BenchRun run = a.run;
     run.tables = !a.out.json;
@@ -44,7 +45,7 @@ void register_bench(CLI::App& app, GlobalFlags& g) {
     bench->add_flag("--quick", a->run.quick, "Fewer inputs and settings (bundled models only; under a minute)");
     bench->add_option("--repeat", a->run.repeat, "Runs per measurement; the median is reported (default: each benchmark's own)")
         ->check(finite_range(1, 1000));
-    bench->add_option("--only", a->only, "Run only these benchmarks (io render shells tessellate stamp)")->delimiter(',');
+    bench->add_option("--only", a->only, "Run only these benchmarks (io render shells tessellate stamp memory)")->delimiter(',');
     add_bench_output_flags(*bench, a->out);
     bench->footer("Examples:\n  furrow bench --quick\n  furrow bench --json --plots bench-plots > bench.json\n"
                   "  furrow bench tessellate --help");
@@ -53,6 +54,7 @@ void register_bench(CLI::App& app, GlobalFlags& g) {
     register_bench_render(*bench, g);
     register_bench_shells(*bench, g);
     register_bench_stamp(*bench, g);
+    register_bench_memory(*bench, g);
     bench->callback([a, bench, &g] {
         if (bench->get_subcommands().empty()) run_bench_all(*a, g);
     });

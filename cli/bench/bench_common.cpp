@@ -2,6 +2,7 @@
 #include "data_dirs.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -11,6 +12,8 @@
 #include <fcntl.h>
 #include <unistd.h>
 #include <spawn.h>
+#include <malloc.h>
+#include <sys/resource.h>
 #include <sys/wait.h>
 
 extern char** environ;
@@ -18,7 +21,15 @@ extern char** environ;
 namespace furrow::cli {
 namespace fs = std::filesystem;
 
-int run_peer(const std::vector<std::string>& argv) {
+static double status_kib(const char* key) {
+    std::ifstream in("/proc/self/status");
+    std::string line;
+    while (std::getline(in, line))
+        if (line.rfind(key, 0) == 0) return std::stod(line.substr(std::strlen(key)));
+    return 0;
+}
+
+PeerRun run_peer_measured(const std::vector<std::string>& argv) {
     posix_spawn_file_actions_t actions;
     posix_spawn_file_actions_init(&actions);
     posix_spawn_file_actions_addopen(&actions, 0, "/dev/null", O_RDONLY, 0);
@@ -27,13 +38,27 @@ int run_peer(const std::vector<std::string>& argv) {
     std::vector<char*> args;
     for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
     args.push_back(nullptr);
+    PeerRun r;
+    // posix_spawn shares this process's memory until the child's exec, and exec starts the child's peak at this
+    // process's high-water mark (Linux: exec_mmap). Return the freed heap and reset the mark first, so the
+    // child's peak cannot read below this process's resident size now, and report that floor.
+    malloc_trim(0);
+    std::ofstream("/proc/self/clear_refs") << "5";
+    r.floor_kib = status_kib("VmRSS:");
     pid_t pid = 0;
-    int status = 0, code = -1;
-    if (posix_spawnp(&pid, args[0], &actions, nullptr, args.data(), environ) == 0 && waitpid(pid, &status, 0) == pid)
-        code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    int status = 0;
+    struct rusage usage {};
+    const auto start = std::chrono::steady_clock::now();
+    if (posix_spawnp(&pid, args[0], &actions, nullptr, args.data(), environ) == 0 && wait4(pid, &status, 0, &usage) == pid) {
+        r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+        r.max_rss_kib = double(usage.ru_maxrss); // Linux: KiB
+    }
+    r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     posix_spawn_file_actions_destroy(&actions);
-    return code;
+    return r;
 }
+
+int run_peer(const std::vector<std::string>& argv) { return run_peer_measured(argv).exit_code; }
 
 bool on_path(const std::string& program) {
     const char* path = std::getenv("PATH");
@@ -41,6 +66,29 @@ bool on_path(const std::string& program) {
     for (std::string dir; std::getline(folders, dir, ':');)
         if (!dir.empty() && ::access((fs::path(dir) / program).c_str(), X_OK) == 0) return true;
     return false;
+}
+
+double bbox_diagonal(const Scene& s) {
+    double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
+    std::vector<std::array<double, 16>> world = s.world_matrices();
+    for (size_t n = 0; n < s.nodes.size(); ++n) {
+        int mi = s.nodes[n].mesh;
+        if (mi < 0 || mi >= int(s.meshes.size())) continue;
+        const auto& M = world[n];
+        const bool skinned = s.nodes[n].skin >= 0; // bind pose: take the mesh as it is
+        for (const auto& p : s.meshes[size_t(mi)].primitives)
+            for (size_t v = 0; v + 3 <= p.positions.size(); v += 3) {
+                double x = p.positions[v], y = p.positions[v + 1], z = p.positions[v + 2];
+                double w[3] = {x, y, z};
+                if (!skinned)
+                    for (int k = 0; k < 3; ++k) w[k] = M[size_t(k)] * x + M[size_t(4 + k)] * y + M[size_t(8 + k)] * z + M[size_t(12 + k)];
+                for (int k = 0; k < 3; ++k) lo[k] = std::min(lo[k], w[k]), hi[k] = std::max(hi[k], w[k]);
+            }
+    }
+    double d = 0;
+    for (int k = 0; k < 3; ++k)
+        if (hi[k] >= lo[k]) d += (hi[k] - lo[k]) * (hi[k] - lo[k]);
+    return std::sqrt(d);
 }
 
 double median_seconds(int repeat, const std::function<void()>& f) {
@@ -56,13 +104,6 @@ double median_seconds(int repeat, const std::function<void()>& f) {
     return t[t.size() / 2];
 }
 
-static double status_kib(const char* key) {
-    std::ifstream in("/proc/self/status");
-    std::string line;
-    while (std::getline(in, line))
-        if (line.rfind(key, 0) == 0) return std::stod(line.substr(std::strlen(key)));
-    return 0;
-}
 
 PeakMemory::PeakMemory() {
     std::ofstream("/proc/self/clear_refs") << "5"; // reset VmHWM to the current RSS

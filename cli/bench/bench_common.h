@@ -25,8 +25,21 @@ double median_seconds(int repeat, const std::function<void()>& f);
 // Runs a peer program (looked up on PATH), its output to /dev/null; returns its exit code, or -1 when it
 // could not be started. Peers (three.js, Blender, gltfpack) are optional: a bench prints "not installed".
 int run_peer(const std::vector<std::string>& argv);
+// A peer run with the kernel's account of it: exit code (-1 = could not start or did not exit), wall time and
+// peak resident memory (wait4's ru_maxrss, KiB). Linux starts a spawned child's peak at the spawning process's
+// high-water mark; run_peer_measured resets that mark to this process's resident size first (floor_kib), so
+// max_rss_kib is the child's peak or the floor, whichever is larger.
+struct PeerRun {
+    int exit_code = -1;
+    double seconds = 0, max_rss_kib = 0, floor_kib = 0;
+};
+PeerRun run_peer_measured(const std::vector<std::string>& argv);
 // Whether `program` is an executable file in a folder of PATH (a peer that is not is "not installed").
 bool on_path(const std::string& program);
+
+// Diagonal of the world bounding box of the meshes the scene's nodes place (skinned meshes in their bind
+// pose); 0 for an empty scene.
+double bbox_diagonal(const Scene& s);
 
 // Keeps the compiler from removing a computation whose result is otherwise unused.
 inline void do_not_optimize(const void* p) { asm volatile("" : : "g"(p) : "memory"); }
@@ -91,6 +104,7 @@ nlohmann::json bench_render_default(const BenchRun& r, const GlobalFlags& g);
 nlohmann::json bench_shells_default(const BenchRun& r, const GlobalFlags& g);
 nlohmann::json bench_tessellate_default(const BenchRun& r, const GlobalFlags& g);
 nlohmann::json bench_stamp_default(const BenchRun& r, const GlobalFlags& g);
+nlohmann::json bench_memory_default(const BenchRun& r, const GlobalFlags& g);
 
 // One registration per benchmark (cli/bench/bench_<tool>.cpp), called by register_bench.
 void register_bench_io(CLI::App& bench, GlobalFlags& g);
@@ -98,5 +112,6 @@ void register_bench_tessellate(CLI::App& bench, GlobalFlags& g);
 void register_bench_render(CLI::App& bench, GlobalFlags& g);
 void register_bench_shells(CLI::App& bench, GlobalFlags& g);
 void register_bench_stamp(CLI::App& bench, GlobalFlags& g);
+void register_bench_memory(CLI::App& bench, GlobalFlags& g);
 
 } // namespace furrow::cli

@@ -67,29 +67,6 @@ size_t added_bytes(const Scene& before, const Scene& after) {
     return b;
 }
 
-double bbox_diagonal(const Scene& s) {
-    double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
-    std::vector<std::array<double, 16>> world = s.world_matrices();
-    for (size_t n = 0; n < s.nodes.size(); ++n) {
-        int mi = s.nodes[n].mesh;
-        if (mi < 0 || mi >= int(s.meshes.size())) continue;
-        const auto& M = world[n];
-        const bool skinned = s.nodes[n].skin >= 0; // bind pose: take the mesh as it is
-        for (const auto& p : s.meshes[size_t(mi)].primitives)
-            for (size_t v = 0; v + 3 <= p.positions.size(); v += 3) {
-                double x = p.positions[v], y = p.positions[v + 1], z = p.positions[v + 2];
-                double w[3] = {x, y, z};
-                if (!skinned)
-                    for (int k = 0; k < 3; ++k) w[k] = M[size_t(k)] * x + M[size_t(4 + k)] * y + M[size_t(8 + k)] * z + M[size_t(12 + k)];
-                for (int k = 0; k < 3; ++k) lo[k] = std::min(lo[k], w[k]), hi[k] = std::max(hi[k], w[k]);
-            }
-    }
-    double d = 0;
-    for (int k = 0; k < 3; ++k)
-        if (hi[k] >= lo[k]) d += (hi[k] - lo[k]) * (hi[k] - lo[k]);
-    return std::sqrt(d);
-}
-
 // Distance of sampled shell faces (their centroids) to the base surface vs the requested offset s·L·mask,
 // over triangles no clamp touched (a clamped vertex is short on purpose). Faces, not vertices: the offset is
 // even in the face planes' sense, so a convex corner's vertex stands farther out (√3·L on a cube) while

@@ -32,6 +32,21 @@ std::vector<int8_t> quantize_unit_vectors(const std::vector<float>& v, size_t st
 bool quantize_unorm16(std::vector<uint16_t>& out, const std::vector<float>& v);
 bool quantize_unorm8(std::vector<uint8_t>& out, const std::vector<float>& v);
 
+// vertex_order.cpp: steps 1 and 2 of optimize_vertex_order on a triangle list of n vertices. Reorders and
+// renumbers `indices` in place and returns the old → new vertex index; empty (indices untouched) when the
+// list is not eligible (not a whole number of triangles, an index out of range).
+std::vector<uint32_t> optimized_vertex_remap(std::vector<uint32_t>& indices, size_t n);
+// Step 3 for one per-vertex array of `per_vertex` values: out[remap[i]] = v[i]. v unchanged when remap is
+// empty or v's size does not match.
+template <class T>
+std::vector<T> remapped(const std::vector<T>& v, const std::vector<uint32_t>& remap, size_t per_vertex) {
+    if (remap.empty() || v.empty() || per_vertex == 0 || v.size() != remap.size() * per_vertex) return v;
+    std::vector<T> out(v.size());
+    for (size_t i = 0; i < remap.size(); ++i)
+        for (size_t c = 0; c < per_vertex; ++c) out[size_t(remap[i]) * per_vertex + c] = v[i * per_vertex + c];
+    return out;
+}
+
 // meshopt_codec.cpp: EXT_meshopt_compression.
 // Writer: every vertex and index buffer view of `bin` (described by the glTF JSON `j`) is encoded with
 // meshopt_encodeVertexBuffer / meshopt_encodeIndexBuffer / meshopt_encodeIndexSequence into a new binary

@@ -23,23 +23,55 @@
 namespace furrow {
 namespace {
 
+// The binary chunk as a list of parts, one per buffer view with the zero padding before it. The parts go to
+// the file as they are (kernel::ByteSpan): one vector grown by doubling held up to 1.5x the chunk at its
+// peak, and the GLB was then assembled in a second copy, so a writing command peaked near 3x its output.
+struct BinParts {
+    std::vector<std::vector<unsigned char>> parts;
+    size_t size = 0;
+
+    // Zero bytes up to the next multiple of 4 (glTF aligns every view, and the GLB's chunks, to 4 bytes).
+    void pad_to_4() {
+        if (size % 4) append(nullptr, 0);
+    }
+    // Appends the bytes after padding to 4; returns their offset.
+    size_t append(const void* data, size_t bytes) {
+        const size_t pad = (4 - size % 4) % 4;
+        std::vector<unsigned char> part(pad, 0);
+        part.reserve(pad + bytes);
+        if (bytes) part.insert(part.end(), static_cast<const unsigned char*>(data), static_cast<const unsigned char*>(data) + bytes);
+        parts.push_back(std::move(part));
+        size += pad + bytes;
+        return size - bytes;
+    }
+    std::vector<kernel::ByteSpan> spans() const {
+        std::vector<kernel::ByteSpan> out;
+        for (const auto& p : parts) out.push_back({p.data(), p.size()});
+        return out;
+    }
+    // One contiguous copy, for the meshopt encoder (its output is a fraction of this).
+    std::vector<uint8_t> flatten() const {
+        std::vector<uint8_t> out;
+        out.reserve(size);
+        for (const auto& p : parts) out.insert(out.end(), p.begin(), p.end());
+        return out;
+    }
+};
+
 // Appends typed, 4-byte aligned data to the single output buffer.
 class BinWriter {
 public:
     tinygltf::Model& m;
-    std::vector<unsigned char> bin;
+    BinParts bin;
     explicit BinWriter(tinygltf::Model& model) : m(model) {}
 
     int add_view(const void* data, size_t bytes, int target, size_t stride = 0) {
-        while (bin.size() % 4) bin.push_back(0);
         tinygltf::BufferView bv;
         bv.buffer = 0;
-        bv.byteOffset = bin.size();
+        bv.byteOffset = bin.append(data, bytes);
         bv.byteLength = bytes;
         bv.byteStride = stride;
         bv.target = target;
-        const auto* p = static_cast<const unsigned char*>(data);
-        bin.insert(bin.end(), p, p + bytes);
         m.bufferViews.push_back(std::move(bv));
         return int(m.bufferViews.size() - 1);
     }
@@ -249,6 +281,32 @@ int add_colors(BinWriter& w, const std::vector<float>& rgba, bool quantize) {
     return w.add_integers(q, TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE, 4, 4, true, false);
 }
 
+// The written topology of a primitive: n-gons fanned for glTF (the caller's primitive is left as it is) and,
+// with SaveOptions::optimize, meshoptimizer's vertex order (vertex_order.cpp) as a remap of the vertices.
+struct VertexOrder {
+    PrimitiveMode mode = PrimitiveMode::triangles;
+    std::vector<uint32_t> indices;
+    std::vector<uint32_t> remap; // old → new vertex; empty = the source order
+
+    template <class T>
+    std::vector<T> apply(const std::vector<T>& v, size_t per_vertex) const {
+        return mesh_detail::remapped(v, remap, per_vertex);
+    }
+};
+
+VertexOrder vertex_order(const Primitive& src, const SaveOptions& options) {
+    VertexOrder o;
+    o.mode = src.mode;
+    if (!src.face_sizes.empty() && src.mode == PrimitiveMode::triangles)
+        triangulate_polygons(o.indices, src.indices.data(), src.indices.size(), src.face_sizes.data(), src.face_sizes.size(),
+                             src.positions.data(), src.vertex_count());
+    else
+        o.indices = src.indices;
+    if (options.optimize && o.mode == PrimitiveMode::triangles)
+        o.remap = mesh_detail::optimized_vertex_remap(o.indices, src.vertex_count());
+    return o;
+}
+
 Status write_primitive(tinygltf::Primitive& out, const Primitive& src, bool needs_tangents, BinWriter& w,
                        const std::string& where, const SaveOptions& options, const mesh_detail::PositionGrid& grid) {
     const bool quantize = options.encoding != Encoding::plain;
@@ -273,74 +331,77 @@ Status write_primitive(tinygltf::Primitive& out, const Primitive& src, bool need
     for (float x : src.positions)
         if (!std::isfinite(x)) return Status::error(StatusCode::invalid_argument, where + ": positions contain NaN or Inf");
 
-    Primitive tri = src; // n-gons are fanned for glTF; the caller's primitive is left as it is
-    triangulate(tri);
-    for (uint32_t i : tri.indices)
+    const VertexOrder order = vertex_order(src, options);
+    for (uint32_t i : order.indices)
         if (i >= n) return Status::error(StatusCode::invalid_argument, where + ": index " + std::to_string(i) + " out of range");
-    if (tri.mode == PrimitiveMode::triangles && tri.indices.empty())
+    if (order.mode == PrimitiveMode::triangles && order.indices.empty())
         return Status::error(StatusCode::invalid_argument, where + ": has no faces");
-    if (options.optimize) optimize_vertex_order(tri);
+    // Each per-vertex array is put in the written order as it is written, one at a time: the writer never holds
+    // a second copy of the whole primitive (that copy was a whole output's bytes at the peak of every command).
+    const std::vector<float> positions = order.apply(src.positions, 3);
 
     // Fallback for zero-length normals, and the source when NORMAL is missing: computed only when needed (on a
     // 3 MB OBJ with normals, welding and computing them was a tenth of `convert`).
     std::vector<float> welded_normals;
-    if (tri.mode == PrimitiveMode::triangles && ((needs_tangents && tri.normals.empty()) || any_degenerate(tri.normals))) {
+    if (order.mode == PrimitiveMode::triangles &&
+        ((needs_tangents && src.normals.empty()) || any_degenerate(src.normals))) {
         welded_normals.resize(n * 3);
-        compute_vertex_normals(welded_normals.data(), tri.positions.data(), n, tri.indices.data(), tri.indices.size());
+        compute_vertex_normals(welded_normals.data(), positions.data(), n, order.indices.data(), order.indices.size());
     }
-    out.attributes["POSITION"] = add_position(w, tri.positions, grid);
+    out.attributes["POSITION"] = add_position(w, positions, grid);
+    const std::vector<float> uv0 = order.apply(src.uv0, 2);
     std::vector<float> normals;
-    if (!tri.normals.empty()) normals = unit_vectors(tri.normals, 3, welded_normals);
-    else if (needs_tangents && !tri.uv0.empty()) normals = unit_vectors(welded_normals, 3, {});
+    if (!src.normals.empty()) normals = unit_vectors(order.apply(src.normals, 3), 3, welded_normals);
+    else if (needs_tangents && !uv0.empty()) normals = unit_vectors(welded_normals, 3, {});
     // Morph targets' normal and tangent deltas are float; their base vectors stay float with them.
-    const bool quantize_vectors = quantize && tri.targets.empty();
+    const bool quantize_vectors = quantize && src.targets.empty();
     if (!normals.empty()) out.attributes["NORMAL"] = add_unit_vectors(w, normals, 3, quantize_vectors);
-    if (!tri.tangents.empty())
-        out.attributes["TANGENT"] = add_unit_vectors(w, unit_vectors(tri.tangents, 4, {}), 4, quantize_vectors);
-    else if (needs_tangents && !tri.uv0.empty() && !normals.empty())
-        out.attributes["TANGENT"] = add_unit_vectors(w, generate_tangents(tri.positions, normals, tri.uv0, tri.indices), 4,
+    if (!src.tangents.empty())
+        out.attributes["TANGENT"] = add_unit_vectors(w, unit_vectors(order.apply(src.tangents, 4), 4, {}), 4, quantize_vectors);
+    else if (needs_tangents && !uv0.empty() && !normals.empty())
+        out.attributes["TANGENT"] = add_unit_vectors(w, generate_tangents(positions, normals, uv0, order.indices), 4,
                                                      quantize_vectors);
-    if (!tri.uv0.empty()) out.attributes["TEXCOORD_0"] = add_unorm(w, tri.uv0, 2, quantize);
-    if (!tri.uv1.empty()) out.attributes["TEXCOORD_1"] = add_unorm(w, tri.uv1, 2, quantize);
-    if (!tri.colors.empty()) out.attributes["COLOR_0"] = add_colors(w, clamped01(tri.colors), quantize);
-    if (!tri.joints.empty()) {
-        std::vector<float> weights = normalized_weights(tri.weights);
+    if (!uv0.empty()) out.attributes["TEXCOORD_0"] = add_unorm(w, uv0, 2, quantize);
+    if (!src.uv1.empty()) out.attributes["TEXCOORD_1"] = add_unorm(w, order.apply(src.uv1, 2), 2, quantize);
+    if (!src.colors.empty()) out.attributes["COLOR_0"] = add_colors(w, clamped01(order.apply(src.colors, 4)), quantize);
+    if (!src.joints.empty()) {
+        std::vector<float> weights = normalized_weights(order.apply(src.weights, 4));
         // A joint with zero weight has no effect; glTF wants it written as 0 (ACCESSOR_JOINTS_USED_ZERO_WEIGHT).
-        std::vector<uint16_t> joints = tri.joints;
+        std::vector<uint16_t> joints = order.apply(src.joints, 4);
         for (size_t i = 0; i < joints.size(); ++i)
             if (weights[i] == 0.0f) joints[i] = 0;
         out.attributes["JOINTS_0"] = w.add_joints(joints);
         out.attributes["WEIGHTS_0"] = w.add_floats(weights, 4, false);
     }
-    for (const auto& c : tri.custom) {
+    for (const auto& c : src.custom) {
         if (c.name.empty() || c.name[0] != '_')
             return Status::error(StatusCode::invalid_argument, where + ": custom attribute '" + c.name + "' must start with '_'");
         if (c.components < 1 || c.components > 4 || c.values.size() != n * size_t(c.components))
             return Status::error(StatusCode::invalid_argument, where + ": custom attribute " + c.name + " has the wrong size");
         for (float x : c.values)
             if (!std::isfinite(x)) return Status::error(StatusCode::invalid_argument, where + ": " + c.name + " contains NaN or Inf");
-        out.attributes[c.name] = w.add_floats(c.values, c.components, false);
+        out.attributes[c.name] = w.add_floats(order.apply(c.values, size_t(c.components)), c.components, false);
     }
-    for (const auto& t : tri.targets) {
+    for (const auto& t : src.targets) {
         std::map<std::string, int> target;
         if (!t.position_deltas.empty()) {
             if (!(s = check_size(t.position_deltas, 3, "morph position deltas")).ok()) return s;
-            target["POSITION"] = w.add_floats(t.position_deltas, 3, true); // min/max required on morph POSITION
+            target["POSITION"] = w.add_floats(order.apply(t.position_deltas, 3), 3, true); // min/max required on morph POSITION
         }
         if (!t.normal_deltas.empty() && !normals.empty()) {
             if (!(s = check_size(t.normal_deltas, 3, "morph normal deltas")).ok()) return s;
-            target["NORMAL"] = w.add_floats(t.normal_deltas, 3, false);
+            target["NORMAL"] = w.add_floats(order.apply(t.normal_deltas, 3), 3, false);
         }
         if (!t.tangent_deltas.empty() && out.attributes.count("TANGENT")) {
             if (!(s = check_size(t.tangent_deltas, 3, "morph tangent deltas")).ok()) return s;
-            target["TANGENT"] = w.add_floats(t.tangent_deltas, 3, false);
+            target["TANGENT"] = w.add_floats(order.apply(t.tangent_deltas, 3), 3, false);
         }
         out.targets.push_back(std::move(target));
     }
-    out.indices = w.add_indices(tri.indices, n);
-    out.mode = tri.mode == PrimitiveMode::points ? TINYGLTF_MODE_POINTS
-               : tri.mode == PrimitiveMode::lines ? TINYGLTF_MODE_LINE
-                                                  : TINYGLTF_MODE_TRIANGLES;
+    out.indices = w.add_indices(order.indices, n);
+    out.mode = order.mode == PrimitiveMode::points ? TINYGLTF_MODE_POINTS
+               : order.mode == PrimitiveMode::lines ? TINYGLTF_MODE_LINE
+                                                    : TINYGLTF_MODE_TRIANGLES;
     out.material = src.material;
     return Status::success();
 }
@@ -596,13 +657,35 @@ Status write_animations(tinygltf::Model& m, const Scene& scene, const tinygltf::
     return Status::success();
 }
 
-Status build_model(tinygltf::Model& m, const Scene& scene, const SaveOptions& options) {
+// The source document without its buffers, accessors and views (rebuilt from the Scene): copying the whole
+// model copied every buffer of the input, a whole input's bytes at the writer's peak.
+void copy_document(tinygltf::Model& m, const tinygltf::Model& src) {
+    m.animations = src.animations;
+    m.materials = src.materials;
+    m.meshes = src.meshes;
+    m.nodes = src.nodes;
+    m.textures = src.textures;
+    m.images = src.images;
+    m.skins = src.skins;
+    m.samplers = src.samplers;
+    m.cameras = src.cameras;
+    m.scenes = src.scenes;
+    m.lights = src.lights;
+    m.defaultScene = src.defaultScene;
+    m.extensionsUsed = src.extensionsUsed;
+    m.extensionsRequired = src.extensionsRequired;
+    m.asset = src.asset;
+    m.extras = src.extras;
+    m.extensions = src.extensions;
+    m.extras_json_string = src.extras_json_string;
+    m.extensions_json_string = src.extensions_json_string;
+}
+
+// The output document `m` and its binary chunk `bin`.
+Status build_model(tinygltf::Model& m, BinParts& bin, const Scene& scene, const SaveOptions& options) {
     static const tinygltf::Model empty;
     const tinygltf::Model& src = scene.document ? scene.document->model : empty;
-    m = src;
-    m.buffers.clear();
-    m.bufferViews.clear();
-    m.accessors.clear();
+    copy_document(m, src);
     BinWriter w(m);
     if (Status s = check_references(scene, src); !s.ok()) return s;
     std::vector<bool> material_needs_tangents;
@@ -631,13 +714,56 @@ Status build_model(tinygltf::Model& m, const Scene& scene, const SaveOptions& op
     m.asset.version = "2.0";
     m.asset.generator = "furrow " FURROW_VERSION_STRING;
     m.asset.minVersion.clear();
-    if (!w.bin.empty()) {
-        while (w.bin.size() % 4) w.bin.push_back(0);
-        tinygltf::Buffer b;
-        b.data = std::move(w.bin);
-        m.buffers.push_back(std::move(b));
-    }
+    w.bin.pad_to_4();
+    bin = std::move(w.bin);
     return Status::success();
+}
+
+// The document as JSON, without the binary buffer (tinygltf would base64 it; save_scene adds the buffers).
+Status serialise_document(nlohmann::json& j, tinygltf::Model& m) {
+    tinygltf::TinyGLTF writer;
+    writer.SetImageWriter(nullptr, nullptr); // images are embedded (or kept as references); never write files
+    std::ostringstream out;
+    if (!writer.WriteGltfSceneToStream(&m, out, false, false))
+        return Status::error(StatusCode::io_error, "serialising the glTF failed");
+    j = nlohmann::json::parse(out.str(), nullptr, false);
+    if (j.is_discarded()) return Status::error(StatusCode::io_error, "internal: serialised glTF is not JSON");
+    // tinygltf writes an object with no properties (a bare `{}` node, say) as null; glTF wants `{}`.
+    for (auto& [key, value] : j.items())
+        if (value.is_array())
+            for (auto& e : value)
+                if (e.is_null()) e = nlohmann::json::object();
+    return Status::success();
+}
+
+// GLB container (glTF 2.0 §4.4): header, JSON chunk (padded with spaces), binary chunk (padded with zeros by
+// BinParts), written from its parts without assembling the file in memory.
+Status write_glb(const std::string& path, std::string text, const BinParts& bin) {
+    while (text.size() % 4) text.push_back(' ');
+    // The GLB header stores the file's length in 32 bits: a larger file cannot be written as GLB at all
+    // (it used to be truncated silently into a corrupt file).
+    const uint64_t size = 12 + 8 + uint64_t(text.size()) + (bin.size == 0 ? 0 : 8 + uint64_t(bin.size));
+    if (size > UINT32_MAX)
+        return Status::error(StatusCode::invalid_argument,
+                             "the GLB would be " + std::to_string(size) + " bytes, over the format's limit of " +
+                                 std::to_string(UINT32_MAX) + " (4 GiB); write .gltf with a .bin, or less geometry");
+    std::vector<uint8_t> header, bin_header;
+    auto u32 = [](std::vector<uint8_t>& out, uint32_t v) {
+        for (int k = 0; k < 4; ++k) out.push_back(uint8_t(v >> (8 * k)));
+    };
+    header = {'g', 'l', 'T', 'F'};
+    u32(header, 2);
+    u32(header, uint32_t(size));
+    u32(header, uint32_t(text.size()));
+    u32(header, 0x4E4F534A); // JSON
+    std::vector<kernel::ByteSpan> spans{{header.data(), header.size()}, {text.data(), text.size()}};
+    if (bin.size > 0) {
+        u32(bin_header, uint32_t(bin.size));
+        u32(bin_header, 0x004E4942); // BIN
+        spans.push_back({bin_header.data(), bin_header.size()});
+        for (const kernel::ByteSpan& part : bin.spans()) spans.push_back(part);
+    }
+    return kernel::atomic_write(path, spans);
 }
 
 std::string lower_ext(const std::string& path) {
@@ -653,37 +779,22 @@ Status save_scene(const Scene& scene, const std::string& path, const SaveOptions
         const std::string ext = lower_ext(path);
         if (ext != ".glb" && ext != ".gltf")
             return Status::error(StatusCode::unsupported, "cannot write '" + ext + "' (furrow writes .glb or .gltf)");
-        tinygltf::Model m;
         if (options.position_bits < 0 || options.position_bits > 16)
             return Status::error(StatusCode::invalid_argument, "SaveOptions::position_bits " +
                                                                    std::to_string(options.position_bits) + " is not in 0..16");
-        Status s = build_model(m, scene, options);
-        if (!s.ok()) return s;
-        tinygltf::TinyGLTF writer;
-        writer.SetImageWriter(nullptr, nullptr); // images are embedded (or kept as references); never write files
-        // Serialise the JSON without the binary buffer (tinygltf would base64 it), then finish it ourselves.
-        std::vector<unsigned char> bin;
-        if (!m.buffers.empty()) {
-            bin = std::move(m.buffers[0].data);
-            m.buffers.clear();
-        }
-        std::ostringstream out;
-        if (!writer.WriteGltfSceneToStream(&m, out, false, false))
-            return Status::error(StatusCode::io_error, "serialising the glTF failed");
-        nlohmann::json j = nlohmann::json::parse(out.str(), nullptr, false);
-        if (j.is_discarded()) return Status::error(StatusCode::io_error, "internal: serialised glTF is not JSON");
-        // tinygltf writes an object with no properties (a bare `{}` node, say) as null; glTF wants `{}`.
-        for (auto& [key, value] : j.items())
-            if (value.is_array())
-                for (auto& e : value)
-                    if (e.is_null()) e = nlohmann::json::object();
-        const std::string bin_name = std::filesystem::path(path).stem().string() + ".bin";
+        tinygltf::Model m;
+        BinParts bin;
+        if (Status s = build_model(m, bin, scene, options); !s.ok()) return s;
+        nlohmann::json j;
+        if (Status s = serialise_document(j, m); !s.ok()) return s;
         // EXT_meshopt_compression: buffer 0 gets the encoded views, buffer 1 is the data-less fallback.
         nlohmann::json fallback;
-        if (options.encoding == Encoding::compress && !bin.empty()) {
+        if (options.encoding == Encoding::compress && bin.size > 0) {
             mesh_detail::CompressedBin compressed;
-            mesh_detail::compress_buffer_views(compressed, j, bin);
-            bin = std::move(compressed.bin);
+            mesh_detail::compress_buffer_views(compressed, j, bin.flatten());
+            bin = BinParts{};
+            bin.size = compressed.bin.size(); // padded to 4 by the encoder
+            bin.parts.push_back(std::move(compressed.bin));
             if (compressed.fallback_bytes > 0)
                 fallback = {{"byteLength", compressed.fallback_bytes},
                             {"extensions", {{"EXT_meshopt_compression", {{"fallback", true}}}}}};
@@ -694,43 +805,17 @@ Status save_scene(const Scene& scene, const std::string& path, const SaveOptions
             return list;
         };
         if (ext == ".glb") {
-            if (!bin.empty()) j["buffers"] = buffers({{"byteLength", bin.size()}});
-            std::string text = j.dump();
-            while (text.size() % 4) text.push_back(' ');
-            while (bin.size() % 4) bin.push_back(0);
-            // The GLB header stores the file's length in 32 bits: a larger file cannot be written as GLB at all
-            // (it used to be truncated silently into a corrupt file).
-            const uint64_t size = 12 + 8 + uint64_t(text.size()) + (bin.empty() ? 0 : 8 + uint64_t(bin.size()));
-            if (size > UINT32_MAX)
-                return Status::error(StatusCode::invalid_argument,
-                                     "the GLB would be " + std::to_string(size) + " bytes, over the format's limit of " +
-                                         std::to_string(UINT32_MAX) + " (4 GiB); write .gltf with a .bin, or less geometry");
-            const uint32_t total = uint32_t(size);
-            std::vector<uint8_t> glb;
-            glb.reserve(total);
-            auto u32 = [&glb](uint32_t v) {
-                for (int k = 0; k < 4; ++k) glb.push_back(uint8_t(v >> (8 * k)));
-            };
-            glb.insert(glb.end(), {'g', 'l', 'T', 'F'});
-            u32(2);
-            u32(total);
-            u32(uint32_t(text.size()));
-            u32(0x4E4F534A); // JSON
-            glb.insert(glb.end(), text.begin(), text.end());
-            if (!bin.empty()) {
-                u32(uint32_t(bin.size()));
-                u32(0x004E4942); // BIN
-                glb.insert(glb.end(), bin.begin(), bin.end());
-            }
-            return kernel::atomic_write(path, glb.data(), glb.size());
+            if (bin.size > 0) j["buffers"] = buffers({{"byteLength", bin.size}});
+            return write_glb(path, j.dump(), bin);
         }
-        if (!bin.empty()) {
-            j["buffers"] = buffers({{"byteLength", bin.size()}, {"uri", bin_name}});
+        if (bin.size > 0) {
+            const std::string bin_name = std::filesystem::path(path).stem().string() + ".bin";
+            j["buffers"] = buffers({{"byteLength", bin.size}, {"uri", bin_name}});
             const std::string bin_path = (std::filesystem::path(path).parent_path() / bin_name).string();
             const std::string text = j.dump(options.pretty_json ? 2 : -1);
             // Both files or neither (the .bin used to be renamed into place before the .gltf was tried, so an
             // unwritable .gltf path left a stray .bin behind).
-            return kernel::atomic_write_pair(bin_path, bin.data(), bin.size(), path, text.data(), text.size());
+            return kernel::atomic_write_pair(bin_path, bin.spans(), path, text.data(), text.size());
         }
         const std::string text = j.dump(options.pretty_json ? 2 : -1);
         return kernel::atomic_write(path, text.data(), text.size());

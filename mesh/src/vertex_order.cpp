@@ -19,15 +19,6 @@ namespace furrow {
 
 namespace {
 
-template <class T>
-void remap_array(std::vector<T>& v, const std::vector<uint32_t>& remap, size_t per_vertex) {
-    if (v.empty() || per_vertex == 0 || v.size() != remap.size() * per_vertex) return;
-    std::vector<T> out(v.size());
-    for (size_t i = 0; i < remap.size(); ++i)
-        for (size_t c = 0; c < per_vertex; ++c) out[size_t(remap[i]) * per_vertex + c] = v[i * per_vertex + c];
-    v.swap(out);
-}
-
 // Step 2 with step 2's note on unreferenced vertices: a permutation of [0, n).
 std::vector<uint32_t> fetch_order(const std::vector<uint32_t>& indices, size_t n) {
     std::vector<uint32_t> remap(n);
@@ -38,20 +29,33 @@ std::vector<uint32_t> fetch_order(const std::vector<uint32_t>& indices, size_t n
     return remap;
 }
 
+template <class T>
+void remap_array(std::vector<T>& v, const std::vector<uint32_t>& remap, size_t per_vertex) {
+    v = mesh_detail::remapped(v, remap, per_vertex);
+}
+
 } // namespace
 
-void optimize_vertex_order(Primitive& p) {
-    const size_t n = p.vertex_count();
-    if (p.mode != PrimitiveMode::triangles || !p.face_sizes.empty() || n == 0 || p.indices.size() < 3 ||
-        p.indices.size() % 3 != 0)
-        return;
-    for (uint32_t i : p.indices)
-        if (i >= n) return; // the writer reports it
-    std::vector<uint32_t> reordered(p.indices.size());
-    meshopt_optimizeVertexCache(reordered.data(), p.indices.data(), p.indices.size(), n);
-    const std::vector<uint32_t> remap = fetch_order(reordered, n);
+namespace mesh_detail {
+
+std::vector<uint32_t> optimized_vertex_remap(std::vector<uint32_t>& indices, size_t n) {
+    if (n == 0 || indices.size() < 3 || indices.size() % 3 != 0) return {};
+    for (uint32_t i : indices)
+        if (i >= n) return {}; // the writer reports it
+    std::vector<uint32_t> reordered(indices.size());
+    meshopt_optimizeVertexCache(reordered.data(), indices.data(), indices.size(), n);
+    std::vector<uint32_t> remap = fetch_order(reordered, n);
     for (uint32_t& i : reordered) i = remap[i];
-    p.indices.swap(reordered);
+    indices.swap(reordered);
+    return remap;
+}
+
+} // namespace mesh_detail
+
+void optimize_vertex_order(Primitive& p) {
+    if (p.mode != PrimitiveMode::triangles || !p.face_sizes.empty()) return;
+    const std::vector<uint32_t> remap = mesh_detail::optimized_vertex_remap(p.indices, p.vertex_count());
+    if (remap.empty()) return;
     remap_array(p.positions, remap, 3);
     remap_array(p.normals, remap, 3);
     remap_array(p.tangents, remap, 4);

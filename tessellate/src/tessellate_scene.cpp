@@ -168,7 +168,12 @@ TessellateInput input_of(const Merged& g) {
 }
 
 // Splits the tessellation back into the merged primitives.
-void split(Mesh& mesh, const Merged& g, const TessellateOutput& t) {
+template <class T>
+void release(std::vector<T>& v) {
+    std::vector<T>().swap(v);
+}
+
+void split(Mesh& mesh, const Merged& g, TessellateOutput& t) {
     const size_t V = t.positions.size() / 3;
     for (size_t slot = 0; slot < g.prims.size(); ++slot) {
         Primitive& dst = mesh.primitives[g.prims[slot]];
@@ -187,9 +192,17 @@ void split(Mesh& mesh, const Merged& g, const TessellateOutput& t) {
                 indices.push_back(remap[v]);
             }
         }
-        auto gather = [&](const std::vector<float>& from, size_t comps) {
+        // The last primitive releases each of the output's arrays as soon as it has gathered it: holding them
+        // all until the end held the tessellation twice at the command's peak memory.
+        const bool last = slot + 1 == g.prims.size();
+        if (last) {
+            release(t.triangle_faces);
+            release(t.indices);
+        }
+        auto gather = [&](std::vector<float>& from, size_t comps) {
             std::vector<float> r(used.size() * comps);
             for (size_t i = 0; i < used.size(); ++i) std::copy_n(&from[size_t(used[i]) * comps], comps, &r[i * comps]);
+            if (last) release(from);
             return r;
         };
         dst.positions = gather(t.positions, 3);

@@ -15,6 +15,7 @@
 #include <filesystem>
 #include <string>
 #include <system_error>
+#include <vector>
 #include <unistd.h>
 
 namespace furrow::kernel {
@@ -29,8 +30,17 @@ inline std::string temp_path_beside(const std::string& path) {
     return (p.parent_path() / name).string();
 }
 
-// Writes the bytes to a temporary file beside `path` (tmp), after checking that `path` can be replaced.
-[[nodiscard]] inline Status stage_file(const std::string& path, const void* data, size_t size, std::string& tmp) {
+// A run of bytes to write: a file is written from a list of them, so that a writer never has to copy its
+// pieces (a GLB's header, JSON and binary chunk) into one buffer first. That copy was a whole extra output
+// in memory at the peak of every writing command.
+struct ByteSpan {
+    const void* data = nullptr;
+    size_t size = 0;
+};
+
+// Writes the spans, in order, to a temporary file beside `path` (tmp), after checking that `path` can be
+// replaced.
+[[nodiscard]] inline Status stage_file(const std::string& path, const std::vector<ByteSpan>& spans, std::string& tmp) {
     namespace fs = std::filesystem;
     fs::path p(path);
     fs::path dir = p.parent_path().empty() ? fs::path(".") : p.parent_path();
@@ -41,7 +51,8 @@ inline std::string temp_path_beside(const std::string& path) {
     tmp = temp_path_beside(path);
     FILE* f = std::fopen(tmp.c_str(), "wb");
     if (!f) return Status::error(StatusCode::io_error, std::string("cannot write: ") + std::strerror(errno));
-    bool ok = size == 0 || std::fwrite(data, 1, size, f) == size;
+    bool ok = true;
+    for (const ByteSpan& b : spans) ok = ok && (b.size == 0 || std::fwrite(b.data, 1, b.size, f) == b.size);
     ok = (std::fflush(f) == 0) && ok;
     int err = errno;
     ok = (std::fclose(f) == 0) && ok;
@@ -50,6 +61,10 @@ inline std::string temp_path_beside(const std::string& path) {
         return Status::error(StatusCode::io_error, std::string("write failed: ") + std::strerror(err));
     }
     return Status::success();
+}
+
+[[nodiscard]] inline Status stage_file(const std::string& path, const void* data, size_t size, std::string& tmp) {
+    return stage_file(path, std::vector<ByteSpan>{{data, size}}, tmp);
 }
 
 // Renames a staged temporary into place (removing it on failure).
@@ -62,20 +77,24 @@ inline std::string temp_path_beside(const std::string& path) {
     return Status::success();
 }
 
-// Writes bytes to `path` atomically (temporary file in the same folder, then rename).
-[[nodiscard]] inline Status atomic_write(const std::string& path, const void* data, size_t size) {
+// Writes the spans to `path` atomically (temporary file in the same folder, then rename).
+[[nodiscard]] inline Status atomic_write(const std::string& path, const std::vector<ByteSpan>& spans) {
     std::string tmp;
-    Status s = stage_file(path, data, size, tmp);
+    Status s = stage_file(path, spans, tmp);
     if (!s.ok()) return s;
     return commit_file(tmp, path);
 }
 
+[[nodiscard]] inline Status atomic_write(const std::string& path, const void* data, size_t size) {
+    return atomic_write(path, std::vector<ByteSpan>{{data, size}});
+}
+
 // Writes two files (a .gltf's .bin, then the .gltf) both or neither: both are staged as temporaries first,
 // so a second output that cannot be written no longer leaves the first one behind.
-[[nodiscard]] inline Status atomic_write_pair(const std::string& first, const void* first_data, size_t first_size,
+[[nodiscard]] inline Status atomic_write_pair(const std::string& first, const std::vector<ByteSpan>& first_spans,
                                               const std::string& second, const void* second_data, size_t second_size) {
     std::string tmp1, tmp2;
-    Status s = stage_file(first, first_data, first_size, tmp1);
+    Status s = stage_file(first, first_spans, tmp1);
     if (!s.ok()) return s;
     s = stage_file(second, second_data, second_size, tmp2);
     if (!s.ok()) {
