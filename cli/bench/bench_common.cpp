@@ -6,6 +6,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <limits>
 #include <sstream>
 
 #include <fcntl.h>
@@ -41,6 +42,26 @@ bool on_path(const std::string& program) {
     for (std::string dir; std::getline(folders, dir, ':');)
         if (!dir.empty() && ::access((fs::path(dir) / program).c_str(), X_OK) == 0) return true;
     return false;
+}
+
+double blender_peer_seconds(const std::string& script_text, const std::vector<std::string>& args) {
+    const double none = std::numeric_limits<double>::quiet_NaN();
+    if (!on_path("blender")) return none;
+    const fs::path tmp = fs::temp_directory_path() / ("furrow-bench-blender-" + std::to_string(getpid()));
+    std::error_code ec;
+    fs::create_directories(tmp, ec);
+    const fs::path script = tmp / "peer.py", result = tmp / "seconds.txt";
+    std::ofstream(script) << script_text;
+    fs::remove(result, ec);
+    std::vector<std::string> argv{"blender", "-b", "--factory-startup", "-t", "1", "--python", script.string(), "--", result.string()};
+    argv.insert(argv.end(), args.begin(), args.end());
+    double seconds = none;
+    if (run_peer(argv) == 0) {
+        std::ifstream in(result);
+        if (!(in >> seconds) || !(seconds > 0)) seconds = none;
+    }
+    fs::remove_all(tmp, ec);
+    return seconds;
 }
 
 double median_seconds(int repeat, const std::function<void()>& f) {
