@@ -206,18 +206,19 @@ Status DisplacedGround::prepare(const float* positions, size_t vertex_count, con
             for (size_t p = 0; p < points; ++p)
                 for (int d = 0; d < 3; ++d) m->dir[3 * p + size_t(d)] = frame.up[size_t(d)];
         } else {
-            std::vector<FaceTerm> rest_terms;
-            all_normals(m->dir.data(), rest_terms, m->rest, m->tris, m->face_off, m->faces);
+            // The rest faces' terms stay cached: an update() before any displace_all() starts from them, and
+            // displace_all() overwrites them in place (no second allocation of the largest array).
+            all_normals(m->dir.data(), m->terms, m->rest, m->tris, m->face_off, m->faces);
             for (size_t p = 0; p < points; ++p) {
                 double* o = &m->dir[3 * p];
                 if (o[0] == 0 && o[1] == 0 && o[2] == 0) o[0] = frame.up[0], o[1] = frame.up[1], o[2] = frame.up[2];
             }
         }
         m->texel.resize(2 * size_t(points));
-        for (size_t p = 0; p < points; ++p) {
+        tbb::parallel_for(size_t(0), size_t(points), [&](size_t p) {
             auto t = frame.to_texel(&m->rest[3 * p]);
             m->texel[2 * p] = t[0], m->texel[2 * p + 1] = t[1];
-        }
+        });
         if (opt.top_only && ground) {
             const double tol = opt.top_tolerance > 0 ? opt.top_tolerance : 2 * frame.texel;
             m->movable.assign(points, 1);
@@ -304,7 +305,7 @@ static void points_under(DisplacedGround::Impl& m, const std::vector<TexelRect>&
 size_t DisplacedGround::update(const Heightmap& h, const std::vector<TexelRect>& rects, float* pos, float* nor) {
     Impl& m = *impl_;
     if (m.rest.empty()) return 0;
-    if (m.terms.size() != m.tris.size() / 3) { // no displace_all yet: the cached face terms are those of rest
+    if (m.terms.size() != m.tris.size() / 3) { // along_up, no displace_all yet: the terms of rest
         m.terms.resize(m.tris.size() / 3);
         tbb::parallel_for(size_t(0), m.terms.size(), [&](size_t f) { m.terms[f] = face_term(m.cur, &m.tris[3 * f]); });
     }
