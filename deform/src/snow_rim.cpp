@@ -166,8 +166,10 @@ void blur(float* v, float* tmp, int w, int h, int r, bool par) {
 }
 
 // Squared distance (texels, exact Euclidean) to the nearest texel of a mask for every texel of a w × h window,
-// infinite when the mask is empty (S.dist2).
-void distance_to_mask(Scratch& S, const uint8_t* mask, int w, int h, bool par) {
+// infinite when the mask is empty (S.dist2). With `rows` >= 0, mask texels more than `rows` rows away are left
+// out: the distance is exact wherever it is <= rows (the nearest texel is then that near in rows too) and
+// larger than rows elsewhere, and the second pass skips the columns with no near row.
+void distance_to_mask(Scratch& S, const uint8_t* mask, int w, int h, bool par, int rows = -1) {
     const size_t N = size_t(w) * size_t(h);
     const float big = 1e30f;
     fit(S.f, N);
@@ -192,6 +194,7 @@ void distance_to_mask(Scratch& S, const uint8_t* mask, int w, int h, bool par) {
                 if (mask[x]) last[size_t(i)] = j;
                 const int below = last[size_t(i)];
                 if (below >= 0 && (row_of[x] < 0 || below - j < j - row_of[x])) row_of[x] = below;
+                if (rows >= 0 && row_of[x] >= 0 && std::abs(row_of[x] - j) > rows) row_of[x] = -1;
                 f[x] = row_of[x] < 0 ? big : float(row_of[x] - j) * float(row_of[x] - j);
             }
     }
@@ -421,7 +424,7 @@ void cosmetic_ring(Scratch& S, Window& W, const RimInput& in, const TexelRect& w
     fit(S.near_source, size_t(we) * size_t(he));
     for (int j = 0; j < he; ++j)
         std::copy_n(W.is_source + size_t(j + E.y0) * size_t(W.w) + size_t(E.x0), we, S.near_source.data() + size_t(j) * size_t(we));
-    distance_to_mask(S, S.near_source.data(), we, he, in.parallel);
+    distance_to_mask(S, S.near_source.data(), we, he, in.parallel, rim_profile_radius(in.width_m, in.texel));
     fit(S.ring, size_t(wi) * size_t(hi));
     fit(S.ring_tmp, size_t(wi) * size_t(hi));
     float* ring = S.ring.data();
