@@ -7,6 +7,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <limits>
 #include <sstream>
 
 #include <fcntl.h>
@@ -89,6 +90,26 @@ double bbox_diagonal(const Scene& s) {
     for (int k = 0; k < 3; ++k)
         if (hi[k] >= lo[k]) d += (hi[k] - lo[k]) * (hi[k] - lo[k]);
     return std::sqrt(d);
+}
+
+double blender_peer_seconds(const std::string& script_text, const std::vector<std::string>& args) {
+    const double none = std::numeric_limits<double>::quiet_NaN();
+    if (!on_path("blender")) return none;
+    const fs::path tmp = fs::temp_directory_path() / ("furrow-bench-blender-" + std::to_string(getpid()));
+    std::error_code ec;
+    fs::create_directories(tmp, ec);
+    const fs::path script = tmp / "peer.py", result = tmp / "seconds.txt";
+    std::ofstream(script) << script_text;
+    fs::remove(result, ec);
+    std::vector<std::string> argv{"blender", "-b", "--factory-startup", "-t", "1", "--python", script.string(), "--", result.string()};
+    argv.insert(argv.end(), args.begin(), args.end());
+    double seconds = none;
+    if (run_peer(argv) == 0) {
+        std::ifstream in(result);
+        if (!(in >> seconds) || !(seconds > 0)) seconds = none;
+    }
+    fs::remove_all(tmp, ec);
+    return seconds;
 }
 
 double median_seconds(int repeat, const std::function<void()>& f) {

@@ -36,6 +36,11 @@ struct PeerRun {
 PeerRun run_peer_measured(const std::vector<std::string>& argv);
 // Whether `program` is an executable file in a folder of PATH (a peer that is not is "not installed").
 bool on_path(const std::string& program);
+// Blender as a peer: writes script_text to a temporary file and runs `blender -b --factory-startup -t 1
+// --python <script> -- <result file> <args...>`. The script times only what it compares (not Blender's start-up
+// or its own set-up) and writes those seconds as text to the result file (its first argument after `--`).
+// Returns them, or NaN when Blender is not on PATH or the run failed.
+double blender_peer_seconds(const std::string& script_text, const std::vector<std::string>& args);
 
 // Diagonal of the world bounding box of the meshes the scene's nodes place (skinned meshes in their bind
 // pose); 0 for an empty scene.

@@ -15,8 +15,13 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <limits>
 #include <numbers>
 #include <random>
+
+#include <unistd.h>
 
 namespace furrow::cli {
 namespace {
@@ -500,7 +505,79 @@ void bench_walker_frame(const Args& a, const DemoGround& d, bool text, nlohmann:
     }
 }
 
-// ---- 5. Displacement + normals, against the mesh library's normals ------------------------------------------------
+// ---- 5. Displacement + normals, against the mesh library's normals and Blender's Displace modifier -----------------
+// The peer (Blender 3.4, one thread): a side x side grid of quads over [-1, 1]² displaced along its normals by a
+// Displace modifier whose image texture is the same heightmap (float, non-colour, local coordinates, mid-level 0,
+// strength 1); timed inside Blender: one modifier-stack evaluation with its vertex normals (mesh tagged, depsgraph
+// update, to_mesh, normals read), the median of `repeat` after a warm-up. Not timed: start-up and building the scene.
+constexpr const char* kBlenderDisplace = R"PY(
+import array, bpy, sys, time
+argv = sys.argv[sys.argv.index("--") + 1:]
+result, heights_path = argv[0], argv[1]
+hw, hh, side, repeat = int(argv[2]), int(argv[3]), int(argv[4]), int(argv[5])
+heights = array.array("f")
+with open(heights_path, "rb") as f:
+    heights.frombytes(f.read())
+pixels = array.array("f", bytes(16 * hw * hh))
+for c in range(3):
+    pixels[c::4] = heights
+pixels[3::4] = array.array("f", [1.0]) * (hw * hh)
+image = bpy.data.images.new("height", hw, hh, alpha=False, float_buffer=True)
+image.colorspace_settings.name = "Non-Color"
+image.pixels.foreach_set(pixels)
+texture = bpy.data.textures.new("height", type="IMAGE")
+texture.image = image
+texture.extension = "EXTEND"
+step = 2.0 / (side - 1)
+verts = [(i * step - 1.0, j * step - 1.0, 0.0) for j in range(side) for i in range(side)]
+quads = [(j * side + i, j * side + i + 1, (j + 1) * side + i + 1, (j + 1) * side + i) for j in range(side - 1) for i in range(side - 1)]
+mesh = bpy.data.meshes.new("grid")
+mesh.from_pydata(verts, [], quads)
+mesh.update()
+grid = bpy.data.objects.new("grid", mesh)
+bpy.context.scene.collection.objects.link(grid)
+mod = grid.modifiers.new("Displace", "DISPLACE")
+mod.texture = texture
+mod.texture_coords = "LOCAL"
+mod.mid_level = 0.0
+mod.strength = 1.0
+depsgraph = bpy.context.evaluated_depsgraph_get()
+def evaluate():
+    mesh.update()  # tags the geometry: the modifier stack runs again
+    depsgraph.update()
+    evaluated = grid.evaluated_get(depsgraph)
+    out = evaluated.to_mesh()
+    assert len(out.vertices) == side * side
+    out.vertex_normals[0].vector  # the normals, as furrow computes them
+    evaluated.to_mesh_clear()
+evaluate()
+times = []
+for _ in range(repeat):
+    t0 = time.perf_counter()
+    evaluate()
+    times.append(time.perf_counter() - t0)
+times.sort()
+print("furrow-bench blender displace seconds", times)
+with open(result, "w") as f:
+    f.write(repr(times[len(times) // 2]))
+)PY";
+
+// Blender's Displace on a grid of about `vertices` points by heightmap h (seconds; NaN: not installed or failed).
+double blender_displace_seconds(const Heightmap& h, size_t vertices, int repeat) {
+    if (!on_path("blender")) return std::numeric_limits<double>::quiet_NaN();
+    const std::filesystem::path raw = std::filesystem::temp_directory_path() / ("furrow-bench-stamp-heights-" + std::to_string(getpid()) + ".f32");
+    {
+        std::ofstream o(raw, std::ios::binary);
+        o.write(reinterpret_cast<const char*>(h.values.data()), std::streamsize(h.values.size() * sizeof(float)));
+    }
+    const int side = std::max(2, int(std::lround(std::sqrt(double(vertices)))));
+    const double s = blender_peer_seconds(kBlenderDisplace, {raw.string(), std::to_string(h.frame.width), std::to_string(h.frame.height),
+                                                             std::to_string(side), std::to_string(repeat)});
+    std::error_code ec;
+    std::filesystem::remove(raw, ec);
+    return s;
+}
+
 // Prints the table, adds results["displace"].
 void bench_displacement(const Args& a, const DemoGround& d, bool text, nlohmann::json& J) {
     const int repeat = a.repeat;
@@ -510,7 +587,9 @@ void bench_displacement(const Args& a, const DemoGround& d, bool text, nlohmann:
     require_ok(f.create(d.P.data(), d.P.size() / 3, d.I.data(), d.I.size(), so), "ground.glb");
     require_ok(f.add_colliders(d.demo), "colliders");
     f.update();
-    Table dt({"mesh", "vertices", "welded", "prepare ms", "displace+normals ms", "Mvertices/s", "mesh-lib normals ms", "ratio"});
+    Table dt({"mesh", "vertices", "welded", "prepare ms", "displace+normals ms", "Mvertices/s", "mesh-lib normals ms", "ratio",
+              "Blender grid", "Blender Displace ms", "Blender / (prepare+displace)"});
+    const bool blender = on_path("blender");
     for (int rate : a.quick ? std::vector<int>{2} : std::vector<int>{4, 8}) {
         const TessellateOutput big = tessellate_ground(d, rate);
         const size_t V = big.positions.size() / 3;
@@ -524,14 +603,21 @@ void bench_displacement(const Args& a, const DemoGround& d, bool text, nlohmann:
             compute_vertex_normals(ref.data(), pos.data(), V, big.indices.data(), big.indices.size());
             do_not_optimize(ref.data());
         });
+        const double peer = blender ? blender_displace_seconds(f.heightmap(), V, repeat) : std::numeric_limits<double>::quiet_NaN();
+        const int side = int(std::lround(std::sqrt(double(V))));
+        const std::string peer_ms = !blender ? "peer not installed" : std::isnan(peer) ? "peer failed" : fmt(peer * 1e3, 1);
         dt.add({"ground.glb x" + std::to_string(rate), std::to_string(V), std::to_string(dg.welded_count()), fmt(prep * 1e3, 1),
-                fmt(disp * 1e3, 2), fmt(double(V) / disp / 1e6, 2), fmt(lib * 1e3, 2), fmt(disp / lib, 2)});
-        J["displace"].push_back({{"vertices", V}, {"prepare_s", prep}, {"displace_s", disp}, {"mesh_normals_s", lib}});
+                fmt(disp * 1e3, 2), fmt(double(V) / disp / 1e6, 2), fmt(lib * 1e3, 2), fmt(disp / lib, 2),
+                std::to_string(side) + "^2", peer_ms, std::isnan(peer) ? "-" : fmt(peer / (prep + disp), 2)});
+        J["displace"].push_back({{"vertices", V}, {"prepare_s", prep}, {"displace_s", disp}, {"mesh_normals_s", lib},
+                                 {"blender_displace_s", std::isnan(peer) ? nlohmann::json(nullptr) : nlohmann::json(peer)}});
     }
     if (text) {
         std::printf("\n5. displacement + welded normals (DisplacedGround::displace_all) of ground.glb uniformly tessellated, "
                     "by the demo\nheightmap; baseline: furrow::compute_vertex_normals alone on the same mesh (normals only, no "
-                    "displacement).\n");
+                    "displacement).\nPeer: Blender 3.4's Displace modifier (one thread) on a grid of as many points with an image "
+                    "texture of the same heightmap,\ntimed inside Blender (one modifier evaluation with normals; not start-up or "
+                    "set-up); last column: its time over furrow's prepare + displace.\n");
         dt.print();
     }
 }

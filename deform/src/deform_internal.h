@@ -112,6 +112,8 @@ struct RimInput {
     double max_slope_degrees = 40;  // conserve: steepest rim slope (0 or >= 90 = no limit)
     double max_width_m = 0;         // conserve: how far the rim may widen to keep those limits (>= width_m)
     bool parallel = true;           // false: one thread per window (the caller runs windows in parallel)
+    bool full_window = false;       // cosmetic: every step over the whole window (the reference the ring-only
+                                    // evaluation must equal byte for byte; tests), not only around `out`
 };
 // The texels a rim computation owns: the tiles of one connected dirty region. It counts only the imprints
 // inside them and writes only them.
@@ -139,9 +141,10 @@ inline int rim_gather_radius(double width_m, double gather_m, double texel) {
 }
 // How far (texels, Chebyshev) a cosmetic rim texel depends on the carve: the blur (2), and the farther of
 // the gathered sums (2n) and the distance to the nearest imprint (the rim's width + half a texel).
+// How far (texels, Chebyshev) from its nearest imprint a texel can be on the ridge: the width + half a texel.
+inline int rim_profile_radius(double width_m, double texel) { return clamped_int(std::ceil(width_m / texel + 0.5), 0, 1 << 20); }
 inline int rim_reach(double width_m, double gather_m, double texel) {
-    const int profile = clamped_int(std::ceil(width_m / texel + 0.5), 0, 1 << 20);
-    return 2 + std::max(2 * rim_gather_radius(width_m, gather_m, texel), profile);
+    return 2 + std::max(2 * rim_gather_radius(width_m, gather_m, texel), rim_profile_radius(width_m, texel));
 }
 
 // ---- heightmap_io.cpp -------------------------------------------------------------------------------------

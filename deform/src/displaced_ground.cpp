@@ -17,6 +17,7 @@
 #include "deform_internal.h"
 
 #include <furrow_kernel/angle_weighted_normal.h>
+#include <furrow_kernel/huge_page_allocator.h>
 #include <furrow_kernel/welded_ids.h>
 #include <furrow_kernel/no_throw.h>
 
@@ -42,9 +43,12 @@ struct FaceTerm {
     double angle[3] = {-1, -1, -1}; // < 0: degenerate (the kernel's rule), contributes nothing
 };
 
-FaceTerm face_term(const std::vector<double>& P, const uint32_t* t) {
+using FaceTerms = std::vector<FaceTerm, kernel::HugePageAllocator<FaceTerm>>; // 48 bytes per triangle
+using Doubles = std::vector<double, kernel::HugePageAllocator<double>>;       // per point: 24 bytes a vector
+
+FaceTerm face_term(const double* P, const uint32_t* t) {
     FaceTerm f;
-    const kernel::Vec3 p[3] = {kernel::point_at(P.data(), t[0]), kernel::point_at(P.data(), t[1]), kernel::point_at(P.data(), t[2])};
+    const kernel::Vec3 p[3] = {kernel::point_at(P, t[0]), kernel::point_at(P, t[1]), kernel::point_at(P, t[2])};
     const auto face = kernel::face_normal(p[0], p[1], p[2]);
     if (!face) return f;
     f.unit[0] = face->unit.x, f.unit[1] = face->unit.y, f.unit[2] = face->unit.z;
@@ -53,7 +57,7 @@ FaceTerm face_term(const std::vector<double>& P, const uint32_t* t) {
 }
 
 // Angle-weighted normal (Thürmer & Wüthrich) of welded point v from the cached terms of its faces.
-void gather_normal(double* o, uint32_t v, const std::vector<FaceTerm>& terms, const uint32_t* tri, const std::vector<uint32_t>& off,
+void gather_normal(double* o, uint32_t v, const FaceTerms& terms, const uint32_t* tri, const std::vector<uint32_t>& off,
                    const std::vector<uint32_t>& faces) {
     kernel::Vec3 sum;
     for (uint32_t k = off[v]; k < off[size_t(v) + 1]; ++k) {
@@ -70,7 +74,7 @@ void gather_normal(double* o, uint32_t v, const std::vector<FaceTerm>& terms, co
 }
 
 // All faces' terms, then all points' normals.
-void all_normals(double* normals, std::vector<FaceTerm>& terms, const std::vector<double>& P, const std::vector<uint32_t>& tri,
+void all_normals(double* normals, FaceTerms& terms, const double* P, const std::vector<uint32_t>& tri,
                  const std::vector<uint32_t>& off, const std::vector<uint32_t>& faces) {
     terms.resize(tri.size() / 3);
     tbb::parallel_for(tbb::blocked_range<size_t>(0, terms.size(), 1024), [&](const tbb::blocked_range<size_t>& r) {
@@ -89,17 +93,17 @@ struct DisplacedGround::Impl {
     size_t vertex_count = 0;
     std::vector<uint32_t> remap;          // vertex -> welded point
     std::vector<uint32_t> copy_off, copies; // welded point -> its vertices (CSR)
-    std::vector<double> rest;             // undeformed position per point
-    std::vector<double> dir;              // displacement direction per point (unit)
-    std::vector<double> texel;            // (ti, tj) per point
+    Doubles rest;                         // undeformed position per point
+    Doubles dir;                          // displacement direction per point (unit)
+    Doubles texel;                        // (ti, tj) per point
     std::vector<uint8_t> movable;         // top_only: on the top surface
     std::vector<uint32_t> tris;           // welded, non-degenerate
     std::vector<uint32_t> face_off, faces; // point -> incident triangles (CSR)
-    std::vector<double> cur, nrm;         // current displaced positions and normals per point
+    Doubles cur, nrm;                     // current displaced positions and normals per point
     // Points bucketed by 16 x 16-texel tiles of their footprint's lower corner.
     int tiles_x = 0, tiles_y = 0;
     std::vector<uint32_t> tile_off, tile_pts;
-    std::vector<FaceTerm> terms;          // per triangle, as of the last displace_all/update
+    FaceTerms terms;                      // per triangle, as of the last displace_all/update
     std::vector<uint32_t> mark, face_mark; // scratch for update()
     std::vector<uint32_t> moved;          // points under the dirty rectangles
     std::vector<std::vector<uint32_t>> claims; // per chunk of moved points: the points it renormalises
@@ -185,6 +189,7 @@ Status DisplacedGround::prepare(const float* positions, size_t vertex_count, con
             for (size_t v = 0; v < vertex_count; ++v) m->copies[fill[m->remap[v]]++] = uint32_t(v);
         }
         // Triangles on welded points; degenerate ones carry no normal and no neighbourhood.
+        m->tris.reserve(index_count); // one allocation, not a doubling series of copies
         for (size_t t = 0; t + 3 <= index_count; t += 3) {
             const uint32_t a = m->remap[indices[t]], b = m->remap[indices[t + 1]], c = m->remap[indices[t + 2]];
             if (a == b || b == c || c == a) continue;
@@ -206,18 +211,19 @@ Status DisplacedGround::prepare(const float* positions, size_t vertex_count, con
             for (size_t p = 0; p < points; ++p)
                 for (int d = 0; d < 3; ++d) m->dir[3 * p + size_t(d)] = frame.up[size_t(d)];
         } else {
-            std::vector<FaceTerm> rest_terms;
-            all_normals(m->dir.data(), rest_terms, m->rest, m->tris, m->face_off, m->faces);
+            // The rest faces' terms stay cached: an update() before any displace_all() starts from them, and
+            // displace_all() overwrites them in place (no second allocation of the largest array).
+            all_normals(m->dir.data(), m->terms, m->rest.data(), m->tris, m->face_off, m->faces);
             for (size_t p = 0; p < points; ++p) {
                 double* o = &m->dir[3 * p];
                 if (o[0] == 0 && o[1] == 0 && o[2] == 0) o[0] = frame.up[0], o[1] = frame.up[1], o[2] = frame.up[2];
             }
         }
         m->texel.resize(2 * size_t(points));
-        for (size_t p = 0; p < points; ++p) {
+        tbb::parallel_for(size_t(0), size_t(points), [&](size_t p) {
             auto t = frame.to_texel(&m->rest[3 * p]);
             m->texel[2 * p] = t[0], m->texel[2 * p + 1] = t[1];
-        }
+        });
         if (opt.top_only && ground) {
             const double tol = opt.top_tolerance > 0 ? opt.top_tolerance : 2 * frame.texel;
             m->movable.assign(points, 1);
@@ -259,7 +265,7 @@ size_t DisplacedGround::displace_all(const Heightmap& h, float* pos, float* nor)
     Impl& m = *impl_;
     const size_t P = m.rest.size() / 3;
     tbb::parallel_for(size_t(0), P, [&](size_t p) { m.displace(uint32_t(p), h); });
-    all_normals(m.nrm.data(), m.terms, m.cur, m.tris, m.face_off, m.faces);
+    all_normals(m.nrm.data(), m.terms, m.cur.data(), m.tris, m.face_off, m.faces);
     tbb::parallel_for(size_t(0), P, [&](size_t p) {
         m.fix_normal(uint32_t(p));
         m.write(uint32_t(p), pos, nor);
@@ -304,9 +310,9 @@ static void points_under(DisplacedGround::Impl& m, const std::vector<TexelRect>&
 size_t DisplacedGround::update(const Heightmap& h, const std::vector<TexelRect>& rects, float* pos, float* nor) {
     Impl& m = *impl_;
     if (m.rest.empty()) return 0;
-    if (m.terms.size() != m.tris.size() / 3) { // no displace_all yet: the cached face terms are those of rest
+    if (m.terms.size() != m.tris.size() / 3) { // along_up, no displace_all yet: the terms of rest
         m.terms.resize(m.tris.size() / 3);
-        tbb::parallel_for(size_t(0), m.terms.size(), [&](size_t f) { m.terms[f] = face_term(m.cur, &m.tris[3 * f]); });
+        tbb::parallel_for(size_t(0), m.terms.size(), [&](size_t f) { m.terms[f] = face_term(m.cur.data(), &m.tris[3 * f]); });
     }
     auto next_epoch = [&] {
         if (++m.epoch == 0) std::fill(m.mark.begin(), m.mark.end(), 0), std::fill(m.face_mark.begin(), m.face_mark.end(), 0), m.epoch = 1;
@@ -341,7 +347,7 @@ size_t DisplacedGround::update(const Heightmap& h, const std::vector<TexelRect>&
             for (uint32_t k = m.face_off[p]; k < m.face_off[size_t(p) + 1]; ++k) {
                 const uint32_t f = m.faces[k];
                 if (!claim(m.face_mark[f])) continue;
-                m.terms[f] = face_term(m.cur, &m.tris[3 * size_t(f)]);
+                m.terms[f] = face_term(m.cur.data(), &m.tris[3 * size_t(f)]);
                 for (int corner = 0; corner < 3; ++corner) {
                     const uint32_t q = m.tris[3 * size_t(f) + size_t(corner)];
                     if (claim(m.mark[q])) points.push_back(q);

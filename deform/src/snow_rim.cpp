@@ -43,6 +43,10 @@ struct Scratch {
     std::vector<float> source, mass, profile, result, tmp, f, depth;
     std::vector<uint64_t> num, den, tmp_q;
     std::vector<uint8_t> is_source, receiver;
+    // The cosmetic rim's ring: second-order prefix sums of the window, the sources near `out`, its result.
+    std::vector<uint64_t> num2, den2;
+    std::vector<uint8_t> near_source;
+    std::vector<float> ring, ring_tmp;
     std::vector<int> row_of;
     std::vector<double> dist2;
 };
@@ -162,8 +166,10 @@ void blur(float* v, float* tmp, int w, int h, int r, bool par) {
 }
 
 // Squared distance (texels, exact Euclidean) to the nearest texel of a mask for every texel of a w × h window,
-// infinite when the mask is empty (S.dist2).
-void distance_to_mask(Scratch& S, const uint8_t* mask, int w, int h, bool par) {
+// infinite when the mask is empty (S.dist2). With `rows` >= 0, mask texels more than `rows` rows away are left
+// out: the distance is exact wherever it is <= rows (the nearest texel is then that near in rows too) and
+// larger than rows elsewhere, and the second pass skips the columns with no near row.
+void distance_to_mask(Scratch& S, const uint8_t* mask, int w, int h, bool par, int rows = -1) {
     const size_t N = size_t(w) * size_t(h);
     const float big = 1e30f;
     fit(S.f, N);
@@ -188,6 +194,7 @@ void distance_to_mask(Scratch& S, const uint8_t* mask, int w, int h, bool par) {
                 if (mask[x]) last[size_t(i)] = j;
                 const int below = last[size_t(i)];
                 if (below >= 0 && (row_of[x] < 0 || below - j < j - row_of[x])) row_of[x] = below;
+                if (rows >= 0 && row_of[x] >= 0 && std::abs(row_of[x] - j) > rows) row_of[x] = -1;
                 f[x] = row_of[x] < 0 ? big : float(row_of[x] - j) * float(row_of[x] - j);
             }
     }
@@ -274,18 +281,14 @@ bool gather_sources(Window& W, const RimInput& in, const TexelRect& win, const R
 
 // φ(τ) on the receivers, τ = distance from the imprint over the rim's width (texel centres; the outline is
 // half a texel out).
-void rim_profile(Window& W, const double* dist2, double texel, double width_m) {
+float profile_at(double d2, double texel, double width_m) {
     const double reach2 = (width_m / texel + 0.5) * (width_m / texel + 0.5);
-    for (int j = 0; j < W.h; ++j)
-        for (int i = 0; i < W.w; ++i) {
-            const size_t x = size_t(j) * size_t(W.w) + size_t(i);
-            W.profile[x] = 0;
-            if (!W.receiver[x]) continue;
-            const double d2 = dist2[x];
-            if (!(d2 < reach2)) continue;
-            const double tau = texel * (std::sqrt(d2) - 0.5) / width_m;
-            if (tau > 0 && tau < 1) W.profile[x] = float(16 * tau * tau * (1 - tau) * (1 - tau));
-        }
+    if (!(d2 < reach2)) return 0.0f;
+    const double tau = texel * (std::sqrt(d2) - 0.5) / width_m;
+    return tau > 0 && tau < 1 ? float(16 * tau * tau * (1 - tau) * (1 - tau)) : 0.0f;
+}
+void rim_profile(Window& W, const double* dist2, double texel, double width_m) {
+    for (size_t x = 0; x < W.N; ++x) W.profile[x] = W.receiver[x] ? profile_at(dist2[x], texel, width_m) : 0.0f;
 }
 
 // Fixed point of the gathered sums: 2^-20 m (about a micrometre) per unit, each value capped so that the
@@ -340,6 +343,111 @@ double rim_amplitude(Window& W, const RimInput& in, const TexelRect& win, const 
     const float k = float(target / raised);
     for (size_t x = 0; x < N; ++x) W.result[x] *= k;
     return 0.0;
+}
+
+// Second-order prefix sums (zero outside the window) of quantized values: smooth()'s result at any texel in
+// O(1). smooth() is a box of radius n applied twice, each time zero outside the window; per axis (the passes
+// are separable and commute), with C1 the prefix sum of f and C2 that of C1, the second box at x sums
+// B(y) = C1(y + n) − C1(y − n − 1) over y in [a, b] = [max(0, x − n), min(w − 1, x + n)]:
+// C2(b + n) − C2(a + n − 1) − C2(b − n − 1) + C2(a − n − 2). The table is padded by n + 2 texels before the
+// window and n after it. Unsigned 64-bit arithmetic wraps, and the true sums fit (kRimMaxGather): the result
+// is exactly smooth()'s.
+struct SumTable {
+    const uint64_t* c = nullptr;
+    int pad = 0, stride = 0, n = 0, w = 0, h = 0;
+    uint64_t at(int i, int j) const { // smooth()'s value at window texel (i, j)
+        auto terms = [this](int x, int len, int* at) { // the four C2 indices of one axis, padded
+            const int a = std::max(0, x - n), b = std::min(len - 1, x + n);
+            at[0] = b + n + pad, at[1] = a + n - 1 + pad, at[2] = b - n - 1 + pad, at[3] = a - n - 2 + pad;
+        };
+        int xs[4], ys[4];
+        terms(i, w, xs);
+        terms(j, h, ys);
+        uint64_t r[4];
+        for (int k = 0; k < 4; ++k) {
+            const uint64_t* row = c + size_t(ys[k]) * size_t(stride);
+            r[k] = row[xs[0]] - row[xs[1]] - row[xs[2]] + row[xs[3]];
+        }
+        return r[0] - r[1] - r[2] + r[3];
+    }
+};
+template <class F>
+SumTable sum_table(std::vector<uint64_t>& c, int w, int h, int n, bool par, const F& value) {
+    const int pad = n + 2, W2 = w + 2 * n + 2, H2 = h + 2 * n + 2;
+    fit(c, size_t(W2) * size_t(H2));
+    for_range(par, tbb::blocked_range<int>(0, H2, 32), [&](const tbb::blocked_range<int>& r) { // along rows, twice
+        for (int j = r.begin(); j != r.end(); ++j) {
+            uint64_t* row = c.data() + size_t(j) * size_t(W2);
+            uint64_t s1 = 0, s2 = 0;
+            const bool inside = j >= pad && j < pad + h;
+            for (int i = 0; i < W2; ++i) {
+                if (inside && i >= pad && i < pad + w) s1 += value(i - pad, j - pad);
+                s2 += s1;
+                row[i] = s2;
+            }
+        }
+    });
+    for_range(par, tbb::blocked_range<int>(0, W2, 256), [&](const tbb::blocked_range<int>& r) { // down columns, twice
+        const int i0 = r.begin(), i1 = r.end();
+        std::vector<uint64_t> s1(size_t(i1 - i0), 0), s2(size_t(i1 - i0), 0);
+        for (int j = 0; j < H2; ++j) {
+            uint64_t* row = c.data() + size_t(j) * size_t(W2);
+            for (int i = i0; i < i1; ++i) {
+                s1[size_t(i - i0)] += row[i];
+                s2[size_t(i - i0)] += s1[size_t(i - i0)];
+                row[i] = s2[size_t(i - i0)];
+            }
+        }
+    });
+    return {c.data(), pad, W2, n, w, h};
+}
+
+// The cosmetic rim evaluated only where `out` can read it (snow_field's per-frame cost): the ridge is zero
+// farther than its profile radius from an imprint, so past the window-wide sums (prefix tables, O(1) per
+// texel) every step runs on `out` grown by the blur's reach (2), the distances on that grown by the profile
+// radius. Each value is computed as the whole-window path computes it (the same integer distances and exact
+// sums, the blur's terms in the same order), so the bits equal it (tested). Fills W.result on `out`.
+void cosmetic_ring(Scratch& S, Window& W, const RimInput& in, const TexelRect& win, const TexelRect& out) {
+    const int n = rim_gather_radius(in.width_m, in.gather_m, in.texel);
+    const double cap = quantum_cap(n);
+    const SumTable num = sum_table(S.num2, W.w, W.h, n, in.parallel,
+                                   [&](int i, int j) { return quantized(W.source[size_t(j) * size_t(W.w) + size_t(i)], cap); });
+    const SumTable den = sum_table(S.den2, W.w, W.h, n, in.parallel,
+                                   [&](int i, int j) { return quantized(double(W.is_source[size_t(j) * size_t(W.w) + size_t(i)]), cap); });
+    auto grown = [&](int m) { // `out` in window coordinates, grown by m, clipped to the window
+        return TexelRect{std::max(0, out.x0 - win.x0 - m), std::max(0, out.y0 - win.y0 - m), std::min(W.w, out.x1 - win.x0 + m),
+                         std::min(W.h, out.y1 - win.y0 + m)};
+    };
+    const TexelRect I = grown(2), E = grown(2 + rim_profile_radius(in.width_m, in.texel));
+    if (I.empty()) return;
+    const int wi = I.x1 - I.x0, hi = I.y1 - I.y0, we = E.x1 - E.x0, he = E.y1 - E.y0;
+    fit(S.near_source, size_t(we) * size_t(he));
+    for (int j = 0; j < he; ++j)
+        std::copy_n(W.is_source + size_t(j + E.y0) * size_t(W.w) + size_t(E.x0), we, S.near_source.data() + size_t(j) * size_t(we));
+    distance_to_mask(S, S.near_source.data(), we, he, in.parallel, rim_profile_radius(in.width_m, in.texel));
+    fit(S.ring, size_t(wi) * size_t(hi));
+    fit(S.ring_tmp, size_t(wi) * size_t(hi));
+    float* ring = S.ring.data();
+    for (int j = 0; j < hi; ++j)
+        for (int i = 0; i < wi; ++i) {
+            const int wx = i + I.x0, wy = j + I.y0;
+            const size_t x = size_t(wy) * size_t(W.w) + size_t(wx);
+            const double d2 = S.dist2[size_t(wy - E.y0) * size_t(we) + size_t(wx - E.x0)];
+            const float profile = W.receiver[x] ? profile_at(d2, in.texel, in.width_m) : 0.0f;
+            float r = 0.0f;
+            if (profile > 0) {
+                const double d = double(int64_t(den.at(wx, wy)));
+                if (d > 0) r = float(double(profile) * double(int64_t(num.at(wx, wy))) / d);
+            }
+            ring[size_t(j) * size_t(wi) + size_t(i)] = r;
+        }
+    blur(ring, S.ring_tmp.data(), wi, hi, 1, in.parallel);
+    const float k = float(in.height_ratio / 81.0); // the blur kernel sums to 81 (two 3 x 3 box passes)
+    for (int j = 0; j < hi; ++j)
+        for (int i = 0; i < wi; ++i) {
+            const size_t x = size_t(j + I.y0) * size_t(W.w) + size_t(i + I.x0);
+            W.result[x] = W.receiver[x] ? ring[size_t(j) * size_t(wi) + size_t(i)] * k : 0.0f;
+        }
 }
 
 // How far the rim breaks its limits: max over rim texels of height / (max_height × the local print depth) and of (slope / tan(repose))^½ (height goes as 1/width at a fixed volume, slope as 1/width²). <= 1:
@@ -398,6 +506,11 @@ double compute_rim(float* rim, const RimInput& in, const TexelRect& win, const R
     };
     if (!gather_sources(W, in, win, own) || in.width_m <= 0) {
         write(nullptr);
+        return 0.0;
+    }
+    if (!in.conserve && !in.full_window) {
+        cosmetic_ring(S, W, in, win, out);
+        write(W.result);
         return 0.0;
     }
     distance_to_mask(S, W.is_source, w, h, in.parallel);

@@ -1,7 +1,7 @@
 // Welding vertices by position.
 //
-// Exact mode sorts vertex indices by the bit patterns of their coordinates (a radix-free comparison sort,
-// O(n log n)), so identical positions become neighbours and every group maps to its lowest index. Hashing
+// Exact mode sorts (bit patterns of the coordinates, index) records (a radix-free comparison sort, O(n log n),
+// in parallel), so identical positions become neighbours and every group maps to its lowest index. Hashing
 // would be O(n) on average but its worst case depends on the data, and sorting keeps the result independent
 // of any hash seed or container order.
 //
@@ -18,6 +18,9 @@
 #include <cmath>
 #include <cstring>
 #include <numeric>
+
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
 
 namespace furrow {
 namespace {
@@ -48,22 +51,26 @@ size_t weld_positions(uint32_t* remap, const float* positions, size_t vertex_cou
     if (stride_floats < 3) stride_floats = 3;
     auto p = [&](size_t v) { return positions + v * stride_floats; };
 
-    std::vector<std::array<uint32_t, 3>> keys(vertex_count);
-    for (size_t v = 0; v < vertex_count; ++v)
-        keys[v] = {position_bits(p(v)[0]), position_bits(p(v)[1]), position_bits(p(v)[2])};
-    std::vector<uint32_t> order(vertex_count);
-    std::iota(order.begin(), order.end(), 0u);
-    std::sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) {
-        return keys[a] != keys[b] ? keys[a] < keys[b] : a < b;
+    // (bits, index) records sorted in place: each comparison reads one contiguous record, and the order is
+    // total (index tie-break), so the parallel sort gives the same sequence as a serial one.
+    struct Keyed {
+        std::array<uint32_t, 3> key;
+        uint32_t v;
+        bool operator<(const Keyed& o) const { return key != o.key ? key < o.key : v < o.v; }
+    };
+    std::vector<Keyed> order(vertex_count);
+    tbb::parallel_for(size_t(0), vertex_count, [&](size_t v) {
+        order[v] = {{position_bits(p(v)[0]), position_bits(p(v)[1]), position_bits(p(v)[2])}, uint32_t(v)};
     });
+    tbb::parallel_sort(order.begin(), order.end());
     size_t unique = 0;
     for (size_t i = 0; i < vertex_count; ++i) {
-        uint32_t v = order[i];
-        if (i == 0 || keys[v] != keys[order[i - 1]]) {
+        const uint32_t v = order[i].v;
+        if (i == 0 || order[i].key != order[i - 1].key) {
             remap[v] = v; // lowest index of its group, thanks to the index tie-break
             ++unique;
         } else {
-            remap[v] = remap[order[i - 1]];
+            remap[v] = remap[order[i - 1].v];
         }
     }
     if (!(tolerance > 0.0) || !std::isfinite(tolerance)) return unique;
