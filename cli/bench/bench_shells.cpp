@@ -8,6 +8,7 @@
 #include "bench_common.h"
 #include "data_dirs.h"
 #include "cli_common.h"
+#include "lattice.h"
 
 #include <furrow/shells.h>
 
@@ -33,6 +34,7 @@ struct ShellsArgs {
     std::vector<int> layers{8, 32, 64};
     double relative_length = 0.02;   // fur length as a fraction of the model's bounding-box diagonal
     size_t max_samples = 200000;     // distance queries per row (vertices sampled evenly)
+    int lattice = 0;                 // cells per axis of the generated non-manifold lattice row (0: none)
 };
 
 struct Row {
@@ -121,16 +123,16 @@ void measure(Row& row, const Scene& scene, const FurReport& rep, int layers, siz
     row.mean_rel = count ? sum / double(count) : 0;
 }
 
-Row bench_one(const fs::path& file, int layers, const ShellsArgs& a) {
+// One row: `base` as loaded from `name` (a model file, or a generated scene), its fur mask if it has one.
+Row bench_one(const std::string& name, const Scene& base, const ImageF* mask, int layers, const ShellsArgs& a) {
     Row row;
-    row.model = file.filename().string();
+    row.model = name;
     row.layers = layers;
-    Scene base = load_or_throw(file.string());
+    const std::string file = name;
     FurOptions o;
     o.shells.layers = layers;
     o.shells.length = a.relative_length * bbox_diagonal(base);
-    fs::path mask = file.parent_path() / (file.stem().string() + "_fur_mask.png");
-    if (fs::exists(mask)) require_ok(load_png(o.mask, mask.string()), mask.string());
+    if (mask) o.mask = *mask;
     // Timed: add_fur_shells on a fresh copy of the loaded scene (the copy is not timed).
     std::vector<double> times, setup, emit;
     Scene result;
@@ -149,7 +151,7 @@ Row bench_one(const fs::path& file, int layers, const ShellsArgs& a) {
         Status st = add_fur_shells(s, o, &rr);
         auto t1 = std::chrono::steady_clock::now();
         peak = std::max(peak, pm.peak_mib());
-        require_ok(st, file.string());
+        require_ok(st, file);
         const double seconds = std::chrono::duration<double>(t1 - t0).count();
         if (r == 0) row.first_seconds = seconds; // run 0 warms up (and fills the strand-texture cache)
         else times.push_back(seconds), setup.push_back(rr.setup_seconds), emit.push_back(rr.emit_seconds);
@@ -191,7 +193,7 @@ Row bench_one(const fs::path& file, int layers, const ShellsArgs& a) {
     FurOptions keep = o;
     keep.keep_frames = true;
     FurReport fr;
-    require_ok(add_fur_shells(s, keep, &fr), file.string());
+    require_ok(add_fur_shells(s, keep, &fr), file);
     measure(row, s, fr, layers, a.max_samples); // s: its bases may have been refined (FurReport::refined_faces)
     return row;
 }
@@ -204,18 +206,39 @@ nlohmann::json run_bench_shells(const ShellsArgs& a, const GlobalFlags& g, bool 
         if (fs::is_directory(corpus_dir().string())) ba.inputs.push_back(corpus_dir().string());
     }
     std::vector<fs::path> files = collect_bench_inputs(ba, {".glb", ".gltf", ".obj", ".ply", ".off", ".stl"});
-    if (files.empty()) throw InputError("bench shells", "no input models found (give files or folders)");
+    if (files.empty() && a.lattice <= 0) throw InputError("bench shells", "no input models found (give files or folders)");
     std::vector<Row> rows;
-    for (const auto& f : files)
+    for (const auto& f : files) {
+        Scene base;
+        ImageF mask;
+        bool has_mask = false;
+        try {
+            base = load_or_throw(f.string());
+            const fs::path mask_file = f.parent_path() / (f.stem().string() + "_fur_mask.png");
+            if (fs::exists(mask_file)) require_ok(load_png(mask, mask_file.string()), mask_file.string()), has_mask = true;
+        } catch (const InputError& e) {
+            info(g, "  skipped: " + e.file + ": " + e.what());
+            continue;
+        }
         for (int n : a.layers) {
             info(g, "bench shells: " + f.string() + " N=" + std::to_string(n));
             try {
-                rows.push_back(bench_one(f, n, a));
+                rows.push_back(bench_one(f.filename().string(), base, has_mask ? &mask : nullptr, n, a));
             } catch (const InputError& e) {
                 info(g, "  skipped: " + e.file + ": " + e.what());
             }
         }
-    Table t({"model", "N", "base tris", "out tris", "ms", "Mtri/s", "out MiB", "memcpy ms", "x memcpy", "setup ms", "emit ms",
+    }
+    if (a.lattice > 0) {
+        // The generated non-manifold lattice (models/lattice.h): the intersection-heavy set-up case.
+        const Scene base = make_scene(models::lattice_primitive(a.lattice), "lattice");
+        const std::string name = "lattice" + std::to_string(a.lattice) + " (" + std::to_string(models::lattice_quad_count(a.lattice)) + " quads)";
+        for (int n : a.layers) {
+            info(g, "bench shells: " + name + " N=" + std::to_string(n));
+            rows.push_back(bench_one(name, base, nullptr, n, a));
+        }
+    }
+    Table t({"model", "N", "base tris", "out tris", "ms", "Mtri/s", "out MiB", "memcpy ms", "x memcpy", "setup ms", "setup us/tri", "emit ms",
              "emit x memcpy", "fresh ms", "emit x fresh", "1st call ms", "peak MiB", "max rel err", "mean rel err", "measured",
              "clamped"});
     nlohmann::json j = nlohmann::json::array();
@@ -225,13 +248,15 @@ nlohmann::json run_bench_shells(const ShellsArgs& a, const GlobalFlags& g, bool 
         points.push_back({r.model, "shells", "N=" + std::to_string(r.layers), r.seconds, double(r.out_triangles), r.max_rel});
         t.add({r.model, std::to_string(r.layers), std::to_string(r.base_triangles), std::to_string(r.out_triangles),
                fmt(r.seconds * 1e3, 2), fmt(r.out_triangles / r.seconds / 1e6, 1), fmt(r.out_bytes / 1048576.0, 1),
-               fmt(r.memcpy_seconds * 1e3, 3), fmt(ratio, 1), fmt(r.setup_seconds * 1e3, 2), fmt(r.emit_seconds * 1e3, 2),
+               fmt(r.memcpy_seconds * 1e3, 3), fmt(ratio, 1), fmt(r.setup_seconds * 1e3, 2),
+               fmt(r.base_triangles ? r.setup_seconds * 1e6 / double(r.base_triangles) : 0.0, 2), fmt(r.emit_seconds * 1e3, 2),
                fmt(r.emit_seconds / r.memcpy_seconds, 2), fmt(r.fresh_seconds * 1e3, 3), fmt(r.emit_seconds / r.fresh_seconds, 2),
                fmt(r.first_seconds * 1e3, 2), fmt(r.peak_mib, 1), fmt_sci(r.max_rel), fmt_sci(r.mean_rel),
                std::to_string(r.measured), std::to_string(r.clamped) + "/" + std::to_string(r.welded)});
         j.push_back({{"model", r.model}, {"layers", r.layers}, {"base_triangles", r.base_triangles},
                      {"out_triangles", r.out_triangles}, {"seconds", r.seconds}, {"out_bytes", r.out_bytes},
                      {"memcpy_seconds", r.memcpy_seconds}, {"over_memcpy", ratio}, {"setup_seconds", r.setup_seconds},
+                     {"setup_us_per_base_triangle", r.base_triangles ? r.setup_seconds * 1e6 / double(r.base_triangles) : 0.0},
                      {"emit_seconds", r.emit_seconds}, {"emit_over_memcpy", r.emit_seconds / r.memcpy_seconds},
                      {"fresh_memcpy_seconds", r.fresh_seconds}, {"emit_over_fresh_memcpy", r.emit_seconds / r.fresh_seconds},
                      {"first_call_seconds", r.first_seconds}, {"peak_mib", r.peak_mib},
@@ -242,7 +267,7 @@ nlohmann::json run_bench_shells(const ShellsArgs& a, const GlobalFlags& g, bool 
         std::printf("furrow bench shells: add_fur_shells (viewer layout) per model and N, median of %d runs on %d thread(s), "
                     "length = %.3g x bbox diagonal (creature: with its mask); baseline = memcpy (one thread, warm buffers) of "
                     "the output bytes in this run; ms = setup (per base mesh: frames, clamps, exact intersection test, "
-                    "albedo) + emit (the N shells: compare this one with memcpy); fresh = the same memcpy into memory just "
+                    "albedo; setup us/tri = setup / base triangles, after refinement) + emit (the N shells: compare this one with memcpy); fresh = the same memcpy into memory just "
                     "allocated (first-touch page faults, as any new output pays); 1st call = the warm-up run, which also "
                     "draws and encodes the strand textures (cached for later calls with the same options); error = | "
                     "distance of a shell face's centroid to the base surface (CGAL) - requested offset | / requested, over unclamped "
@@ -276,9 +301,12 @@ void register_bench_shells(CLI::App& bench, GlobalFlags& g) {
     cmd->add_option("--layers", a->layers, "Shell counts to run (default 8 32 64)")->check(finite_range(1, 256))->delimiter(',');
     cmd->add_option("--relative-length", a->relative_length, "Fur length as a fraction of the bbox diagonal (default 0.02)")
         ->check(finite_range(1e-6, 1.0));
+    cmd->add_option("--lattice", a->lattice, "Also a generated non-manifold lattice of this many cells per axis (25: 48750 quads, "
+                                             "the issue's case, minutes per row today; default 0: none)")->check(finite_range(0, 64));
     cmd->add_option("--repeat", a->base.repeat, "Timed runs per row; the median is reported (default 3)")->check(finite_range(1, 1000));
     add_bench_output_flags(*cmd, *out);
-    cmd->footer("Examples:\n  furrow bench shells\n  furrow bench shells models/creature.glb --layers 16,128 --repeat 5 --json");
+    cmd->footer("Examples:\n  furrow bench shells\n  furrow bench shells models/creature.glb --layers 16,128 --repeat 5 --json\n"
+                "  furrow bench shells --lattice 25 --layers 8");
     cmd->callback([a, out, &g] { finish_bench(run_bench_shells(*a, g, !out->json), *out, g); });
 }
 

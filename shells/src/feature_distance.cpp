@@ -174,11 +174,14 @@ struct SurfaceIndex::Impl {
 
     // Is some triangle nearer than sqrt(r2) to x (squared distance < r2)? Early exit on the first found,
     // which is written to *witness (a caller asking again nearby tries it first).
-    bool any_within(const Point& x, double r2, uint32_t* witness = nullptr) const {
+    // Faces listed in [skip, skip_end) are left out: a caller that has already measured them (and knows
+    // them to be no nearer than r2) does not pay for them twice.
+    bool any_within(const Point& x, double r2, uint32_t* witness = nullptr, const uint32_t* skip = nullptr,
+                    const uint32_t* skip_end = nullptr) const {
         const double p[3] = {x.x(), x.y(), x.z()};
         const double r = std::sqrt(r2) * (1 + 1e-12);
         return bvh.for_near(p, r2, [&](uint32_t f, double&) {
-            if (!within(f, x, p, r, r2)) return false;
+            if (std::find(skip, skip_end, f) != skip_end || !within(f, x, p, r, r2)) return false;
             if (witness) *witness = f;
             return true;
         });
@@ -368,7 +371,8 @@ size_t CrossingTest::run(uint8_t* hit, const std::vector<double>& shell, const s
     return pairs.size();
 }
 
-void free_distances(double* out, const SurfaceIndex& index, const uint32_t* query_vertex, const double* dirs, size_t query_count) {
+void free_distances(double* out, const SurfaceIndex& index, const uint32_t* query_vertex, const double* dirs, size_t query_count,
+                    const double* reach) {
     const double inf = std::numeric_limits<double>::infinity();
     const SurfaceIndex::Impl& ix = index.impl();
     if (ix.triangles.empty()) {
@@ -404,7 +408,10 @@ void free_distances(double* out, const SurfaceIndex& index, const uint32_t* quer
             const double unit = std::sqrt(d.squared_length());
             double best_param = inf, best = inf;
             bool failed = false;
-            double t_max = inf; // along dd, in units of |d|
+            // along dd, in units of |d|. A reach bounds it (with slack: the hit found is ranked by its
+            // parameter along one axis): every box holding a hit within the reach is entered before it.
+            const double t_max_reach = reach && reach[q] >= 0 ? reach[q] * (1 + 1e-6) : inf;
+            double t_max = t_max_reach / unit;
             ix.bvh.for_ray(o, dd, t_max, [&](uint32_t f, double& limit) {
                 // Faces around the vertex touch the ray at its origin; they are the surface being offset,
                 // not an obstacle in front of it.
@@ -436,7 +443,9 @@ void free_distances(double* out, const SurfaceIndex& index, const uint32_t* quer
                     failed = true; // a failed construction: be safe, treat the vertex as blocked
                 }
             });
-            out[q] = failed ? 0.0 : best;
+            // A hit found beyond the reach (in a box entered before it) need not be the first one: only the
+            // hits within the reach are certain to have been seen.
+            out[q] = failed ? 0.0 : best <= t_max_reach ? best : inf;
         }
     });
 }
@@ -465,7 +474,10 @@ void owned_lengths(double* out, const SurfaceIndex& index, const uint32_t* ring_
                     own = std::min(own, CGAL::squared_distance(x, ix.tris[ring_faces[i]]));
                 const double r2 = ratio * ratio * own;
                 if (witness != UINT32_MAX && CGAL::squared_distance(x, ix.tris[witness]) < r2) return false;
-                return !ix.any_within(x, r2, &witness);
+                // v's own faces are no nearer than own >= r2 (ratio <= 1): measured above, not searched again.
+                const uint32_t* own_begin = ring_faces + ring_start[v];
+                const uint32_t* own_end = ratio <= 1 ? ring_faces + ring_start[v + 1] : own_begin;
+                return !ix.any_within(x, r2, &witness, own_begin, own_end);
             };
             const double h = lengths[q];
             if (!(h > 0) || owned(h)) {

@@ -345,8 +345,12 @@ void feature_clamp(Growth& gr, const WeldedSurface& s, const shells_detail::Surf
             qneed.push_back(tl);
         }
     }
+    // A hit farther than H · need / safe_fraction leaves the length as it is: the rays need not look farther
+    // (twice as far, so that a bound rounded either way never decides).
+    std::vector<double> reach(qv.size());
+    for (size_t q = 0; q < qv.size(); ++q) reach[q] = 2.0 * H[qv[q]] * qneed[q] / o.safe_fraction;
     std::vector<double> dist(qv.size());
-    shells_detail::free_distances(dist.data(), index, qv.data(), qd.data(), qv.size());
+    shells_detail::free_distances(dist.data(), index, qv.data(), qd.data(), qv.size(), reach.data());
     for (size_t q = 0; q < qv.size(); ++q) {
         uint32_t w = qv[q];
         double allowed = o.safe_fraction * dist[q] / qneed[q];

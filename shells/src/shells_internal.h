@@ -71,9 +71,12 @@ private:
 };
 
 // For each query, the distance along the unit direction dirs[3q..3q+2] from points[query_vertex[q]] to the
-// first triangle that does not contain that vertex; +infinity if the ray leaves the mesh.
+// first triangle that does not contain that vertex; +infinity if the ray leaves the mesh. With `reach`
+// (optional), a query only looks as far as reach[q]: a first hit within reach[q] (give or take 1e-6 of it) is
+// answered as without it, anything else is +infinity. A clamp that cannot be
+// affected by a far hit thus never walks the hierarchy across the whole mesh.
 void free_distances(double* out, const SurfaceIndex& index, const uint32_t* query_vertex, const double* dirs,
-                    size_t query_count);
+                    size_t query_count, const double* reach = nullptr);
 
 // The medial-axis limit. For each query vertex v with unit direction d and length H, the largest t <= H such
 // that the point q = p + t·d is still "owned" by v: its distance to the whole mesh is at least `ratio` × its

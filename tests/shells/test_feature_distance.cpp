@@ -1,0 +1,148 @@
+// feature_distance.cpp's ray query with a reach (free_distances(..., reach)): the bound lets the traversal stop
+// early, and must never let the feature clamp miss a hit it would act on. Property test against the
+// unbounded query on random meshes: within the reach, the same distance bit for bit; beyond it, +infinity (or
+// the same distance); and the clamp compute_shell_frame derives from it (min(H, safe_fraction · distance /
+// need) with reach = 2 · H · need / safe_fraction) identical.
+#include "../../shells/src/shells_internal.h"
+#include "../../models/lattice.h"
+
+#include <furrow/shapes.h>
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <vector>
+
+using namespace furrow;
+
+namespace {
+
+uint64_t next(uint64_t& s) { // splitmix64
+    uint64_t z = (s += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return z ^ (z >> 31);
+}
+double uniform(uint64_t& s) { return double(next(s) >> 11) * 0x1.0p-53; }
+
+struct TriSoup {
+    std::vector<double> points;
+    std::vector<std::array<uint32_t, 3>> triangles;
+};
+
+// A primitive's triangles on its welded positions (exact weld), faces with a repeated corner left out.
+TriSoup from_primitive(Primitive p) {
+    if (!p.face_sizes.empty()) triangulate(p);
+    TriSoup m;
+    std::vector<uint32_t> remap(p.vertex_count());
+    weld_positions(remap.data(), p.positions.data(), p.vertex_count());
+    for (size_t v = 0; v < p.vertex_count(); ++v)
+        if (remap[v] == v) {
+            m.points.insert(m.points.end(), {p.positions[3 * v], p.positions[3 * v + 1], p.positions[3 * v + 2]});
+            remap[v] = uint32_t(m.points.size() / 3 - 1);
+        } else {
+            remap[v] = remap[remap[v]];
+        }
+    for (size_t i = 0; i + 2 < p.indices.size(); i += 3) {
+        const std::array<uint32_t, 3> t{remap[p.indices[i]], remap[p.indices[i + 1]], remap[p.indices[i + 2]]};
+        if (t[0] != t[1] && t[1] != t[2] && t[0] != t[2]) m.triangles.push_back(t);
+    }
+    return m;
+}
+
+// A soup of random triangles in the unit cube, sharing corners at random (so that rays start on surfaces).
+TriSoup random_soup(uint64_t seed, size_t points, size_t triangles) {
+    TriSoup m;
+    for (size_t i = 0; i < 3 * points; ++i) m.points.push_back(uniform(seed));
+    while (m.triangles.size() < triangles) {
+        const uint32_t a = uint32_t(next(seed) % points);
+        std::array<uint32_t, 3> t{a, a, a};
+        // Small triangles: corners near a (the nearest of a few random picks), so that rays meet some.
+        for (int k = 1; k < 3; ++k) {
+            double best = HUGE_VAL;
+            for (int tries = 0; tries < 8; ++tries) {
+                const uint32_t b = uint32_t(next(seed) % points);
+                double d = 0;
+                for (int c = 0; c < 3; ++c) d += std::pow(m.points[3 * b + c] - m.points[3 * a + c], 2);
+                if (b != a && b != t[1] && d < best) best = d, t[size_t(k)] = b;
+            }
+        }
+        if (t[0] != t[1] && t[1] != t[2] && t[0] != t[2]) m.triangles.push_back(t);
+    }
+    return m;
+}
+
+void check_reach(const TriSoup& m, uint64_t seed, double scale) {
+    const shells_detail::SurfaceIndex index(m.points, m.triangles);
+    const size_t W = m.points.size() / 3;
+    std::vector<uint32_t> qv;
+    std::vector<double> dirs, reach, H, need;
+    for (uint32_t v = 0; v < W; ++v)
+        for (int k = 0; k < 2; ++k) {
+            double d[3], len = 0;
+            do {
+                len = 0;
+                for (double& x : d) x = 2 * uniform(seed) - 1, len += x * x;
+            } while (!(len > 1e-6 && len <= 1));
+            len = std::sqrt(len);
+            qv.push_back(v);
+            dirs.insert(dirs.end(), {d[0] / len, d[1] / len, d[2] / len});
+            H.push_back(scale * uniform(seed));
+            need.push_back(1 + uniform(seed));
+        }
+    const double safe = 0.45;
+    for (size_t q = 0; q < qv.size(); ++q) reach.push_back(2.0 * H[q] * need[q] / safe);
+    std::vector<double> full(qv.size()), bounded(qv.size());
+    shells_detail::free_distances(full.data(), index, qv.data(), dirs.data(), qv.size());
+    shells_detail::free_distances(bounded.data(), index, qv.data(), dirs.data(), qv.size(), reach.data());
+    size_t within = 0, beyond = 0;
+    for (size_t q = 0; q < qv.size(); ++q) {
+        if (full[q] <= reach[q]) {
+            ++within;
+            EXPECT_EQ(bounded[q], full[q]) << "query " << q;
+        } else {
+            ++beyond;
+            EXPECT_TRUE(bounded[q] == full[q] || bounded[q] == std::numeric_limits<double>::infinity()) << "query " << q;
+        }
+        // The clamp as compute_shell_frame applies it.
+        EXPECT_EQ(std::min(H[q], safe * bounded[q] / need[q]), std::min(H[q], safe * full[q] / need[q])) << "query " << q;
+    }
+    // Both cases occur, or the test would prove nothing.
+    EXPECT_GT(within, qv.size() / 50);
+    EXPECT_GT(beyond, qv.size() / 50);
+}
+
+} // namespace
+
+TEST(free_distances_reach, RandomSoupsMatchTheUnboundedQuery) {
+    for (uint64_t seed = 1; seed <= 6; ++seed) check_reach(random_soup(seed, 400, 600), seed * 77, 0.05);
+}
+
+TEST(free_distances_reach, ClosedAndNonManifoldMeshesMatchTheUnboundedQuery) {
+    check_reach(from_primitive(shapes::torus(1.0f, 0.3f, 48, 24)), 11, 0.5);
+    check_reach(from_primitive(shapes::icosphere(1.0f, 3)), 12, 1.0);
+    // Axis-aligned walls meeting at non-manifold edges: rays along and across coplanar faces.
+    check_reach(from_primitive(models::lattice_primitive(3)), 13, 1.0);
+}
+
+TEST(free_distances_reach, ZeroReachFindsOnlyWhatTouchesTheOrigin) {
+    const TriSoup m = from_primitive(shapes::icosphere(1.0f, 2));
+    const shells_detail::SurfaceIndex index(m.points, m.triangles);
+    // Straight through the centre: the far side is 2 away.
+    const uint32_t v = 0;
+    const double* p = &m.points[0];
+    const double len = std::sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
+    const double d[3] = {-p[0] / len, -p[1] / len, -p[2] / len};
+    double full = 0, near = 0, far = 0;
+    const double short_reach = 1.0, long_reach = 3.0;
+    shells_detail::free_distances(&full, index, &v, d, 1);
+    shells_detail::free_distances(&near, index, &v, d, 1, &short_reach);
+    shells_detail::free_distances(&far, index, &v, d, 1, &long_reach);
+    EXPECT_GT(full, 1.9);
+    EXPECT_LT(full, 2.0 + 1e-9);
+    EXPECT_EQ(near, std::numeric_limits<double>::infinity());
+    EXPECT_EQ(far, full);
+}
