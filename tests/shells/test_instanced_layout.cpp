@@ -247,6 +247,19 @@ TEST(instanced_layout, EveryEncodingIsValidAndLoads) {
     }
 }
 
+TEST(instanced_layout, ExtrasMustBeAJsonObject) {
+    Scene s = make_scene(shapes::uv_sphere(0.5f, 8, 4), "sphere");
+    s.meshes[0].extras_json = "[1, 2]";
+    const fs::path f = test::temp_dir() / "bad.glb";
+    Status st = save_scene(s, f.string());
+    EXPECT_EQ(st.code, StatusCode::invalid_argument);
+    EXPECT_NE(st.message.find("extras_json"), std::string::npos) << st.message;
+    EXPECT_FALSE(fs::exists(f));
+    s.meshes[0].extras_json = R"({"note": "kept"})";
+    ASSERT_TRUE(save_scene(s, f.string()).ok());
+    EXPECT_EQ(test::gltf_json(f)["meshes"][0]["extras"]["note"], "kept");
+}
+
 // About 1/N of the engine layout: what the shells add (file minus the bare model's) with 32 layers.
 TEST(instanced_layout, AddsAboutOneNthOfTheEngineLayoutsBytes) {
     const Scene creature = load(test::models_dir() / "creature.glb");
