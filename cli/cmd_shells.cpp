@@ -49,7 +49,7 @@ void run_shells(const ShellsArgs& a, const GlobalFlags& g) {
     require_extension(a.out, "--output", {".glb", ".gltf"});
     if (same_file(a.out, a.in)) throw InputError(a.out, "output path is the input file; refusing to overwrite the input");
     FurOptions fur = a.fur; // with the mask, comb and layout the flags name
-    fur.layout = a.layout == "engine" ? ShellLayout::engine : ShellLayout::viewer;
+    fur.layout = a.layout == "engine" ? ShellLayout::engine : a.layout == "instanced" ? ShellLayout::instanced : ShellLayout::viewer;
     if (!a.mask.empty()) {
         auto [file, letter] = split_channel(a.mask);
         fur.mask = load_image_or_throw(file, "mask");
@@ -71,6 +71,7 @@ void run_shells(const ShellsArgs& a, const GlobalFlags& g) {
     save_or_throw(scene, a.out, a.in, a.save);
     std::string line = "Wrote " + a.out + ": " + plural(size_t(fur.shells.layers), "shell") + " on " +
                        plural(r.primitives, "primitive") + ", " + std::to_string(r.shell_triangles) + " triangles added";
+    if (fur.layout == ShellLayout::instanced) line += " (instanced: each shell base written once, on a node '<node>_fur_shells')";
     if (r.dropped_triangles) line += " (" + std::to_string(r.dropped_triangles) + " bald shell triangles dropped)";
     if (r.fin_quads) line += ", " + plural(r.fin_quads, "fin");
     if (fur.shells.lod_levels > 1) line += ", " + std::to_string(fur.shells.lod_levels) + " LOD levels";
@@ -121,8 +122,10 @@ void register_shells(CLI::App& app, GlobalFlags& g) {
         ->check(finite_range(0.0, 10.0));
     cmd->add_option("--layout", a->layout,
                     "viewer (default): one MASK material per shell, works in any glTF viewer; engine: one primitive with "
-                    "_FUR_LAYER, _FUR_LENGTH, _FUR_DIRECTION")
-        ->check(CLI::IsMember({"viewer", "engine"}));
+                    "_FUR_LAYER, _FUR_LENGTH, _FUR_DIRECTION; instanced: the base once with _FUR_DIRECTION, _FUR_LENGTH "
+                    "(+ _FUR_LEAN, _FUR_SAG) and the layer parameters in extras FURROW_shells, for a shader that draws it N times "
+                    "(README \"Instanced layout\")")
+        ->check(CLI::IsMember({"viewer", "engine", "instanced"}));
     cmd->add_flag("--fins", a->fur.fins, "Add fins: a textured quad on every manifold edge, with _FUR_FIN_NORMAL for fading");
     cmd->add_option("--lod", a->fur.shells.lod_levels,
                     "LOD levels K, 1..8 (default 1): N, N/2, N/4, ... shells; levels >= 1 on nodes '<node>_fur_lod<k>' "

@@ -487,6 +487,8 @@ Status write_meshes(tinygltf::Model& m, const Scene& scene, const tinygltf::Mode
         }
         o.name = mesh.name;
         if (mesh.primitives.empty()) return bad("mesh " + std::to_string(mi) + " has no primitives");
+        if (!mesh.extras_json.empty() && !nlohmann::json::parse(mesh.extras_json, nullptr, false).is_object())
+            return bad("mesh " + std::to_string(mi) + ": extras_json is not a JSON object");
         const size_t targets = mesh.primitives[0].targets.size();
         for (size_t pi = 0; pi < mesh.primitives.size(); ++pi) {
             const Primitive& p = mesh.primitives[pi];
@@ -787,6 +789,9 @@ Status save_scene(const Scene& scene, const std::string& path, const SaveOptions
         if (Status s = build_model(m, bin, scene, options); !s.ok()) return s;
         nlohmann::json j;
         if (Status s = serialise_document(j, m); !s.ok()) return s;
+        // Mesh::extras_json (checked to be an object by write_meshes) replaces the mesh's extras.
+        for (size_t mi = 0; mi < scene.meshes.size(); ++mi)
+            if (!scene.meshes[mi].extras_json.empty()) j["meshes"][mi]["extras"] = nlohmann::json::parse(scene.meshes[mi].extras_json);
         // EXT_meshopt_compression: buffer 0 gets the encoded views, buffer 1 is the data-less fallback.
         nlohmann::json fallback;
         if (options.encoding == Encoding::compress && bin.size > 0) {

@@ -26,6 +26,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <map>
 #include <optional>
 #include <unordered_map>
@@ -422,17 +423,14 @@ parallel(m, 4096, [&](size_t i) {
 
 // Positions and colours of shell `layer` of `layers`.
 void fill_shell(const ShellSource& r, const FurOptions& opt, int layer, int layers, float* positions, float* colors) {
+    // The one shell formula (shell_positions, the instanced layout's reference): copies of a position land on
+    // the same float, and an instanced shader rebuilds exactly these positions.
+    instanced_shell_positions(positions, r.root.data(), r.dir.data(), r.len.data(), r.lean.data(), r.sag.data(), r.m, layer, layers,
+                              opt.shells.spacing_power);
     const double s = shell_height_fraction(layer, layers, opt.shells.spacing_power);
     const float shade = float(opt.root_shade + (1.0 - opt.root_shade) * s);
     for (size_t i = 0; i < r.m; ++i) {
-        const double h = r.len[i];
-        // Same expression as shell_positions: copies of a position land on the same float.
-        const auto o = shells_detail::strand_offset(&r.dir[3 * i], &r.lean[3 * i], &r.sag[3 * i], s);
-        for (size_t k = 0; k < 3; ++k) {
-            const size_t j = 3 * i + k;
-            positions[j] = float(double(r.root[j]) + h * o[k]);
-            colors[4 * i + k] = r.albedo[j] * shade;
-        }
+        for (size_t k = 0; k < 3; ++k) colors[4 * i + k] = r.albedo[3 * i + k] * shade;
         colors[4 * i + 3] = 1.0f;
     }
 }
@@ -501,6 +499,26 @@ Primitive engine_shells(const ShellSource& r, const Grown& g, const FurOptions& 
     });
     all.custom = {std::move(layer), std::move(length), std::move(direction)};
     return all;
+}
+
+// The instanced layout's shell base: the kept base triangles once, at the roots, with what a vertex shader
+// needs to place any shell (instanced_shell_positions) and colour it (COLOR_0 = albedo; the shader multiplies
+// by root_shade + (1 − root_shade)·s). _FUR_LEAN and _FUR_SAG only when some vertex has comb or droop.
+Primitive instanced_base(const ShellSource& r, const Grown& g, int material) {
+    Primitive b = r.proto;
+    b.material = material;
+    b.positions = r.root;
+    b.indices = g.sv.indices;
+    b.colors.resize(4 * r.m);
+    for (size_t i = 0; i < r.m; ++i) {
+        for (size_t k = 0; k < 3; ++k) b.colors[4 * i + k] = r.albedo[3 * i + k];
+        b.colors[4 * i + 3] = 1.0f;
+    }
+    b.custom = {CustomAttribute{"_FUR_DIRECTION", 3, r.dir}, CustomAttribute{"_FUR_LENGTH", 1, r.len}};
+    auto nonzero = [](const std::vector<float>& v) { return std::any_of(v.begin(), v.end(), [](float x) { return x != 0.0f; }); };
+    if (nonzero(r.lean)) b.custom.push_back(CustomAttribute{"_FUR_LEAN", 3, r.lean});
+    if (nonzero(r.sag)) b.custom.push_back(CustomAttribute{"_FUR_SAG", 3, r.sag});
+    return b;
 }
 
 // Fins: a quad standing on every manifold edge of the welded mesh, from the base to the tips.
@@ -646,10 +664,21 @@ Status grow_base(Grown& g, const Scene& scene, const Placement& pl, const FurOpt
     return Status::success();
 }
 
-// The materials: one per shell and level (viewer layout) or one for all (engine), and the fins'.
+// Alpha cutoff of shell i (1..n) of a level with n of the N shells. Shell i sits at s(i/n) and stands for the
+// slab of strands between its neighbours. Its cutoff shows the strands' cross-section at the middle of the
+// lowest full-resolution layer of that slab: s((i − 1/2)/N) with all N shells (so the top shell still shows
+// the tips), and with fewer, thicker slabs the wider, lower part of each cone, which keeps a coarse level as
+// dense as the full one (strand thickness compensated).
+float shell_cutoff(int i, int n, const ShellOptions& so) {
+    const double t = double(i - 1) / double(n) + 0.5 / double(so.layers);
+    return float(std::clamp(std::pow(t, so.spacing_power), 1.0 / 255.0, 1.0));
+}
+
+// The materials: one per shell and level (viewer layout) or one for all (engine, instanced), and the fins'.
 struct ShellMaterials {
     std::vector<std::vector<int>> shell; // [level][shell i - 1], viewer layout
-    int engine = -1, fins = -1;
+    int engine = -1, fins = -1;          // engine: the engine and instanced layouts' one shell material
+    int strand_texture = -1;
 };
 
 ShellMaterials add_fur_materials(Scene& scene, const FurOptions& opt, const std::vector<uint8_t>& density_png,
@@ -662,35 +691,36 @@ ShellMaterials add_fur_materials(Scene& scene, const FurOptions& opt, const std:
         mat.fins = add_material(scene, "fur_fins", fin_tex, 0, 0.5f, true);
     }
     const int N = so.layers, levels = so.lod_levels;
-    // Shell i of a level with n shells sits at s(i/n) and stands for the slab of strands between its
-    // neighbours. Its cutoff shows the strands' cross-section at the middle of the lowest full-resolution
-    // layer of that slab: s((i − 1/2)/N) with all N shells (so the top shell still shows the tips), and with
-    // fewer, thicker slabs the wider, lower part of each cone, which keeps a coarse level as dense as the
-    // full one (strand thickness compensated).
-    auto cutoff_of = [&](int i, int n) {
-        double t = double(i - 1) / double(n) + 0.5 / double(N);
-        return float(std::clamp(std::pow(t, so.spacing_power), 1.0 / 255.0, 1.0));
-    };
+    mat.strand_texture = density_tex;
     mat.shell.resize(size_t(levels));
     if (opt.layout == ShellLayout::viewer) {
         for (int k = 0; k < levels; ++k)
             for (int i = 1; i <= layers_of(N, k); ++i)
                 mat.shell[size_t(k)].push_back(add_material(
                     scene, "fur_shell_" + (levels > 1 ? "lod" + std::to_string(k) + "_" : std::string()) + std::to_string(i), density_tex, 1,
-                    cutoff_of(i, layers_of(N, k)), false));
+                    shell_cutoff(i, layers_of(N, k), so), false));
     } else {
-        mat.engine = add_material(scene, "fur_shells_engine", density_tex, 1, 0.5f, false);
+        // The cutoff is the shader's, per shell (engine: from _FUR_LAYER; instanced: FURROW_shells.cutoffs).
+        mat.engine = add_material(scene, opt.layout == ShellLayout::engine ? "fur_shells_engine" : "fur_shells_instanced",
+                                  density_tex, 1, 0.5f, false);
     }
     return mat;
 }
 
-// The shells (every level) and fins of one grown base, appended to added[level][mesh].
+// The shells (every level) and fins of one grown base, appended to added[level][mesh]; in the instanced
+// layout, its shell base instead of the shells, appended to bases[mesh].
 void emit_grown(const Grown& g, const Primitive& base, const FurOptions& opt, const ShellMaterials& mat, double scale,
-                size_t original_meshes, std::vector<std::vector<Primitive>>& added, FurReport& rep) {
+                size_t original_meshes, std::vector<std::vector<Primitive>>& added, std::vector<std::vector<Primitive>>& bases,
+                FurReport& rep) {
     if (g.sv.src.empty()) return;
     const ShellSource r = shell_source(g, base);
     const int levels = opt.shells.lod_levels;
-    for (int k = 0; k < levels; ++k) {
+    if (opt.layout == ShellLayout::instanced) {
+        bases[g.mesh].push_back(instanced_base(r, g, mat.engine));
+        rep.shell_triangles += g.sv.indices.size() / 3;
+        rep.dropped_triangles += g.dropped;
+    }
+    for (int k = 0; k < levels && opt.layout != ShellLayout::instanced; ++k) {
         const int n_k = layers_of(opt.shells.layers, k);
         std::vector<Primitive>& dst = added[size_t(k) * original_meshes + g.mesh];
         if (opt.layout == ShellLayout::viewer) {
@@ -710,6 +740,104 @@ void emit_grown(const Grown& g, const Primitive& base, const FurOptions& opt, co
             added[size_t(k) * original_meshes + g.mesh].push_back(*fins);
             rep.shell_triangles += fins->indices.size() / 3;
         }
+}
+
+// A node outside the default scene drawing `mesh` where node `src_node` draws its source: same skin and
+// morph weights, or (not skinned) the source's world matrix. Returns its index.
+int add_offscene_node(Scene& scene, int mesh, int src_node, const std::vector<Mat4>& world, const std::string& name) {
+    const Node& src = scene.nodes[size_t(src_node)];
+    Node node;
+    node.name = name;
+    node.mesh = mesh;
+    node.skin = src.skin;
+    node.weights = src.weights;
+    if (src.skin < 0) { // a skinned mesh ignores its node's transform (glTF 2.0, 3.7.3.3)
+        node.has_matrix = true;
+        node.matrix = world[size_t(src_node)];
+    }
+    scene.nodes.push_back(std::move(node));
+    return int(scene.nodes.size()) - 1;
+}
+
+std::string node_name(const Scene& scene, int node, size_t mesh) {
+    const std::string& n = scene.nodes[size_t(node)].name;
+    return n.empty() ? "mesh" + std::to_string(mesh) : n;
+}
+
+// A JSON number: floats with the 9 digits that give them back exactly, doubles with 17.
+std::string json_number(double x, int digits) {
+    char buf[40];
+    std::snprintf(buf, sizeof buf, "%.*g", digits, x);
+    return buf;
+}
+
+// The instanced layout's extras, {"FURROW_shells": {...}}: everything a renderer needs besides the per-vertex
+// attributes, per LOD level the shell heights s and alpha cutoffs (README "Instanced layout").
+std::string furrow_shells_extras(const FurOptions& opt, const ShellMaterials& mat, bool lean, bool sag) {
+    const ShellOptions& so = opt.shells;
+    std::string j = "{\"FURROW_shells\":{\"version\":1,\"layers\":";
+    j += std::to_string(so.layers);
+    j += ",\"spacing_power\":";
+    j += json_number(so.spacing_power, 17);
+    j += ",\"root_shade\":";
+    j += json_number(opt.root_shade, 17);
+    j += ",\"material\":";
+    j += std::to_string(mat.engine);
+    j += ",\"strand_texture\":";
+    j += std::to_string(mat.strand_texture);
+    j += ",\"strand_texcoord\":1,\"attributes\":{\"direction\":\"_FUR_DIRECTION\",\"length\":\"_FUR_LENGTH\"";
+    if (lean) j += ",\"lean\":\"_FUR_LEAN\"";
+    if (sag) j += ",\"sag\":\"_FUR_SAG\"";
+    j += "},\"levels\":[";
+    for (int k = 0; k < so.lod_levels; ++k) {
+        const int n = layers_of(so.layers, k);
+        std::string heights, cutoffs;
+        for (int i = 1; i <= n; ++i) {
+            if (i > 1) heights += ',', cutoffs += ',';
+            heights += json_number(shell_height_fraction(i, n, so.spacing_power), 17);
+            cutoffs += json_number(shell_cutoff(i, n, so), 9);
+        }
+        if (k > 0) j += ',';
+        j += "{\"layers\":";
+        j += std::to_string(n);
+        j += ",\"heights\":[";
+        j += heights;
+        j += "],\"cutoffs\":[";
+        j += cutoffs;
+        j += "]}";
+    }
+    j += "]}}";
+    return j;
+}
+
+// The instanced layout's shell bases: per furred mesh, a mesh "<mesh>_fur_shells" of its shell bases (with
+// the base's morph weights) on a node "<node>_fur_shells" outside the default scene.
+void attach_instanced(Scene& scene, std::vector<std::vector<Primitive>>& bases, const std::vector<int>& mesh_node,
+                      const std::vector<Mat4>& world, const FurOptions& opt, const ShellMaterials& mat, FurReport& rep) {
+    for (size_t mi = 0; mi < bases.size(); ++mi) {
+        if (bases[mi].empty()) continue;
+        auto has = [&](const char* name) {
+            for (const Primitive& p : bases[mi])
+                for (const CustomAttribute& c : p.custom)
+                    if (c.name == name) return true;
+            return false;
+        };
+        Mesh m;
+        m.name = scene.meshes[mi].name + "_fur_shells";
+        m.weights = scene.meshes[mi].weights;
+        m.extras_json = furrow_shells_extras(opt, mat, has("_FUR_LEAN"), has("_FUR_SAG"));
+        // Every primitive of a glTF mesh carries the same attributes: zero lean/sag where one base has none.
+        for (const char* name : {"_FUR_LEAN", "_FUR_SAG"})
+            if (has(name))
+                for (Primitive& p : bases[mi])
+                    if (std::none_of(p.custom.begin(), p.custom.end(), [&](const CustomAttribute& c) { return c.name == name; }))
+                        p.custom.push_back(CustomAttribute{name, 3, std::vector<float>(3 * p.vertex_count(), 0.0f)});
+        rep.shell_primitives += bases[mi].size();
+        m.primitives = std::move(bases[mi]);
+        scene.meshes.push_back(std::move(m));
+        rep.shell_nodes.push_back(add_offscene_node(scene, int(scene.meshes.size()) - 1, mesh_node[mi], world,
+                                                    node_name(scene, mesh_node[mi], mi) + "_fur_shells"));
+    }
 }
 
 // Refined bases in place of their originals; level 0 into the meshes themselves; level k >= 1 into copies on
@@ -740,18 +868,8 @@ void attach(Scene& scene, std::vector<Grown>& grown, std::vector<std::vector<Pri
                 ++rep.shell_primitives;
             }
             scene.meshes.push_back(std::move(lod));
-            const Node& src = scene.nodes[size_t(mesh_node[mi])];
-            Node node;
-            node.name = (src.name.empty() ? "mesh" + std::to_string(mi) : src.name) + "_fur_lod" + std::to_string(k);
-            node.mesh = int(scene.meshes.size()) - 1;
-            node.skin = src.skin;
-            node.weights = src.weights;
-            if (src.skin < 0) { // a skinned mesh ignores its node's transform (glTF 2.0, 3.7.3.3)
-                node.has_matrix = true;
-                node.matrix = world[size_t(mesh_node[mi])];
-            }
-            scene.nodes.push_back(std::move(node));
-            rep.lod_nodes.push_back(int(scene.nodes.size()) - 1);
+            rep.lod_nodes.push_back(add_offscene_node(scene, int(scene.meshes.size()) - 1, mesh_node[mi], world,
+                                                      node_name(scene, mesh_node[mi], mi) + "_fur_lod" + std::to_string(k)));
         }
     }
 }
@@ -860,8 +978,11 @@ Status add_fur_shells(Scene& scene, const FurOptions& opt, FurReport* report) {
         rep.setup_seconds = std::chrono::duration<double>(setup_done - started).count();
         const size_t original_meshes = scene.meshes.size();
         std::vector<std::vector<Primitive>> added(size_t(opt.shells.lod_levels) * original_meshes); // [level][mesh]
-        for (const Grown& g : grown) emit_grown(g, base_of(scene, g), opt, mat, placement[g.mesh].scale, original_meshes, added, rep);
+        std::vector<std::vector<Primitive>> bases(original_meshes); // instanced layout: [mesh]
+        for (const Grown& g : grown)
+            emit_grown(g, base_of(scene, g), opt, mat, placement[g.mesh].scale, original_meshes, added, bases, rep);
         attach(scene, grown, added, mesh_node, world, opt.shells.lod_levels, original_meshes, rep);
+        attach_instanced(scene, bases, mesh_node, world, opt, mat, rep);
         rep.emit_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - setup_done).count();
         return Status::success();
     });

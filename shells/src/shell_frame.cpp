@@ -654,14 +654,21 @@ Status compute_shell_frame(ShellFrame& out, const float* positions, size_t verte
     });
 }
 
-void shell_positions(float* out, const ShellFrame& frame, const float* positions, size_t vertex_count, int layer,
-                     int layers, double spacing_power) {
+void shell_positions(float* out, const ShellFrame& frame, const float* positions, size_t vertex_count, int layer, int layers,
+                     double spacing_power) {
+    instanced_shell_positions(out, positions, frame.direction.data(), frame.length.data(), frame.lean.data(), frame.sag.data(),
+                              vertex_count, layer, layers, spacing_power);
+}
+
+void instanced_shell_positions(float* out, const float* roots, const float* direction, const float* length, const float* lean,
+                               const float* sag, size_t vertex_count, int layer, int layers, double spacing_power) {
     const double s = shell_height_fraction(layer, layers, spacing_power);
+    static constexpr float zero[3] = {0, 0, 0};
     parallel(vertex_count, 4096, [&](size_t v) {
-        const double h = frame.length[v];
+        const double h = length[v];
         // In double, from per-copy inputs that are bit-identical: every copy lands on the same float.
-        const auto o = shells_detail::strand_offset(&frame.direction[3 * v], &frame.lean[3 * v], &frame.sag[3 * v], s);
-        for (size_t k = 0; k < 3; ++k) out[3 * v + k] = float(double(positions[3 * v + k]) + h * o[k]);
+        const auto o = shells_detail::strand_offset(&direction[3 * v], lean ? &lean[3 * v] : zero, sag ? &sag[3 * v] : zero, s);
+        for (size_t k = 0; k < 3; ++k) out[3 * v + k] = float(double(roots[3 * v + k]) + h * o[k]);
     });
 }
 

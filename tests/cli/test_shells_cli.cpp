@@ -36,6 +36,24 @@ TEST(furrow_shells, WritesValidViewerAndEngineLayouts) {
     EXPECT_TRUE(j["meshes"][0]["primitives"][2]["attributes"].contains("_FUR_FIN_NORMAL"));
 }
 
+TEST(furrow_shells, InstancedLayoutWritesTheBaseOnceWithItsLayerParameters) {
+    fs::path dir = test::temp_dir(), in = write_sphere(dir);
+    auto r = run_furrow({"shells", in.string(), "-o", (dir / "instanced.glb").string(), "--layers", "8", "--length", "0.05",
+                         "--layout", "instanced", "--droop", "1", "--fins", "--compress"});
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_NE(r.err.find("instanced"), std::string::npos) << r.err;
+    EXPECT_VALID_GLTF(dir / "instanced.glb");
+    auto j = test::gltf_json(dir / "instanced.glb");
+    EXPECT_EQ(j["meshes"][0]["primitives"].size(), 2u); // the sphere and its fins: stock viewers show no shells
+    ASSERT_EQ(j["meshes"].size(), 2u);
+    const auto& shells = j["meshes"][1];
+    EXPECT_EQ(shells["name"], "mesh_fur_shells");
+    for (const char* a : {"_FUR_DIRECTION", "_FUR_LENGTH", "_FUR_SAG"}) EXPECT_TRUE(shells["primitives"][0]["attributes"].contains(a)) << a;
+    EXPECT_EQ(shells["extras"]["FURROW_shells"]["layers"], 8);
+    EXPECT_EQ(shells["extras"]["FURROW_shells"]["levels"][0]["cutoffs"].size(), 8u);
+    for (int root : j["scenes"][0]["nodes"]) EXPECT_NE(j["nodes"][size_t(root)]["name"], "mesh_fur_shells");
+}
+
 TEST(furrow_shells, MaskWithChannelAndCreature) {
     fs::path dir = test::temp_dir();
     const fs::path models = test::models_dir();
@@ -54,17 +72,20 @@ TEST(furrow_shells, MaskWithChannelAndCreature) {
 TEST(furrow_shells, IdenticalBytesForAnyThreadCount) {
     fs::path dir = test::temp_dir();
     const fs::path creature = test::models_dir() / "creature.glb";
-    std::vector<std::string> common{"shells", creature.string(), "--layers", "6", "--length", "0.05", "--fins", "--lod", "2",
-                                    "--droop", "1", "--mask", (test::models_dir() / "creature_fur_mask.png").string()};
-    auto a = common, b = common;
-    a.insert(a.begin(), {"-j", "1"});
-    a.insert(a.end(), {"-o", (dir / "a.glb").string()});
-    b.insert(b.begin(), {"-j", "2"});
-    b.insert(b.end(), {"-o", (dir / "b.glb").string()});
-    auto ra = run_furrow(a), rb = run_furrow(b);
-    ASSERT_EQ(ra.exit_code, 0) << ra.err;
-    ASSERT_EQ(rb.exit_code, 0) << rb.err;
-    EXPECT_EQ(test::read_bytes(dir / "a.glb"), test::read_bytes(dir / "b.glb"));
+    for (const char* layout : {"viewer", "instanced"}) {
+        std::vector<std::string> common{"shells", creature.string(), "--layers", "6", "--length", "0.05", "--fins", "--lod", "2",
+                                        "--droop", "1", "--mask", (test::models_dir() / "creature_fur_mask.png").string(),
+                                        "--layout", layout};
+        auto a = common, b = common;
+        a.insert(a.begin(), {"-j", "1"});
+        a.insert(a.end(), {"-o", (dir / "a.glb").string()});
+        b.insert(b.begin(), {"-j", "2"});
+        b.insert(b.end(), {"-o", (dir / "b.glb").string()});
+        auto ra = run_furrow(a), rb = run_furrow(b);
+        ASSERT_EQ(ra.exit_code, 0) << ra.err;
+        ASSERT_EQ(rb.exit_code, 0) << rb.err;
+        EXPECT_EQ(test::read_bytes(dir / "a.glb"), test::read_bytes(dir / "b.glb")) << layout;
+    }
 }
 
 TEST(furrow_shells, BadInputFollowsTheErrorContract) {

@@ -100,6 +100,11 @@ struct Mesh {
     std::string name;
     std::vector<Primitive> primitives;
     std::vector<float> weights; // default morph weights
+    // A JSON object save_scene writes as this mesh's glTF `extras` (replacing the source's); empty = the
+    // source's extras, if any. Not filled on load (a loaded mesh's extras ride in Scene::document). How a tool
+    // hands an engine documented data without a vendor extension (an unregistered extension prefix is a
+    // validator warning): `furrow shells --layout instanced` writes {"FURROW_shells": {...}} here.
+    std::string extras_json;
 };
 
 // ---------------------------------------------------------------------------------------------------------

@@ -97,6 +97,13 @@ double shell_height_fraction(int layer, int layers, double spacing_power);
 void shell_positions(float* out, const ShellFrame& frame, const float* positions, size_t vertex_count, int layer,
                      int layers, double spacing_power);
 
+// The same positions from plain per-vertex arrays, as the instanced layout stores them (ShellLayout::instanced:
+// roots = POSITION, direction = _FUR_DIRECTION, length = _FUR_LENGTH, lean = _FUR_LEAN, sag = _FUR_SAG; lean or
+// sag null = zero): the C++ reference of the vertex shader in README "Instanced layout". Computed in double
+// from the float inputs, so it gives the engine layout's shell `layer` bit for bit.
+void instanced_shell_positions(float* out, const float* roots, const float* direction, const float* length, const float* lean,
+                               const float* sag, size_t vertex_count, int layer, int layers, double spacing_power);
+
 // Distance from each point to the nearest point of a triangle mesh (CGAL AABB tree), in double: what the
 // benchmark uses to measure the achieved offset. Writes point_count values.
 void distances_to_mesh(double* out, const float* points, size_t point_count, const float* positions,
@@ -130,6 +137,12 @@ enum class ShellLayout : int {
                 // TEXCOORD_1, COLOR_0 = base albedo darkened toward the roots: any glTF viewer shows fur
     engine = 1, // one primitive holding all shells with _FUR_LAYER (height fraction), _FUR_LENGTH (H, object
                 // units) and _FUR_DIRECTION (unit xyz) for an engine's own shader; one MASK material
+    instanced = 2, // no copies: per furred mesh, one "shell base" mesh (the kept base triangles once, COLOR_0 =
+                   // albedo, _FUR_DIRECTION, _FUR_LENGTH, and _FUR_LEAN/_FUR_SAG when comb/droop are not
+                   // zero) on a node "<node>_fur_shells" outside the default scene, which an engine draws N times
+                   // extruding in its vertex shader (instanced_shell_positions); the layer heights, cutoffs, root
+                   // shade and strand material in the mesh's extras "FURROW_shells" (README "Instanced layout").
+                   // Stock viewers show the base model; the source meshes get only the fins
 };
 // Both layouts give the strand and fin textures a non-mipmapped sampler (minFilter LINEAR): a box-filtered
 // mip chain averages each strand with the gaps around it, so at a distance the upper shells fail their alpha
@@ -183,6 +196,8 @@ struct FurReport {
     size_t refined_faces = 0;       // base triangles bisected so that fur grows inside coarse faces whose
                                     // corners are clamped (the base primitive is replaced by its refinement)
     std::vector<int> lod_nodes;     // LOD level k >= 1: node index (outside the default scene), per source node
+    std::vector<int> shell_nodes;   // instanced layout: the shell base's node (outside the default scene),
+                                    // per furred mesh
     std::vector<FurFrame> frames;   // with FurOptions::keep_frames
     std::vector<std::string> warnings;
     // Wall time of the two stages, for benchmarks: setup = everything done once per base primitive (frames
