@@ -43,6 +43,31 @@ bool on_path(const std::string& program) {
     return false;
 }
 
+std::vector<std::vector<double>> blender_peer_values(const std::string& script, const std::vector<std::string>& args) {
+    if (!on_path("blender")) return {};
+    const fs::path dir = fs::temp_directory_path() / ("furrow_blender_" + std::to_string(::getpid()));
+    std::error_code ec;
+    fs::create_directories(dir, ec);
+    const fs::path py = dir / "peer.py", result = dir / "result.txt";
+    std::ofstream(py) << script;
+    fs::remove(result, ec);
+    std::vector<std::string> argv{"blender", "-b", "--factory-startup", "-t", "1", "--python", py.string(), "--",
+                                  result.string()};
+    argv.insert(argv.end(), args.begin(), args.end());
+    std::vector<std::vector<double>> lines;
+    if (run_peer(argv) == 0) {
+        std::ifstream in(result);
+        for (std::string line; std::getline(in, line);) {
+            std::istringstream words(line);
+            std::vector<double> values;
+            for (double v; words >> v;) values.push_back(v);
+            if (!values.empty()) lines.push_back(std::move(values));
+        }
+    }
+    fs::remove_all(dir, ec);
+    return lines;
+}
+
 double median_seconds(int repeat, const std::function<void()>& f) {
     f(); // warm-up: page faults, allocator growth
     std::vector<double> t;

@@ -27,6 +27,12 @@ double median_seconds(int repeat, const std::function<void()>& f);
 int run_peer(const std::vector<std::string>& argv);
 // Whether `program` is an executable file in a folder of PATH (a peer that is not is "not installed").
 bool on_path(const std::string& program);
+// Blender as a peer: writes the Python `script` to a temporary file and runs
+// `blender -b --factory-startup -t 1 --python <script> -- <result file> <args...>`. The script times inside
+// Blender only what is compared (file import and start-up excluded) and writes one line of numbers per
+// measurement to <result file> (sys.argv after "--", first); those lines are returned. Empty when `blender` is
+// not on PATH or the run failed.
+std::vector<std::vector<double>> blender_peer_values(const std::string& script, const std::vector<std::string>& args);
 
 // Keeps the compiler from removing a computation whose result is otherwise unused.
 inline void do_not_optimize(const void* p) { asm volatile("" : : "g"(p) : "memory"); }
