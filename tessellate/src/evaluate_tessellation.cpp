@@ -14,6 +14,7 @@
 // face at its own boundary points and averaged per normal sector afterwards, which is exact where the limit
 // surface is smooth and gives split normals across creases.
 #include "tessellate_internal.h"
+#include <furrow_kernel/huge_pages.h>
 
 #include <opensubdiv/bfr/tessellation.h>
 
@@ -115,28 +116,30 @@ Status plan_layout(Layout& L, const PreparedMesh& m, const std::vector<int>& rat
     return Status::success();
 }
 
-// The output arrays and the working buffers at their sizes, zeroed.
+// The output arrays and the working buffers at their sizes, zeroed; the large ones on huge pages (their
+// first-touch page faults were the largest fixed cost: furrow_kernel/huge_pages.h).
 void allocate(Evaluation& ev) {
+    using kernel::assign_huge;
     const PreparedMesh& m = ev.m;
     TessellateOutput& out = ev.out;
     const size_t V = ev.L.vertices, tris = ev.L.triangles;
-    ev.data.assign(V * size_t(ev.W), 0.0f);
-    ev.attrs.assign(V * size_t(ev.K), 0.0f);
-    out.normals.assign(V * 3, 0.0f);
+    assign_huge(ev.data, V * size_t(ev.W));
+    assign_huge(ev.attrs, V * size_t(ev.K));
+    assign_huge(out.normals, V * 3);
     if (m.has_skin) {
-        out.joints.assign(V * 4, 0);
-        out.weights.assign(V * 4, 0.0f);
+        assign_huge(out.joints, V * 4);
+        assign_huge(out.weights, V * 4);
     }
-    out.indices.assign(tris * 3, 0);
-    out.triangle_faces.assign(tris, 0);
+    assign_huge(out.indices, tris * 3);
+    assign_huge(out.triangle_faces, tris);
     out.triangle_patches.clear();
     out.triangle_coords.clear();
     if (ev.keep_parameters) {
-        out.triangle_patches.assign(tris, 0);
-        out.triangle_coords.assign(tris * 6, 0.0f);
+        assign_huge(out.triangle_patches, tris);
+        assign_huge(out.triangle_coords, tris * 6);
     }
-    ev.corner_normal.assign(m.corner_input.size() * 3, 0.0f);
-    ev.side_normal.assign(ev.L.slots * 3, 0.0f);
+    assign_huge(ev.corner_normal, m.corner_input.size() * 3);
+    assign_huge(ev.side_normal, ev.L.slots * 3);
 }
 
 // One face being evaluated: its tessellation, and what its points are evaluated from (the patch points of
@@ -448,14 +451,14 @@ void deinterleave(Evaluation& ev) {
     if (W == 3) {
         out.positions = std::move(ev.data); // positions only: already laid out as the output (no copy)
     } else {
-        out.positions.resize(V * 3);
+        kernel::assign_huge(out.positions, V * 3);
         for (size_t v = 0; v < V; ++v) std::copy_n(&data[v * size_t(W)], 3, &out.positions[v * 3]);
     }
     out.vertex_data.assign(m.vertex_data_components.size(), {});
     int offset = 3;
     for (size_t a = 0; a < m.vertex_data_components.size(); ++a) {
         const int nc = m.vertex_data_components[a];
-        out.vertex_data[a].resize(V * size_t(nc));
+        kernel::assign_huge(out.vertex_data[a], V * size_t(nc));
         for (size_t v = 0; v < V; ++v)
             std::copy_n(&data[v * size_t(W) + size_t(offset)], nc, &out.vertex_data[a][v * size_t(nc)]);
         offset += nc;
@@ -463,14 +466,14 @@ void deinterleave(Evaluation& ev) {
     offset = 0;
     out.uvs.clear();
     if (m.has_uv) {
-        out.uvs.resize(V * 2);
+        kernel::assign_huge(out.uvs, V * 2);
         for (size_t v = 0; v < V; ++v) std::copy_n(&attrs[v * size_t(K)], 2, &out.uvs[v * 2]);
         offset = 2;
     }
     out.attributes.assign(m.attribute_components.size(), {});
     for (size_t a = 0; a < m.attribute_components.size(); ++a) {
         const int nc = m.attribute_components[a];
-        out.attributes[a].resize(V * size_t(nc));
+        kernel::assign_huge(out.attributes[a], V * size_t(nc));
         for (size_t v = 0; v < V; ++v)
             std::copy_n(&attrs[v * size_t(K) + size_t(offset)], nc, &out.attributes[a][v * size_t(nc)]);
         offset += nc;
