@@ -92,24 +92,35 @@ double bbox_diagonal(const Scene& s) {
     return std::sqrt(d);
 }
 
-double blender_peer_seconds(const std::string& script_text, const std::vector<std::string>& args) {
-    const double none = std::numeric_limits<double>::quiet_NaN();
-    if (!on_path("blender")) return none;
-    const fs::path tmp = fs::temp_directory_path() / ("furrow-bench-blender-" + std::to_string(getpid()));
+std::vector<std::vector<double>> blender_peer_values(const std::string& script, const std::vector<std::string>& args) {
+    if (!on_path("blender")) return {};
+    const fs::path dir = fs::temp_directory_path() / ("furrow_blender_" + std::to_string(::getpid()));
     std::error_code ec;
-    fs::create_directories(tmp, ec);
-    const fs::path script = tmp / "peer.py", result = tmp / "seconds.txt";
-    std::ofstream(script) << script_text;
+    fs::create_directories(dir, ec);
+    const fs::path py = dir / "peer.py", result = dir / "result.txt";
+    std::ofstream(py) << script;
     fs::remove(result, ec);
-    std::vector<std::string> argv{"blender", "-b", "--factory-startup", "-t", "1", "--python", script.string(), "--", result.string()};
+    std::vector<std::string> argv{"blender", "-b", "--factory-startup", "-t", "1", "--python", py.string(), "--",
+                                  result.string()};
     argv.insert(argv.end(), args.begin(), args.end());
-    double seconds = none;
+    std::vector<std::vector<double>> lines;
     if (run_peer(argv) == 0) {
         std::ifstream in(result);
-        if (!(in >> seconds) || !(seconds > 0)) seconds = none;
+        for (std::string line; std::getline(in, line);) {
+            std::istringstream words(line);
+            std::vector<double> values;
+            for (double v; words >> v;) values.push_back(v);
+            if (!values.empty()) lines.push_back(std::move(values));
+        }
     }
-    fs::remove_all(tmp, ec);
-    return seconds;
+    fs::remove_all(dir, ec);
+    return lines;
+}
+
+double blender_peer_seconds(const std::string& script_text, const std::vector<std::string>& args) {
+    const std::vector<std::vector<double>> lines = blender_peer_values(script_text, args);
+    if (lines.empty() || !(lines[0][0] > 0)) return std::numeric_limits<double>::quiet_NaN();
+    return lines[0][0];
 }
 
 double median_seconds(int repeat, const std::function<void()>& f) {

@@ -36,10 +36,13 @@ struct PeerRun {
 PeerRun run_peer_measured(const std::vector<std::string>& argv);
 // Whether `program` is an executable file in a folder of PATH (a peer that is not is "not installed").
 bool on_path(const std::string& program);
-// Blender as a peer: writes script_text to a temporary file and runs `blender -b --factory-startup -t 1
-// --python <script> -- <result file> <args...>`. The script times only what it compares (not Blender's start-up
-// or its own set-up) and writes those seconds as text to the result file (its first argument after `--`).
-// Returns them, or NaN when Blender is not on PATH or the run failed.
+// Blender as a peer: writes the Python `script` to a temporary file and runs
+// `blender -b --factory-startup -t 1 --python <script> -- <result file> <args...>`. The script times inside
+// Blender only what is compared (file import and start-up excluded) and writes one line of numbers per
+// measurement to <result file> (sys.argv after "--", first); those lines are returned. Empty when `blender` is
+// not on PATH or the run failed.
+std::vector<std::vector<double>> blender_peer_values(const std::string& script, const std::vector<std::string>& args);
+// The first number of blender_peer_values (a script that measures one time, in seconds); NaN when none.
 double blender_peer_seconds(const std::string& script_text, const std::vector<std::string>& args);
 
 // Diagonal of the world bounding box of the meshes the scene's nodes place (skinned meshes in their bind

@@ -5,8 +5,14 @@
 // Error = chordal distance to the limit surface sampled at every output triangle's centroid and edge
 // midpoints (Tessellator::measure), as % of the bounding-box diagonal (Metro convention), and in pixels
 // (distance x focal length / distance to the eye) for a 1920 x 1080 view with a 50 degree vertical field.
+//
+// Peer: Blender's Subdivision Surface modifier (Catmull-Clark, levels 2 and 3) against uniform rates 4 and 8
+// on the same OBJ (by default the generated 32k-quad cube sphere of models/obj_quad_sphere.h), both cold:
+// furrow's prepare + tessellate against Blender's first evaluation of a newly added modifier (its topology
+// refiner is built there too), timed inside Blender so that start-up and the import are excluded.
 #include "bench_common.h"
 #include "data_dirs.h"
+#include "obj_quad_sphere.h"
 
 #include <furrow/shapes.h>
 #include <furrow/tessellate.h>
@@ -14,6 +20,8 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+
+#include <unistd.h>
 
 namespace furrow::cli {
 namespace fs = std::filesystem;
@@ -212,7 +220,123 @@ Row run_one(const Tessellator& t, const BenchModel& m, const Criterion& c, doubl
     return row;
 }
 
+// Imports the OBJ (argv after "--": result file, OBJ, repeat, levels...) and times, per level, the median of
+// `repeat` first evaluations of a new Subdivision Surface modifier (one warm-up), with its triangle count.
+const char* const blender_subsurf_script = R"PY(
+import bpy, sys, time
+argv = sys.argv[sys.argv.index("--") + 1:]
+result, path, repeat, levels = argv[0], argv[1], int(argv[2]), [int(x) for x in argv[3:]]
+bpy.ops.wm.read_factory_settings(use_empty=True)
+if hasattr(bpy.ops.wm, "obj_import"):
+    bpy.ops.wm.obj_import(filepath=path)
+else:
+    bpy.ops.import_scene.obj(filepath=path)
+obj = bpy.context.selected_objects[0]
+bpy.context.view_layer.objects.active = obj
+bpy.context.evaluated_depsgraph_get()  # the imported mesh, evaluated once outside the timing
+lines = []
+for level in levels:
+    times, tris = [], 0
+    for r in range(repeat + 1):
+        mod = obj.modifiers.new("subsurf", "SUBSURF")
+        mod.subdivision_type = "CATMULL_CLARK"
+        mod.levels = level
+        mod.render_levels = level
+        t0 = time.perf_counter()
+        evaluated = obj.evaluated_get(bpy.context.evaluated_depsgraph_get())
+        mesh = evaluated.to_mesh()
+        t1 = time.perf_counter()
+        tris = len(mesh.loops) - 2 * len(mesh.polygons)
+        evaluated.to_mesh_clear()
+        obj.modifiers.remove(mod)
+        if r > 0:
+            times.append(t1 - t0)
+    times.sort()
+    lines.append("%d %.9f %d" % (level, times[len(times) // 2], tris))
+with open(result, "w") as f:
+    f.write("\n".join(lines) + "\n")
+)PY";
+
+// furrow uniform rate 4 and 8 against Blender levels 2 and 3 on each OBJ.
+// `generated`: the files[0] is the generated cube sphere (named so in the table, not by its temporary file).
+nlohmann::json run_blender_comparison(const std::vector<fs::path>& files, bool generated, int repeat, const GlobalFlags& g,
+                                      bool tables) {
+    const std::string threads = g.threads > 0 ? std::to_string(g.threads) : "all";
+    Table t({"model", "furrow rate", "Blender level", "triangles", "Blender triangles", "furrow ms (-j " + threads + ")",
+             "Blender ms (-t 1)", "Blender / furrow", "max err %diag", "max err px"});
+    nlohmann::json rows = nlohmann::json::array();
+    const bool blender = on_path("blender");
+    for (const auto& file : files) {
+        BenchModel m;
+        if (!file_model(m, file)) throw InputError(file.string(), "cannot load a polygon primitive");
+        if (generated) m.name = "cube sphere, 31974 quads (catmark)";
+        info(g, "bench tessellate: Blender comparison on " + m.name);
+        std::vector<std::vector<double>> peer;
+        if (blender) peer = blender_peer_values(blender_subsurf_script, {file.string(), std::to_string(repeat), "2", "3"});
+        SurfaceOptions so;
+        so.scheme = m.scheme;
+        for (int level : {2, 3}) {
+            const int rate = 1 << level;
+            RateOptions r;
+            r.uniform = rate;
+            r.camera = m.camera;
+            r.max_rate = 64;
+            Tessellator tess;
+            const double seconds = median_seconds(repeat, [&] {
+                Tessellator cold;
+                require_ok(cold.prepare(input_of(m.primitive), so), m.name);
+                TessellateOutput o;
+                require_ok(cold.tessellate(o, r, false), m.name);
+                do_not_optimize(o.indices.data());
+            });
+            require_ok(tess.prepare(input_of(m.primitive), so), m.name);
+            TessellateOutput out;
+            require_ok(tess.tessellate(out, r, true), m.name);
+            ErrorReport e;
+            require_ok(tess.measure(e, out, r), m.name);
+            double peer_s = 0, peer_tris = 0;
+            for (const auto& line : peer)
+                if (line.size() == 3 && int(line[0]) == level) peer_s = line[1], peer_tris = line[2];
+            const bool have = peer_s > 0;
+            const std::string missing = blender ? "failed" : "peer not installed";
+            t.add({m.name, std::to_string(rate), std::to_string(level), std::to_string(out.stats.triangles),
+                   have ? fmt(peer_tris, 0) : "-", fmt(seconds * 1e3, 1), have ? fmt(peer_s * 1e3, 1) : missing,
+                   have ? fmt(peer_s / seconds, 2) : "-", fmt_sci(100 * e.max_error / m.diagonal), fmt_sci(e.max_pixels)});
+            rows.push_back({{"model", m.name}, {"rate", rate}, {"blender_level", level}, {"triangles", out.stats.triangles},
+                            {"blender_triangles", peer_tris}, {"seconds", seconds}, {"threads", g.threads},
+                            {"blender_seconds", have ? nlohmann::json(peer_s) : nlohmann::json(nullptr)},
+                            {"max_error_pct_diag", 100 * e.max_error / m.diagonal}, {"max_error_px", e.max_pixels}});
+        }
+    }
+    if (tables) {
+        std::printf("\nBlender Subdivision Surface (Catmull-Clark, level L) against furrow uniform rate 2^L on the same OBJ, "
+                    "median of %d cold runs each: furrow prepare + tessellate, Blender's first evaluation of a new "
+                    "modifier (timed inside Blender, import excluded)\n", repeat);
+        t.print();
+    }
+    return rows;
+}
+
+// The generated 32k-quad cube sphere (models/obj_quad_sphere.h) in a temporary folder.
+fs::path quad_sphere_obj() {
+    const fs::path file = fs::temp_directory_path() / ("furrow_bench_quad_sphere_" + std::to_string(::getpid()) + ".obj");
+    if (!models::write_obj_quad_sphere(file.string(), 73)) throw InputError(file.string(), "cannot write the generated OBJ");
+    return file;
+}
+
 } // namespace
+
+nlohmann::json run_blender_only(const BenchArgs& args, const GlobalFlags& g, bool tables) {
+    std::vector<fs::path> files;
+    for (const auto& f : args.inputs)
+        if (lower_extension(f) == ".obj") files.push_back(f);
+    const bool generated = files.empty();
+    if (generated) files.push_back(quad_sphere_obj());
+    nlohmann::json rows = run_blender_comparison(files, generated, args.repeat, g, tables);
+    std::error_code ec;
+    if (generated) fs::remove(files[0], ec);
+    return {{"bench", "tessellate"}, {"repeat", args.repeat}, {"blender", rows}, {"plot", plot_json("max error (px)", {})}};
+}
 
 nlohmann::json run_bench_tessellate(const BenchArgs& args, const std::vector<double>& targets, const GlobalFlags& g,
                                     bool tables, bool quick = false) {
@@ -315,6 +439,7 @@ nlohmann::json run_bench_tessellate(const BenchArgs& args, const std::vector<dou
                 "whose max error in pixels is within the target; baselines uniform and the seed (Unity distance) "
                 "formula, max rate 64\n");
     tm.print();
+    if (!quick && args.inputs.empty()) result["blender"] = run_blender_only(args, g, tables)["blender"];
     return result;
 }
 
@@ -329,6 +454,7 @@ void register_bench_tessellate(CLI::App& bench, GlobalFlags& g) {
     args->repeat = 3;
     auto out = std::make_shared<BenchOutput>();
     auto targets = std::make_shared<std::vector<double>>(std::vector<double>{1.0, 0.5});
+    auto blender_only = std::make_shared<bool>(false);
     CLI::App* cmd = bench.add_subcommand("tessellate", "Triangles, time and error of the tessellation criteria, and "
                                                        "triangles needed for equal max pixel error");
     cmd->add_option("inputs", args->inputs,
@@ -337,10 +463,16 @@ void register_bench_tessellate(CLI::App& bench, GlobalFlags& g) {
     cmd->add_option("--repeat", args->repeat, "Runs per timing; the median is reported (default 3)")->check(finite_range(1, 1000));
     cmd->add_option("--targets", *targets, "Max projected errors (pixels) for the matched comparison (default 1 0.5)")
         ->check(positive());
+    cmd->add_flag("--blender-only", *blender_only,
+                  "Only the comparison with Blender's Subdivision Surface (levels 2, 3 against uniform rates 4, 8) on "
+                  "the OBJ inputs, or on a generated 32k-quad cube sphere (also run, after the tables, by the default run)");
     add_bench_output_flags(*cmd, *out);
     cmd->footer("Examples:\n  furrow bench tessellate --plots plots\n  furrow bench tessellate --targets 2 1 0.5 --repeat 5\n"
-                "  furrow bench tessellate ../shared/corpus/duck/Duck.glb --json");
-    cmd->callback([args, targets, out, &g] { finish_bench(run_bench_tessellate(*args, *targets, g, !out->json), *out, g); });
+                "  furrow bench tessellate ../shared/corpus/duck/Duck.glb --json\n  furrow -j 1 bench tessellate --blender-only");
+    cmd->callback([args, targets, out, blender_only, &g] {
+        finish_bench(*blender_only ? run_blender_only(*args, g, !out->json) : run_bench_tessellate(*args, *targets, g, !out->json),
+                     *out, g);
+    });
 }
 
 } // namespace furrow::cli

@@ -17,7 +17,7 @@
 #include "deform_internal.h"
 
 #include <furrow_kernel/angle_weighted_normal.h>
-#include <furrow_kernel/huge_page_allocator.h>
+#include <furrow_kernel/huge_pages.h>
 #include <furrow_kernel/welded_ids.h>
 #include <furrow_kernel/no_throw.h>
 
@@ -43,8 +43,9 @@ struct FaceTerm {
     double angle[3] = {-1, -1, -1}; // < 0: degenerate (the kernel's rule), contributes nothing
 };
 
-using FaceTerms = std::vector<FaceTerm, kernel::HugePageAllocator<FaceTerm>>; // 48 bytes per triangle
-using Doubles = std::vector<double, kernel::HugePageAllocator<double>>;       // per point: 24 bytes a vector
+// The large arrays are sized with kernel::assign_huge (huge pages: first touch faults once per 2 MiB).
+using FaceTerms = std::vector<FaceTerm>; // 48 bytes per triangle
+using Doubles = std::vector<double>;     // per point: 24 bytes a vector
 
 FaceTerm face_term(const double* P, const uint32_t* t) {
     FaceTerm f;
@@ -76,7 +77,7 @@ void gather_normal(double* o, uint32_t v, const FaceTerms& terms, const uint32_t
 // All faces' terms, then all points' normals.
 void all_normals(double* normals, FaceTerms& terms, const double* P, const std::vector<uint32_t>& tri,
                  const std::vector<uint32_t>& off, const std::vector<uint32_t>& faces) {
-    terms.resize(tri.size() / 3);
+    if (terms.size() != tri.size() / 3) kernel::assign_huge(terms, tri.size() / 3);
     tbb::parallel_for(tbb::blocked_range<size_t>(0, terms.size(), 1024), [&](const tbb::blocked_range<size_t>& r) {
         for (size_t f = r.begin(); f != r.end(); ++f) terms[f] = face_term(P, &tri[3 * f]);
     });
@@ -175,7 +176,7 @@ Status DisplacedGround::prepare(const float* positions, size_t vertex_count, con
         kernel::WeldedIds welded = kernel::welded_ids(first.data(), vertex_count);
         m->remap = std::move(welded.of_vertex);
         const uint32_t points = uint32_t(welded.first.size());
-        m->rest.resize(3 * size_t(points));
+        kernel::assign_huge(m->rest, 3 * size_t(points));
         m->copy_off.assign(size_t(points) + 1, 0);
         for (size_t v = 0; v < vertex_count; ++v) {
             const uint32_t p = m->remap[v];
@@ -206,7 +207,7 @@ Status DisplacedGround::prepare(const float* positions, size_t vertex_count, con
                 for (int k = 0; k < 3; ++k) m->faces[fill[m->tris[3 * t + size_t(k)]]++] = uint32_t(t);
         }
         // Undeformed normals give the displacement direction.
-        m->dir.assign(3 * size_t(points), 0.0);
+        kernel::assign_huge(m->dir, 3 * size_t(points), 0.0);
         if (opt.along_up) {
             for (size_t p = 0; p < points; ++p)
                 for (int d = 0; d < 3; ++d) m->dir[3 * p + size_t(d)] = frame.up[size_t(d)];
@@ -219,7 +220,7 @@ Status DisplacedGround::prepare(const float* positions, size_t vertex_count, con
                 if (o[0] == 0 && o[1] == 0 && o[2] == 0) o[0] = frame.up[0], o[1] = frame.up[1], o[2] = frame.up[2];
             }
         }
-        m->texel.resize(2 * size_t(points));
+        kernel::assign_huge(m->texel, 2 * size_t(points));
         tbb::parallel_for(size_t(0), size_t(points), [&](size_t p) {
             auto t = frame.to_texel(&m->rest[3 * p]);
             m->texel[2 * p] = t[0], m->texel[2 * p + 1] = t[1];
@@ -252,8 +253,9 @@ Status DisplacedGround::prepare(const float* positions, size_t vertex_count, con
             std::vector<uint32_t> fill(m->tile_off.begin(), m->tile_off.end() - 1);
             for (size_t p = 0; p < points; ++p) m->tile_pts[fill[tile_of[p]]++] = uint32_t(p);
         }
-        m->cur = m->rest;
-        m->nrm.assign(3 * size_t(points), 0.0);
+        kernel::reserve_huge(m->cur, m->rest.size());
+        m->cur.assign(m->rest.begin(), m->rest.end());
+        kernel::assign_huge(m->nrm, 3 * size_t(points), 0.0);
         m->mark.assign(points, 0);
         m->face_mark.assign(m->tris.size() / 3, 0);
         impl_ = std::move(m);
@@ -311,7 +313,7 @@ size_t DisplacedGround::update(const Heightmap& h, const std::vector<TexelRect>&
     Impl& m = *impl_;
     if (m.rest.empty()) return 0;
     if (m.terms.size() != m.tris.size() / 3) { // along_up, no displace_all yet: the terms of rest
-        m.terms.resize(m.tris.size() / 3);
+        kernel::assign_huge(m.terms, m.tris.size() / 3);
         tbb::parallel_for(size_t(0), m.terms.size(), [&](size_t f) { m.terms[f] = face_term(m.cur.data(), &m.tris[3 * f]); });
     }
     auto next_epoch = [&] {

@@ -14,6 +14,7 @@
 // face at its own boundary points and averaged per normal sector afterwards, which is exact where the limit
 // surface is smooth and gives split normals across creases.
 #include "tessellate_internal.h"
+#include <furrow_kernel/huge_pages.h>
 
 #include <opensubdiv/bfr/tessellation.h>
 
@@ -41,7 +42,7 @@ bool is_zero(const float* n) { return n[0] == 0.0f && n[1] == 0.0f && n[2] == 0.
 // Per-thread buffers, reused from face to face.
 struct Scratch {
     std::vector<int> rates, bidx, facets;
-    std::vector<float> coords, patch_v, patch_a, P, Du, Dv, w;
+    std::vector<float> coords, P, Du, Dv, w;
     std::vector<const float*> corner_data, control;
 };
 
@@ -115,28 +116,30 @@ Status plan_layout(Layout& L, const PreparedMesh& m, const std::vector<int>& rat
     return Status::success();
 }
 
-// The output arrays and the working buffers at their sizes, zeroed.
+// The output arrays and the working buffers at their sizes, zeroed; the large ones on huge pages (their
+// first-touch page faults were the largest fixed cost: furrow_kernel/huge_pages.h).
 void allocate(Evaluation& ev) {
+    using kernel::assign_huge;
     const PreparedMesh& m = ev.m;
     TessellateOutput& out = ev.out;
     const size_t V = ev.L.vertices, tris = ev.L.triangles;
-    ev.data.assign(V * size_t(ev.W), 0.0f);
-    ev.attrs.assign(V * size_t(ev.K), 0.0f);
-    out.normals.assign(V * 3, 0.0f);
+    assign_huge(ev.data, V * size_t(ev.W));
+    assign_huge(ev.attrs, V * size_t(ev.K));
+    assign_huge(out.normals, V * 3);
     if (m.has_skin) {
-        out.joints.assign(V * 4, 0);
-        out.weights.assign(V * 4, 0.0f);
+        assign_huge(out.joints, V * 4);
+        assign_huge(out.weights, V * 4);
     }
-    out.indices.assign(tris * 3, 0);
-    out.triangle_faces.assign(tris, 0);
+    assign_huge(out.indices, tris * 3);
+    assign_huge(out.triangle_faces, tris);
     out.triangle_patches.clear();
     out.triangle_coords.clear();
     if (ev.keep_parameters) {
-        out.triangle_patches.assign(tris, 0);
-        out.triangle_coords.assign(tris * 6, 0.0f);
+        assign_huge(out.triangle_patches, tris);
+        assign_huge(out.triangle_coords, tris * 6);
     }
-    ev.corner_normal.assign(m.corner_input.size() * 3, 0.0f);
-    ev.side_normal.assign(ev.L.slots * 3, 0.0f);
+    assign_huge(ev.corner_normal, m.corner_input.size() * 3);
+    assign_huge(ev.side_normal, ev.L.slots * 3);
 }
 
 // One face being evaluated: its tessellation, and what its points are evaluated from (the patch points of
@@ -148,7 +151,8 @@ struct FaceEvaluation {
     const int W, K;
     const size_t f;
     const bool smooth;
-    Surface &vtx, &fvar;
+    const Surface &vtx, &fvar;   // the face's surfaces (build_surfaces), when smooth
+    const float *patch_v, *patch_a; // and their patch points
     Scratch& x;
     const uint32_t c0;
     const int n;
@@ -158,7 +162,7 @@ struct FaceEvaluation {
     const int ncoords, nb;
     float face_normal[3] = {0, 0, 1};
 
-    FaceEvaluation(Evaluation& ev, size_t f, bool smooth, bool limit_corners, Surface& vtx, Surface& fvar, Scratch& x);
+    FaceEvaluation(Evaluation& ev, size_t f, bool smooth, bool limit_corners, Scratch& x);
     void control_normal(float* nrm);
     void eval_point(const float* uv, float* nrm);
     void eval_attrs(const float* uv, size_t o);
@@ -168,9 +172,10 @@ struct FaceEvaluation {
     void triangles();
 };
 
-FaceEvaluation::FaceEvaluation(Evaluation& ev, size_t f, bool smooth, bool limit_corners, Surface& vtx, Surface& fvar,
-                               Scratch& x)
-    : ev(ev), m(ev.m), L(ev.L), W(ev.W), K(ev.K), f(f), smooth(smooth), vtx(vtx), fvar(fvar), x(x), c0(m.face_offset[f]),
+FaceEvaluation::FaceEvaluation(Evaluation& ev, size_t f, bool smooth, bool limit_corners, Scratch& x)
+    : ev(ev), m(ev.m), L(ev.L), W(ev.W), K(ev.K), f(f), smooth(smooth), vtx(m.face_vtx[f]),
+      fvar(K > 0 ? m.face_fvar[f] : m.face_vtx[f]), patch_v(m.patch_v.data() + m.patch_v_begin[f]),
+      patch_a(m.patch_a.data() + m.patch_a_begin[f]), x(x), c0(m.face_offset[f]),
       n(int(m.face_size(f))), param(m.parameterization(f)), nr(face_rates(m, f, ev.rates, x.rates)),
       tess(param, nr, x.rates.data(), osd::Bfr::Tessellation::Options().SetFacetSize(3)), ncoords(tess.GetNumCoords()),
       nb(tess.GetNumBoundaryCoords()) {
@@ -182,14 +187,7 @@ FaceEvaluation::FaceEvaluation(Evaluation& ev, size_t f, bool smooth, bool limit
     x.Dv.resize(size_t(W));
     x.w.resize(size_t(n));
     x.corner_data.resize(size_t(n));
-    if (smooth) {
-        x.patch_v.resize(size_t(vtx.GetNumPatchPoints()) * size_t(W));
-        vtx.PreparePatchPoints(m.refiner_data.data(), W, x.patch_v.data(), W);
-        if (K > 0) {
-            x.patch_a.resize(size_t(fvar.GetNumPatchPoints()) * size_t(K));
-            fvar.PreparePatchPoints(m.refiner_fvar.data(), K, x.patch_a.data(), K);
-        }
-    } else {
+    if (!smooth) {
         for (int k = 0; k < n; ++k) {
             const uint32_t c = c0 + uint32_t(k), p = m.corner_point[c];
             x.corner_data[size_t(k)] = limit_corners && m.smooth(m.corner_face[m.point_owner[p]])
@@ -220,7 +218,7 @@ void FaceEvaluation::control_normal(float* nrm) {
 void FaceEvaluation::eval_point(const float* uv, float* nrm) {
     std::vector<float>&P = x.P, &Du = x.Du, &Dv = x.Dv, &w = x.w;
     if (smooth) {
-        vtx.Evaluate(uv, x.patch_v.data(), W, P.data(), Du.data(), Dv.data());
+        vtx.Evaluate(uv, patch_v, W, P.data(), Du.data(), Dv.data());
         nrm[0] = Du[1] * Dv[2] - Du[2] * Dv[1];
         nrm[1] = Du[2] * Dv[0] - Du[0] * Dv[2];
         nrm[2] = Du[0] * Dv[1] - Du[1] * Dv[0];
@@ -240,7 +238,7 @@ void FaceEvaluation::eval_attrs(const float* uv, size_t o) {
     if (K > 0) {
         float* a = &ev.attrs[o * size_t(K)];
         if (smooth) {
-            fvar.Evaluate(uv, x.patch_a.data(), K, a);
+            fvar.Evaluate(uv, patch_a, K, a);
         } else {
             linear_weights(param, uv, w.data());
             std::fill(a, a + K, 0.0f);
@@ -346,8 +344,8 @@ void FaceEvaluation::triangles() {
 }
 
 // limit_corners: linear faces read their corners' limit positions (only once all smooth faces are done).
-void process(Evaluation& ev, size_t f, bool smooth, bool limit_corners, Surface& vtx, Surface& fvar, Scratch& x) {
-    FaceEvaluation face(ev, f, smooth, limit_corners, vtx, fvar, x);
+void process(Evaluation& ev, size_t f, bool smooth, bool limit_corners, Scratch& x) {
+    FaceEvaluation face(ev, f, smooth, limit_corners, x);
     face.boundary();
     face.interior();
     face.triangles();
@@ -361,18 +359,17 @@ void evaluate_faces(Evaluation& ev) {
     for (int pass = 0; pass < 2; ++pass) {
         const bool smooth_pass = pass == 0;
         tbb::parallel_for(tbb::blocked_range<size_t>(0, F, 16), [&](const tbb::blocked_range<size_t>& range) {
-            Surface vtx, fvar;
             Scratch scratch;
             for (size_t f = range.begin(); f != range.end(); ++f) {
                 if (m.smooth(f) != smooth_pass) continue;
                 if (smooth_pass) {
-                    // Surfaces were checked in build_surfaces; a failure here would be a bug, but it must not
-                    // become a crash or a crack: such a face would keep its (already shared) boundary points.
-                    bool ok = m.factory_of(f).InitVertexSurface(m.face_refiner[f], &vtx);
-                    if (ok && K > 0) ok = m.factory_of(f).InitFaceVaryingSurface(m.face_refiner[f], &fvar);
-                    process(ev, f, ok, false, vtx, fvar, scratch);
+                    // Every smooth face has valid surfaces (build_surfaces made the others linear); were one
+                    // missing, it must not become a crash or a crack: the face would keep its (already shared)
+                    // boundary points.
+                    const bool ok = m.face_vtx[f].IsValid() && (K == 0 || m.face_fvar[f].IsValid());
+                    process(ev, f, ok, false, scratch);
                 } else {
-                    process(ev, f, false, true, vtx, fvar, scratch);
+                    process(ev, f, false, true, scratch);
                 }
             }
         });
@@ -451,13 +448,17 @@ void deinterleave(Evaluation& ev) {
     const std::vector<float>&data = ev.data, &attrs = ev.attrs;
     const size_t V = ev.L.vertices;
     const int W = ev.W, K = ev.K;
-    out.positions.resize(V * 3);
-    for (size_t v = 0; v < V; ++v) std::copy_n(&data[v * size_t(W)], 3, &out.positions[v * 3]);
+    if (W == 3) {
+        out.positions = std::move(ev.data); // positions only: already laid out as the output (no copy)
+    } else {
+        kernel::assign_huge(out.positions, V * 3);
+        for (size_t v = 0; v < V; ++v) std::copy_n(&data[v * size_t(W)], 3, &out.positions[v * 3]);
+    }
     out.vertex_data.assign(m.vertex_data_components.size(), {});
     int offset = 3;
     for (size_t a = 0; a < m.vertex_data_components.size(); ++a) {
         const int nc = m.vertex_data_components[a];
-        out.vertex_data[a].resize(V * size_t(nc));
+        kernel::assign_huge(out.vertex_data[a], V * size_t(nc));
         for (size_t v = 0; v < V; ++v)
             std::copy_n(&data[v * size_t(W) + size_t(offset)], nc, &out.vertex_data[a][v * size_t(nc)]);
         offset += nc;
@@ -465,14 +466,14 @@ void deinterleave(Evaluation& ev) {
     offset = 0;
     out.uvs.clear();
     if (m.has_uv) {
-        out.uvs.resize(V * 2);
+        kernel::assign_huge(out.uvs, V * 2);
         for (size_t v = 0; v < V; ++v) std::copy_n(&attrs[v * size_t(K)], 2, &out.uvs[v * 2]);
         offset = 2;
     }
     out.attributes.assign(m.attribute_components.size(), {});
     for (size_t a = 0; a < m.attribute_components.size(); ++a) {
         const int nc = m.attribute_components[a];
-        out.attributes[a].resize(V * size_t(nc));
+        kernel::assign_huge(out.attributes[a], V * size_t(nc));
         for (size_t v = 0; v < V; ++v)
             std::copy_n(&attrs[v * size_t(K) + size_t(offset)], nc, &out.attributes[a][v * size_t(nc)]);
         offset += nc;

@@ -10,6 +10,7 @@
 // (Scene::mesh_placement: glTF ignores the node transform of a skinned mesh and places it by its joints).
 #include "tessellate_internal.h"
 #include <furrow_kernel/no_throw.h>
+#include <furrow_kernel/huge_pages.h>
 
 #include <algorithm>
 #include <map>
@@ -167,20 +168,24 @@ TessellateInput input_of(const Merged& g) {
     return in;
 }
 
-// Splits the tessellation back into the merged primitives.
 template <class T>
 void release(std::vector<T>& v) {
     std::vector<T>().swap(v);
 }
 
+// Splits the tessellation back into the merged primitives.
 void split(Mesh& mesh, const Merged& g, TessellateOutput& t) {
     const size_t V = t.positions.size() / 3;
     for (size_t slot = 0; slot < g.prims.size(); ++slot) {
         Primitive& dst = mesh.primitives[g.prims[slot]];
         const Primitive src = dst; // what the primitive had decides what it keeps
-        std::vector<uint32_t> remap(V, none);
-        std::vector<uint32_t> used;
-        std::vector<uint32_t> indices;
+        // Large outputs on huge pages (furrow_kernel/huge_pages.h); with one primitive, room for all of it.
+        std::vector<uint32_t> remap, used, indices;
+        kernel::assign_huge(remap, V, none);
+        if (g.prims.size() == 1) {
+            kernel::reserve_huge(used, V);
+            kernel::reserve_huge(indices, t.indices.size());
+        }
         for (size_t tri = 0; tri < t.triangle_faces.size(); ++tri) {
             if (g.face_groups[t.triangle_faces[tri]] != slot) continue;
             for (int k = 0; k < 3; ++k) {
@@ -200,7 +205,8 @@ void split(Mesh& mesh, const Merged& g, TessellateOutput& t) {
             release(t.indices);
         }
         auto gather = [&](std::vector<float>& from, size_t comps) {
-            std::vector<float> r(used.size() * comps);
+            std::vector<float> r;
+            kernel::assign_huge(r, used.size() * comps);
             for (size_t i = 0; i < used.size(); ++i) std::copy_n(&from[size_t(used[i]) * comps], comps, &r[i * comps]);
             if (last) release(from);
             return r;
