@@ -94,6 +94,11 @@ window.renderJob = async function (job) {
     sun.position.add(new THREE.Vector3(-2, 4, 1).multiplyScalar(Math.hypot(...job.eye.map((v, i) => v - job.target[i]))));
     scene.add(sun);
   }
+  return draw(scene, job);
+};
+
+// One frame of `scene` from the job's camera: the PNG and the time to draw it.
+function draw(scene, job) {
   renderer.setSize(job.width, job.height, false);
   const cam = new THREE.PerspectiveCamera(job.fov, job.width / job.height, job.near, job.far);
   cam.up.set(...job.up);
@@ -105,5 +110,126 @@ window.renderJob = async function (job) {
   gl.finish();
   const ms = performance.now() - t0;
   return { png: canvas.toDataURL('image/png'), ms };
+}
+
+// The instanced shell layout (README "Instanced layout") in three.js, against the engine layout of the same
+// fur. GLTFLoader keeps the custom attributes under lower-cased names (_FUR_DIRECTION -> _fur_direction) and
+// the mesh's extras in userData; the shell base's node is outside the default scene, so it is fetched by
+// index. Two checks:
+//   positions  every shell rebuilt in JavaScript with the README's formula (Simpson's rule, 16 intervals),
+//              in double like furrow::instanced_shell_positions, and once more with every step rounded to
+//              float32 (what a GPU's highp float does), each compared with the engine layout's shell vertices;
+//   render     the shell base drawn N times (one InstancedMesh, the layer's height fraction per instance) by
+//              its own material with the README's shell_position (job.glsl) in the vertex shader, and the
+//              engine layout as loaded: the caller compares the two frames' coverage.
+// The controls (the checks can fail): the same two measures without comb and droop (lean = sag = 0).
+window.instancedJob = async function (job) {
+  const inst = await load(job.url), engine = await load(job.engineUrl);
+  const meshIndex = inst.parser.json.meshes.findIndex((m) => /_fur_shells$/.test(m.name || ''));
+  const nodeIndex = inst.parser.json.nodes.findIndex((n) => n.mesh === meshIndex);
+  if (meshIndex < 0 || nodeIndex < 0) throw new Error('no <mesh>_fur_shells mesh on a node');
+  const base = await inst.parser.getDependency('node', nodeIndex);
+  const params = base.userData.FURROW_shells;
+  if (!params || params.version !== 1) throw new Error('the shell base has no extras.FURROW_shells version 1');
+  const level = params.levels[0];
+  let shells = null;
+  engine.scene.traverse((o) => { if (o.isMesh && o.geometry.attributes._fur_layer) shells = o; });
+  if (!shells) throw new Error('the engine layout has no primitive with _FUR_LAYER');
+  const report = { layers: level.layers, vertices: base.geometry.attributes.position.count,
+    gap_double: rebuildGap(base.geometry, shells.geometry, level.heights, false, false),
+    gap_float32: rebuildGap(base.geometry, shells.geometry, level.heights, true, false),
+    gap_straight: rebuildGap(base.geometry, shells.geometry, level.heights, false, true) };
+
+  const scene = new THREE.Scene();
+  scene.add(inst.scene.clone(true));
+  const shader = instancedShells(base, level.heights, job.glsl, false);
+  scene.add(shader);
+  const engineScene = new THREE.Scene();
+  engineScene.add(engine.scene.clone(true));
+  for (const s of [scene, engineScene]) s.traverse((o) => { o.frustumCulled = false; });
+  const a = draw(scene, job), b = draw(engineScene, job);
+  scene.remove(shader);
+  scene.add(instancedShells(base, level.heights, job.glsl, true));
+  const c = draw(scene, job);
+  return { png: a.png, enginePng: b.png, straightPng: c.png, ms: a.ms, report };
 };
+
+// The README's formula in JavaScript; f32 rounds every step to float32 (Math.fround) as GLSL highp would.
+function shellPosition(out, root, D, H, lean, sag, s, f32) {
+  const r = f32 ? Math.fround : (x) => x;
+  const theta = r(Math.hypot(sag[0], sag[1], sag[2]));
+  let A = s, B = 0;
+  if (theta > 0) {
+    const h = r(s / 16);
+    let sa = 0, sb = 0;
+    for (let k = 0; k <= 16; ++k) {
+      const u = r(h * k), th = r(r(theta * u) * u), w = k === 0 || k === 16 ? 1 : (k & 1 ? 4 : 2);
+      sa = r(sa + r(w * r(Math.cos(th))));
+      sb = r(sb + r(w * r(Math.sin(th))));
+    }
+    A = r(r(sa * h) / 3);
+    B = r(r(sb * h) / 3);
+  }
+  const g = theta > 0 ? r(B / theta) : 0;
+  for (let k = 0; k < 3; ++k) out[k] = Math.fround(root[k] + r(H * r(r(r(A * D[k]) + r(g * sag[k])) + r(s * lean[k]))));
+}
+
+// The largest distance (per coordinate) between the engine layout's shells and the shells rebuilt from the
+// instanced base, over the diagonal of the engine shells' bounds. Each file has its own vertex order, so the
+// vertices of a shell are paired by what both files store unchanged: TEXCOORD_0, _FUR_DIRECTION and
+// _FUR_LENGTH (then the root, or the engine's point, break ties). straight: lean and sag taken as zero.
+function rebuildGap(baseGeo, engineGeo, heights, f32, straight) {
+  const A = (g, n) => g.attributes[n];
+  const zero = { getX: () => 0, getY: () => 0, getZ: () => 0 };
+  const bp = A(baseGeo, 'position'), dir = A(baseGeo, '_fur_direction'), len = A(baseGeo, '_fur_length');
+  const lean = (!straight && A(baseGeo, '_fur_lean')) || zero, sag = (!straight && A(baseGeo, '_fur_sag')) || zero;
+  const ep = A(engineGeo, 'position'), layer = A(engineGeo, '_fur_layer');
+  const key = (g, i) => [A(g, 'uv').getX(i), A(g, 'uv').getY(i), ...[0, 1, 2].map((k) => A(g, '_fur_direction').getComponent(i, k)), A(g, '_fur_length').getX(i)];
+  const order = (g, idx, pos) => idx.map((i) => ({ k: [...key(g, i), ...pos(i)], i })).sort((x, y) => {
+    for (let c = 0; c < x.k.length; ++c) if (x.k[c] !== y.k[c]) return x.k[c] - y.k[c];
+    return 0;
+  });
+  const lo = [Infinity, Infinity, Infinity], hi = [-Infinity, -Infinity, -Infinity];
+  for (let i = 0; i < ep.count; ++i) for (let k = 0; k < 3; ++k) {
+    lo[k] = Math.min(lo[k], ep.getComponent(i, k)); hi[k] = Math.max(hi[k], ep.getComponent(i, k));
+  }
+  const diagonal = Math.hypot(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]);
+  const all = [...Array(bp.count).keys()];
+  const baseOrder = order(baseGeo, all, (i) => [bp.getX(i), bp.getY(i), bp.getZ(i)]);
+  let worst = 0, compared = 0;
+  const p = [0, 0, 0];
+  for (const s of heights) {
+    const mine = [...Array(ep.count).keys()].filter((i) => layer.getX(i) === Math.fround(s));
+    if (mine.length !== bp.count) throw new Error(`shell ${s}: ${mine.length} engine vertices, ${bp.count} in the base`);
+    const engineOrder = order(engineGeo, mine, (i) => [ep.getX(i), ep.getY(i), ep.getZ(i)]);
+    for (let j = 0; j < bp.count; ++j) {
+      const b = baseOrder[j].i, e = engineOrder[j].i;
+      shellPosition(p, [bp.getX(b), bp.getY(b), bp.getZ(b)], [dir.getX(b), dir.getY(b), dir.getZ(b)], len.getX(b),
+        [lean.getX(b), lean.getY(b), lean.getZ(b)], [sag.getX(b), sag.getY(b), sag.getZ(b)], s, f32);
+      for (let k = 0; k < 3; ++k) worst = Math.max(worst, Math.abs(p[k] - ep.getComponent(e, k)));
+      ++compared;
+    }
+  }
+  return { max: worst, relative: worst / diagonal, diagonal, compared };
+}
+
+// The shell base as one InstancedMesh of `heights.length` instances, its material as loaded (the MASK shell
+// material) extruding each vertex by the README's shell_position at the instance's height fraction;
+// straight: with zero lean and sag (the control).
+function instancedShells(base, heights, glsl, straight) {
+  const geo = base.geometry.clone();
+  geo.setAttribute('fur_s', new THREE.InstancedBufferAttribute(new Float32Array(heights), 1));
+  const mat = base.material.clone();
+  mat.onBeforeCompile = (sh) => {
+    sh.vertexShader = 'attribute vec3 _fur_direction, _fur_lean, _fur_sag;\nattribute float _fur_length, fur_s;\n' + glsl + '\n' +
+      sh.vertexShader.replace('#include <begin_vertex>',
+        `vec3 transformed = shell_position(position, _fur_direction, _fur_length, ${straight ? 'vec3(0.0), vec3(0.0)' : '_fur_lean, _fur_sag'}, fur_s);`);
+  };
+  mat.customProgramCacheKey = () => `furrow-instanced-shells-${straight}`;
+  const mesh = new THREE.InstancedMesh(geo, mat, heights.length);
+  for (let i = 0; i < heights.length; ++i) mesh.setMatrixAt(i, new THREE.Matrix4());
+  mesh.matrix.copy(base.matrix);
+  mesh.matrix.decompose(mesh.position, mesh.quaternion, mesh.scale);
+  return mesh;
+}
 window.pageReady = true;

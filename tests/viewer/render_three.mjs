@@ -8,6 +8,12 @@
 //   {"model": "a.glb", "out": "a.png", "width": 256, "height": 192, "eye": [x,y,z], "target": [x,y,z],
 //    "up": [0,1,0], "fov": 45, "near": 0.01, "far": 100, "mode": "material", "mipmaps": "sampler"}
 // mode: lit | material | coverage (page.js says what each draws); mipmaps: sampler (as the file asks) | off.
+// A job with "task": "instanced" checks the instanced shell layout instead (page.js instancedJob): "model" is
+// the `--layout instanced` file, "engine" the `--layout engine` file of the same fur; it writes "out" (the
+// instanced layout drawn by the README's vertex shader), "engine_out" (the engine layout as loaded) and
+// "straight_out" (the control: the same shader with lean = sag = 0) and "report" (JSON: the largest gaps
+// between the shells rebuilt in JavaScript and the engine layout's).
+// The shader is the README's own: its GLSL block's shell_position function, read here and passed to the page.
 // Each view is written as an RGBA PNG with a transparent background; one line of JSON per view goes to
 // stdout ({"out": ..., "ms": ...}). Exit 0 when every view was written, 1 otherwise (the reason on stderr).
 //
@@ -41,7 +47,15 @@ if (!fs.existsSync(path.join(threeDir, 'package.json'))) fail(`three.js is not i
 
 const jobs = JSON.parse(fs.readFileSync(jobsFile, 'utf8'));
 const here = path.dirname(fileURLToPath(import.meta.url));
-const models = [...new Set(jobs.map((j) => path.resolve(j.model)))];
+const models = [...new Set(jobs.flatMap((j) => [j.model, j.engine].filter(Boolean).map((m) => path.resolve(m))))];
+// The README's reference vertex shader: the shell_position function of its GLSL block, verbatim.
+function readmeShellPosition() {
+  const readme = fs.readFileSync(path.join(here, '..', '..', 'README.md'), 'utf8');
+  const block = readme.split('```glsl\n').slice(1).map((b) => b.split('```')[0]).find((b) => b.includes('vec3 shell_position('));
+  if (!block) fail('README.md has no GLSL block with shell_position');
+  const from = block.indexOf('vec3 shell_position(');
+  return block.slice(from, block.indexOf('\n}', from) + 2);
+}
 for (const m of models) if (!fs.existsSync(m)) fail(`${m}: no such file`);
 
 const types = { '.js': 'text/javascript', '.mjs': 'text/javascript', '.html': 'text/html', '.glb': 'model/gltf-binary',
@@ -93,14 +107,23 @@ try {
     const k = models.indexOf(path.resolve(job.model));
     const view = { mode: 'material', mipmaps: 'sampler', up: [0, 1, 0], ...job, url: `${base}/model/${k}/${encodeURIComponent(path.basename(job.model))}` };
     let r;
+    if (job.task === 'instanced') {
+      view.engineUrl = `${base}/model/${models.indexOf(path.resolve(job.engine))}/${encodeURIComponent(path.basename(job.engine))}`;
+      view.glsl = readmeShellPosition();
+    }
     try {
-      r = await tab.evaluate((v) => window.renderJob(v), view);
+      r = await tab.evaluate((v) => (v.task === 'instanced' ? window.instancedJob(v) : window.renderJob(v)), view);
     } catch (e) {
       process.stderr.write(`Error: ${job.model}: ${String(e).split('\n')[0]} ${errors.join('; ')}\n`);
       status = 1;
       continue;
     }
     fs.writeFileSync(job.out, Buffer.from(r.png.split(',')[1], 'base64'));
+    if (job.task === 'instanced') {
+      fs.writeFileSync(job.engine_out, Buffer.from(r.enginePng.split(',')[1], 'base64'));
+      fs.writeFileSync(job.straight_out, Buffer.from(r.straightPng.split(',')[1], 'base64'));
+      fs.writeFileSync(job.report, JSON.stringify(r.report));
+    }
     process.stdout.write(JSON.stringify({ out: job.out, ms: r.ms }) + '\n');
   }
 } catch (e) {

@@ -154,3 +154,46 @@ TEST(viewer, CompressedFurMatchesPlain) {
                 iou, c.iou, 255 * c.colour, std::uintmax_t(fs::file_size(jobs[0].model)),
                 std::uintmax_t(fs::file_size(jobs[1].model)));
 }
+
+// The instanced layout (README "Instanced layout") in three.js: GLTFLoader reads the shell base (outside the
+// default scene), its _FUR_* attributes and extras; the page rebuilds every shell with the README's formula in
+// JavaScript (double, and float32 as a GPU would) and draws the base 16 times as one InstancedMesh through the
+// README's own GLSL shell_position (onBeforeCompile). The rebuilt shells must be the engine layout's within
+// 1e-6 of the diagonal and the drawn coverage the engine layout's (IoU >= 0.99, the bound of
+// CompressedFurMatchesPlain). Controls: without comb and droop (lean = sag = 0) the positions miss by more
+// than 1e-3 of the diagonal and the frame's coverage falls below IoU 0.99, so both checks see the bend.
+TEST(viewer, InstancedLayoutRebuildsTheEngineShells) {
+    const fs::path dir = temp_dir(), creature = source_dir() / "models/creature.glb";
+    // A comb map that leans the strands differently over the body (r = along u, g = up the image).
+    const ImageF comb{2, 2, 3, {0.9f, 0.5f, 0, 0.8f, 0.7f, 0, 0.6f, 0.2f, 0, 0.9f, 0.9f, 0}};
+    ASSERT_TRUE(save_png(comb, (dir / "comb.png").string()).ok());
+    for (const char* layout : {"instanced", "engine"}) {
+        RunResult r = run_furrow({"shells", creature.string(), "-o", (dir / (std::string(layout) + ".glb")).string(), "--layers",
+                                  "16", "--length", "0.04", "--mask", (source_dir() / "models/creature_fur_mask.png").string() + ":r",
+                                  "--droop", "1", "--comb", (dir / "comb.png").string(), "--layout", layout, "-q"});
+        ASSERT_EQ(r.exit_code, 0) << layout << ": " << r.err;
+    }
+    ThreeJob job{dir / "instanced.glb", dir / "instanced.png", kCreatureView};
+    job.engine = dir / "engine.glb";
+    ASSERT_EQ(render_three({job}, dir), "");
+    const nlohmann::json report = nlohmann::json::parse(read_text(dir / "instanced.png.json"));
+    const int layers = report["layers"], vertices = report["vertices"];
+    EXPECT_EQ(layers, 16);
+    for (const char* route : {"gap_double", "gap_float32", "gap_straight"})
+        EXPECT_EQ(report[route]["compared"].get<int>(), layers * vertices) << route;
+    const double gap = report["gap_double"]["relative"], gap32 = report["gap_float32"]["relative"];
+    const double straight_gap = report["gap_straight"]["relative"];
+    EXPECT_LE(gap, 1e-6);
+    EXPECT_LE(gap32, 1e-6);
+    EXPECT_GT(straight_gap, 1e-3);
+
+    const ImageF engine = silhouette_mask(load_image(dir / "instanced.png.engine.png"));
+    const double iou = mask_iou(silhouette_mask(load_image(dir / "instanced.png")), engine);
+    const double straight_iou = mask_iou(silhouette_mask(load_image(dir / "instanced.png.straight.png")), engine);
+    EXPECT_GE(iou, 0.99);
+    EXPECT_LT(straight_iou, 0.99);
+    std::printf("instanced layout in three.js: %d shells x %d vertices rebuilt in JavaScript, largest gap to the engine "
+                "layout's %.3g x diagonal (double), %.3g (float32); the shader's coverage vs the engine layout's IoU %.4f. "
+                "Controls without lean and sag: gap %.3g, IoU %.4f\n",
+                layers, vertices, gap, gap32, iou, straight_gap, straight_iou);
+}

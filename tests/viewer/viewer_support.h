@@ -47,6 +47,11 @@ struct ThreeJob {
     View view;
     std::string mode = "material";
     bool mipmaps = true;
+    // Non-empty: the instanced-layout check instead (render_three.mjs "task": "instanced"): `model` is the
+    // `--layout instanced` file, `engine` the `--layout engine` file of the same fur; `out` gets the shader's
+    // frame, out + ".engine.png" the engine layout's, out + ".straight.png" the control (lean = sag = 0) and
+    // out + ".json" the position gaps.
+    std::filesystem::path engine = {};
 };
 
 // Renders every job in one browser session (tests/viewer/render_three.mjs, three.js from
@@ -61,6 +66,11 @@ inline std::string render_three(const std::vector<ThreeJob>& jobs, const std::fi
                         {"up", {0, 1, 0}}, {"fov", j.view.fov}, {"near", j.view.near_plane},
                         {"far", 1000 * std::sqrt(dist) + 1}, {"mode", j.mode},
                         {"mipmaps", j.mipmaps ? "sampler" : "off"}});
+        if (!j.engine.empty()) {
+            const std::string o = j.out.string();
+            list.back().update({{"task", "instanced"}, {"engine", j.engine.string()}, {"engine_out", o + ".engine.png"},
+                                {"straight_out", o + ".straight.png"}, {"report", o + ".json"}});
+        }
     }
     const auto file = dir / "three_jobs.json";
     write_text(file, list.dump(1));
