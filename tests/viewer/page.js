@@ -118,7 +118,8 @@ function draw(scene, job) {
 // index. Two checks:
 //   positions  every shell rebuilt in JavaScript with the README's formula (Simpson's rule, 16 intervals),
 //              in double like furrow::instanced_shell_positions, and once more with every step rounded to
-//              float32 (what a GPU's highp float does), each compared with the engine layout's shell vertices;
+//              float32 (what a GPU's highp float does), and by the GPU itself (the README's GLSL, transform
+//              feedback), each compared with the engine layout's shell vertices;
 //   render     the shell base drawn N times (one InstancedMesh, the layer's height fraction per instance) by
 //              its own material with the README's shell_position (job.glsl) in the vertex shader, and the
 //              engine layout as loaded: the caller compares the two frames' coverage.
@@ -136,9 +137,11 @@ window.instancedJob = async function (job) {
   engine.scene.traverse((o) => { if (o.isMesh && o.geometry.attributes._fur_layer) shells = o; });
   if (!shells) throw new Error('the engine layout has no primitive with _FUR_LAYER');
   const report = { layers: level.layers, vertices: base.geometry.attributes.position.count,
-    gap_double: rebuildGap(base.geometry, shells.geometry, level.heights, false, false),
-    gap_float32: rebuildGap(base.geometry, shells.geometry, level.heights, true, false),
-    gap_straight: rebuildGap(base.geometry, shells.geometry, level.heights, false, true) };
+    gap_double: rebuildGap(base.geometry, shells.geometry, level.heights, (s) => jsShell(base.geometry, s, false, false)),
+    gap_float32: rebuildGap(base.geometry, shells.geometry, level.heights, (s) => jsShell(base.geometry, s, true, false)),
+    gap_straight: rebuildGap(base.geometry, shells.geometry, level.heights, (s) => jsShell(base.geometry, s, false, true)) };
+  const gpu = gpuShells(base.geometry, level.heights, job.glsl);
+  report.gap_gpu = rebuildGap(base.geometry, shells.geometry, level.heights, (s) => gpu.get(s));
 
   const scene = new THREE.Scene();
   scene.add(inst.scene.clone(true));
@@ -174,16 +177,87 @@ function shellPosition(out, root, D, H, lean, sag, s, f32) {
   for (let k = 0; k < 3; ++k) out[k] = Math.fround(root[k] + r(H * r(r(r(A * D[k]) + r(g * sag[k])) + r(s * lean[k]))));
 }
 
-// The largest distance (per coordinate) between the engine layout's shells and the shells rebuilt from the
-// instanced base, over the diagonal of the engine shells' bounds. Each file has its own vertex order, so the
-// vertices of a shell are paired by what both files store unchanged: TEXCOORD_0, _FUR_DIRECTION and
-// _FUR_LENGTH (then the root, or the engine's point, break ties). straight: lean and sag taken as zero.
-function rebuildGap(baseGeo, engineGeo, heights, f32, straight) {
-  const A = (g, n) => g.attributes[n];
+// Shell s rebuilt in JavaScript from the base's attributes, as xyz per vertex in the base's order;
+// straight: lean and sag taken as zero (the control).
+function jsShell(baseGeo, s, f32, straight) {
+  const A = (n) => baseGeo.attributes[n];
   const zero = { getX: () => 0, getY: () => 0, getZ: () => 0 };
-  const bp = A(baseGeo, 'position'), dir = A(baseGeo, '_fur_direction'), len = A(baseGeo, '_fur_length');
-  const lean = (!straight && A(baseGeo, '_fur_lean')) || zero, sag = (!straight && A(baseGeo, '_fur_sag')) || zero;
-  const ep = A(engineGeo, 'position'), layer = A(engineGeo, '_fur_layer');
+  const bp = A('position'), dir = A('_fur_direction'), len = A('_fur_length');
+  const lean = (!straight && A('_fur_lean')) || zero, sag = (!straight && A('_fur_sag')) || zero;
+  const out = new Float64Array(3 * bp.count), p = [0, 0, 0];
+  for (let b = 0; b < bp.count; ++b) {
+    shellPosition(p, [bp.getX(b), bp.getY(b), bp.getZ(b)], [dir.getX(b), dir.getY(b), dir.getZ(b)], len.getX(b),
+      [lean.getX(b), lean.getY(b), lean.getZ(b)], [sag.getX(b), sag.getY(b), sag.getZ(b)], s, f32);
+    out.set(p, 3 * b);
+  }
+  return out;
+}
+
+// The same shells computed by the GPU: the README's shell_position in a WebGL2 vertex shader whose output is
+// captured by transform feedback (three.js has no such path, so raw WebGL2 on a canvas of its own).
+function gpuShells(baseGeo, heights, glsl) {
+  const gl = document.createElement('canvas').getContext('webgl2');
+  const compile = (type, src) => {
+    const sh = gl.createShader(type);
+    gl.shaderSource(sh, src);
+    gl.compileShader(sh);
+    if (!gl.getShaderParameter(sh, gl.COMPILE_STATUS)) throw new Error(`GLSL: ${gl.getShaderInfoLog(sh)}`);
+    return sh;
+  };
+  const prog = gl.createProgram();
+  gl.attachShader(prog, compile(gl.VERTEX_SHADER, `#version 300 es
+in vec3 position, _FUR_DIRECTION, _FUR_LEAN, _FUR_SAG;
+in float _FUR_LENGTH;
+uniform float u_s;
+out vec3 shell;
+${glsl}
+void main() { shell = shell_position(position, _FUR_DIRECTION, _FUR_LENGTH, _FUR_LEAN, _FUR_SAG, u_s); gl_Position = vec4(0.0); }`));
+  gl.attachShader(prog, compile(gl.FRAGMENT_SHADER, '#version 300 es\nprecision highp float;\nout vec4 c;\nvoid main() { c = vec4(0.0); }'));
+  gl.transformFeedbackVaryings(prog, ['shell'], gl.INTERLEAVED_ATTRIBS);
+  gl.linkProgram(prog);
+  if (!gl.getProgramParameter(prog, gl.LINK_STATUS)) throw new Error(`link: ${gl.getProgramInfoLog(prog)}`);
+  gl.useProgram(prog);
+  const n = baseGeo.attributes.position.count;
+  for (const [name, attr] of [['position', 'position'], ['_FUR_DIRECTION', '_fur_direction'], ['_FUR_LENGTH', '_fur_length'],
+    ['_FUR_LEAN', '_fur_lean'], ['_FUR_SAG', '_fur_sag']]) {
+    const loc = gl.getAttribLocation(prog, name), a = baseGeo.attributes[attr];
+    if (loc < 0) continue;
+    if (!a) { gl.vertexAttrib4f(loc, 0, 0, 0, 0); continue; } // absent: zero, as the README says
+    const values = new Float32Array(n * a.itemSize);
+    for (let i = 0; i < n; ++i) for (let k = 0; k < a.itemSize; ++k) values[i * a.itemSize + k] = a.getComponent(i, k);
+    gl.bindBuffer(gl.ARRAY_BUFFER, gl.createBuffer());
+    gl.bufferData(gl.ARRAY_BUFFER, values, gl.STATIC_DRAW);
+    gl.enableVertexAttribArray(loc);
+    gl.vertexAttribPointer(loc, a.itemSize, gl.FLOAT, false, 0, 0);
+  }
+  const captured = gl.createBuffer();
+  gl.bindBuffer(gl.TRANSFORM_FEEDBACK_BUFFER, captured);
+  gl.bufferData(gl.TRANSFORM_FEEDBACK_BUFFER, 12 * n, gl.STATIC_READ);
+  gl.enable(gl.RASTERIZER_DISCARD);
+  const out = new Map();
+  for (const s of heights) {
+    gl.uniform1f(gl.getUniformLocation(prog, 'u_s'), s);
+    gl.bindBufferBase(gl.TRANSFORM_FEEDBACK_BUFFER, 0, captured);
+    gl.beginTransformFeedback(gl.POINTS);
+    gl.drawArrays(gl.POINTS, 0, n);
+    gl.endTransformFeedback();
+    gl.bindBufferBase(gl.TRANSFORM_FEEDBACK_BUFFER, 0, null);
+    const values = new Float32Array(3 * n);
+    gl.bindBuffer(gl.TRANSFORM_FEEDBACK_BUFFER, captured);
+    gl.getBufferSubData(gl.TRANSFORM_FEEDBACK_BUFFER, 0, values);
+    out.set(s, values);
+  }
+  gl.getExtension('WEBGL_lose_context')?.loseContext();
+  return out;
+}
+
+// The largest distance (per coordinate) between the engine layout's shells and rebuilt(s) (shell s from the
+// instanced base, xyz in the base's vertex order), over the diagonal of the engine shells' bounds. Each file
+// has its own vertex order, so the vertices of a shell are paired by what both files store unchanged:
+// TEXCOORD_0, _FUR_DIRECTION and _FUR_LENGTH (then the root, or the engine's point, break ties).
+function rebuildGap(baseGeo, engineGeo, heights, rebuilt) {
+  const A = (g, n) => g.attributes[n];
+  const bp = A(baseGeo, 'position'), ep = A(engineGeo, 'position'), layer = A(engineGeo, '_fur_layer');
   const key = (g, i) => [A(g, 'uv').getX(i), A(g, 'uv').getY(i), ...[0, 1, 2].map((k) => A(g, '_fur_direction').getComponent(i, k)), A(g, '_fur_length').getX(i)];
   const order = (g, idx, pos) => idx.map((i) => ({ k: [...key(g, i), ...pos(i)], i })).sort((x, y) => {
     for (let c = 0; c < x.k.length; ++c) if (x.k[c] !== y.k[c]) return x.k[c] - y.k[c];
@@ -194,19 +268,16 @@ function rebuildGap(baseGeo, engineGeo, heights, f32, straight) {
     lo[k] = Math.min(lo[k], ep.getComponent(i, k)); hi[k] = Math.max(hi[k], ep.getComponent(i, k));
   }
   const diagonal = Math.hypot(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]);
-  const all = [...Array(bp.count).keys()];
-  const baseOrder = order(baseGeo, all, (i) => [bp.getX(i), bp.getY(i), bp.getZ(i)]);
+  const baseOrder = order(baseGeo, [...Array(bp.count).keys()], (i) => [bp.getX(i), bp.getY(i), bp.getZ(i)]);
   let worst = 0, compared = 0;
-  const p = [0, 0, 0];
   for (const s of heights) {
     const mine = [...Array(ep.count).keys()].filter((i) => layer.getX(i) === Math.fround(s));
     if (mine.length !== bp.count) throw new Error(`shell ${s}: ${mine.length} engine vertices, ${bp.count} in the base`);
     const engineOrder = order(engineGeo, mine, (i) => [ep.getX(i), ep.getY(i), ep.getZ(i)]);
+    const p = rebuilt(s);
     for (let j = 0; j < bp.count; ++j) {
       const b = baseOrder[j].i, e = engineOrder[j].i;
-      shellPosition(p, [bp.getX(b), bp.getY(b), bp.getZ(b)], [dir.getX(b), dir.getY(b), dir.getZ(b)], len.getX(b),
-        [lean.getX(b), lean.getY(b), lean.getZ(b)], [sag.getX(b), sag.getY(b), sag.getZ(b)], s, f32);
-      for (let k = 0; k < 3; ++k) worst = Math.max(worst, Math.abs(p[k] - ep.getComponent(e, k)));
+      for (let k = 0; k < 3; ++k) worst = Math.max(worst, Math.abs(p[3 * b + k] - ep.getComponent(e, k)));
       ++compared;
     }
   }

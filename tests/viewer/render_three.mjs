@@ -48,13 +48,16 @@ if (!fs.existsSync(path.join(threeDir, 'package.json'))) fail(`three.js is not i
 const jobs = JSON.parse(fs.readFileSync(jobsFile, 'utf8'));
 const here = path.dirname(fileURLToPath(import.meta.url));
 const models = [...new Set(jobs.flatMap((j) => [j.model, j.engine].filter(Boolean).map((m) => path.resolve(m))))];
-// The README's reference vertex shader: the shell_position function of its GLSL block, verbatim.
+// The README's reference vertex shader, verbatim: its GLSL block's functions, from the comment above the first
+// one to the end of shell_position (the block's attribute and uniform declarations are the caller's).
 function readmeShellPosition() {
   const readme = fs.readFileSync(path.join(here, '..', '..', 'README.md'), 'utf8');
   const block = readme.split('```glsl\n').slice(1).map((b) => b.split('```')[0]).find((b) => b.includes('vec3 shell_position('));
   if (!block) fail('README.md has no GLSL block with shell_position');
-  const from = block.indexOf('vec3 shell_position(');
-  return block.slice(from, block.indexOf('\n}', from) + 2);
+  const first = block.search(/^(void|float|vec[234]) \w+\(/m);
+  const from = block.lastIndexOf('\n', block.lastIndexOf('uniform', first)) + 1;
+  const end = block.indexOf('\n}', block.indexOf('vec3 shell_position('));
+  return block.slice(block.indexOf('\n', from) + 1, end + 2);
 }
 for (const m of models) if (!fs.existsSync(m)) fail(`${m}: no such file`);
 

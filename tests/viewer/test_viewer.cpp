@@ -157,9 +157,10 @@ TEST(viewer, CompressedFurMatchesPlain) {
 
 // The instanced layout (README "Instanced layout") in three.js: GLTFLoader reads the shell base (outside the
 // default scene), its _FUR_* attributes and extras; the page rebuilds every shell with the README's formula in
-// JavaScript (double, and float32 as a GPU would) and draws the base 16 times as one InstancedMesh through the
-// README's own GLSL shell_position (onBeforeCompile). The rebuilt shells must be the engine layout's within
-// 1e-6 of the diagonal and the drawn coverage the engine layout's (IoU >= 0.99, the bound of
+// JavaScript (double, and float32 as a GPU would), runs the README's own GLSL on the GPU (transform feedback),
+// and draws the base 16 times as one InstancedMesh through that GLSL (onBeforeCompile). All three rebuilt
+// shells must be the engine layout's within 1e-6 of the diagonal and the drawn coverage the engine layout's
+// (IoU >= 0.99, the bound of
 // CompressedFurMatchesPlain). Controls: without comb and droop (lean = sag = 0) the positions miss by more
 // than 1e-3 of the diagonal and the frame's coverage falls below IoU 0.99, so both checks see the bend.
 TEST(viewer, InstancedLayoutRebuildsTheEngineShells) {
@@ -179,12 +180,14 @@ TEST(viewer, InstancedLayoutRebuildsTheEngineShells) {
     const nlohmann::json report = nlohmann::json::parse(read_text(dir / "instanced.png.json"));
     const int layers = report["layers"], vertices = report["vertices"];
     EXPECT_EQ(layers, 16);
-    for (const char* route : {"gap_double", "gap_float32", "gap_straight"})
+    for (const char* route : {"gap_double", "gap_float32", "gap_gpu", "gap_straight"})
         EXPECT_EQ(report[route]["compared"].get<int>(), layers * vertices) << route;
     const double gap = report["gap_double"]["relative"], gap32 = report["gap_float32"]["relative"];
+    const double gpu_gap = report["gap_gpu"]["relative"];
     const double straight_gap = report["gap_straight"]["relative"];
     EXPECT_LE(gap, 1e-6);
     EXPECT_LE(gap32, 1e-6);
+    EXPECT_LE(gpu_gap, 1e-6); // 2.5e-6 with the GPU's built-in cos/sin (SwiftShader): README's series instead
     EXPECT_GT(straight_gap, 1e-3);
 
     const ImageF engine = silhouette_mask(load_image(dir / "instanced.png.engine.png"));
@@ -193,7 +196,7 @@ TEST(viewer, InstancedLayoutRebuildsTheEngineShells) {
     EXPECT_GE(iou, 0.99);
     EXPECT_LT(straight_iou, 0.99);
     std::printf("instanced layout in three.js: %d shells x %d vertices rebuilt in JavaScript, largest gap to the engine "
-                "layout's %.3g x diagonal (double), %.3g (float32); the shader's coverage vs the engine layout's IoU %.4f. "
+                "layout's %.3g x diagonal (double), %.3g (float32), %.3g (the README's GLSL on the GPU); the shader's coverage vs the engine layout's IoU %.4f. "
                 "Controls without lean and sag: gap %.3g, IoU %.4f\n",
-                layers, vertices, gap, gap32, iou, straight_gap, straight_iou);
+                layers, vertices, gap, gap32, gpu_gap, iou, straight_gap, straight_iou);
 }
