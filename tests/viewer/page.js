@@ -152,7 +152,9 @@ window.instancedJob = async function (job) {
   for (const s of [scene, engineScene]) s.traverse((o) => { o.frustumCulled = false; });
   const a = draw(scene, job), b = draw(engineScene, job);
   scene.remove(shader);
-  scene.add(instancedShells(base, level.heights, job.glsl, true));
+  const straight = instancedShells(base, level.heights, job.glsl, true);
+  straight.frustumCulled = false;
+  scene.add(straight);
   const c = draw(scene, job);
   return { png: a.png, enginePng: b.png, straightPng: c.png, ms: a.ms, report };
 };
