@@ -172,7 +172,9 @@ struct FurOptions {
     double lod_simplify_error = 0; // > 0: LOD level k >= 1 grows on the base simplified (meshopt_simplify, UV
                                 // seams and borders kept) toward 1/4^k of its triangles, within a relative error
                                 // of this × 2^(k−1) (fraction of the mesh's largest extent, as meshopt defines
-                                // it; e.g. 0.01: 1 % at level 1, 2 % at level 2); 0 = off (every level on the full
+                                // it; e.g. 0.01: 1 % at level 1, 2 % at level 2), checked on the sampled distance
+                                // between the two surfaces both ways (meshopt asked again with half the error until
+                                // it holds: its own quadric error can understate it); 0 = off (every level on the full
                                 // base); 0..1. Not in the instanced layout (one shell base for every level).
                                 // The clamps were computed on the full base: a simplified level may cut corners
                                 // by up to its error.
