@@ -8,7 +8,8 @@
 //     texture on TEXCOORD_1 (so TEXCOORD_0 keeps the model's own UVs);
 //   - shading = COLOR_0 × strand texture: the base albedo is sampled at each vertex (base colour factor ×
 //     texture × vertex colour) and darkened toward the roots, a cheap stand-in for self-shadowing;
-//   - LOD levels live on nodes outside the default scene, so a viewer shows level 0 only;
+//   - LOD levels live on nodes outside the default scene, so a viewer shows level 0 only; with
+//     lod_simplify_error their bases are also simplified (simplify_lod.cpp), on the same vertices and frame;
 //   - everything an animated model needs rides along: JOINTS_0/WEIGHTS_0 and morph deltas are copied from
 //     the base vertex, and the shells stay in the base's mesh, so its node, skin and weights apply.
 // Lengths are given in world units and converted per mesh with the scale of its (bind-pose) world matrix,
