@@ -78,6 +78,15 @@ void run_shells(const ShellsArgs& a, const GlobalFlags& g) {
     if (r.refined_faces)
         line += "; " + plural(r.refined_faces, "base face") + " split where clamped corners starved the fur";
     info(g, line);
+    if (fur.shells.lod_levels > 1 && fur.lod_simplify_error > 0 && fur.layout != ShellLayout::instanced) {
+        std::string lod = "  LOD base triangles (meshopt error, relative to the extent):";
+        for (size_t k = 0; k < r.lod_base_triangles.size(); ++k) {
+            char err[32];
+            std::snprintf(err, sizeof err, "%.4f", r.lod_simplify_error[k]);
+            lod += (k ? "; " : " ") + std::string("level ") + std::to_string(k) + " " + std::to_string(r.lod_base_triangles[k]) + " (" + err + ")";
+        }
+        info(g, lod);
+    }
     info(g, "  " + std::to_string(r.clamped_vertices) + " of " + std::to_string(r.welded_vertices) +
                 " vertices clamped (" + std::to_string(r.clamped_by_ray) + " by free space, " + std::to_string(r.clamped_by_fold) +
                 " by folds, " + std::to_string(r.clamped_by_even_cap) + " at sharp corners), " + std::to_string(r.bald_vertices) +
@@ -131,6 +140,11 @@ void register_shells(CLI::App& app, GlobalFlags& g) {
                     "LOD levels K, 1..8 (default 1): N, N/2, N/4, ... shells; levels >= 1 on nodes '<node>_fur_lod<k>' "
                     "outside the default scene")
         ->check(finite_range(1, 8));
+    cmd->add_option("--lod-simplify", a->fur.lod_simplify_error,
+                    "With --lod: level k >= 1 grows on the base simplified (meshoptimizer, UV seams and borders kept) toward "
+                    "1/4^k of its triangles within a relative error of ERROR x 2^(k-1) of the model's extent; 0 = off "
+                    "(default), e.g. 0.01; 0..1; not with --layout instanced")
+        ->check(finite_range(0.0, 1.0));
     cmd->add_option("--density", a->fur.strands.strands, "Strands per strand-texture tile (default 1400)")->check(finite_range(1, 1 << 22));
     cmd->add_option("--strand-radius", a->fur.strands.radius, "Strand root radius in texels (default 2.2)")->check(finite_range(0.25, 64.0));
     cmd->add_option("--texture-size", a->fur.strands.size, "Strand texture size in pixels, 16..4096 (default 256)")->check(finite_range(16, 4096));

@@ -8,7 +8,8 @@
 //     texture on TEXCOORD_1 (so TEXCOORD_0 keeps the model's own UVs);
 //   - shading = COLOR_0 × strand texture: the base albedo is sampled at each vertex (base colour factor ×
 //     texture × vertex colour) and darkened toward the roots, a cheap stand-in for self-shadowing;
-//   - LOD levels live on nodes outside the default scene, so a viewer shows level 0 only;
+//   - LOD levels live on nodes outside the default scene, so a viewer shows level 0 only; with
+//     lod_simplify_error their bases are also simplified (simplify_lod.cpp), on the same vertices and frame;
 //   - everything an animated model needs rides along: JOINTS_0/WEIGHTS_0 and morph deltas are copied from
 //     the base vertex, and the shells stay in the base's mesh, so its node, skin and weights apply.
 // Lengths are given in world units and converted per mesh with the scale of its (bind-pose) world matrix,
@@ -271,6 +272,14 @@ struct Grown {
     std::vector<uint32_t> tris;
     size_t dropped = 0;
     std::optional<Primitive> refined; // the base primitive refined where clamps starved its faces
+    // FurOptions::lod_simplify_error > 0: the simplified base of LOD level k >= 1 at [k - 1] (same vertices and
+    // frame, fewer triangles); empty: every level grows on `tris`.
+    struct Level {
+        std::vector<uint32_t> tris;
+        ShellVertices sv;
+        size_t dropped = 0;
+    };
+    std::vector<Level> lods;
 };
 
 // The base primitive the shells of `g` grow from: its refinement, if it got one.
@@ -397,17 +406,17 @@ struct ShellSource {
     std::vector<float> len, dir, root, lean, sag, albedo;
 };
 
-ShellSource shell_source(const Grown& g, const Primitive& base) {
+ShellSource shell_source(const Grown& g, const ShellVertices& sv, const Primitive& base) {
     ShellSource r;
-    const size_t m = g.sv.src.size();
+    const size_t m = sv.src.size();
     r.m = m;
-    copy_attributes(r.proto, base, g.sv.src, g.sv.uv0);
-    r.proto.uv1 = g.sv.uv1;
+    copy_attributes(r.proto, base, sv.src, sv.uv0);
+    r.proto.uv1 = sv.uv1;
     r.len.resize(m), r.dir.resize(3 * m), r.root.resize(3 * m), r.lean.resize(3 * m), r.sag.resize(3 * m), r.albedo.resize(3 * m);
 // Everything a shell vertex is made of, gathered once per output vertex: each shell is then one
 // streaming pass over these arrays (no indirection through the base vertex per shell).
 parallel(m, 4096, [&](size_t i) {
-    const uint32_t v = g.sv.src[i];
+    const uint32_t v = sv.src[i];
     r.len[i] = g.frame.length[v];
     for (size_t k = 0; k < 3; ++k) {
         const size_t j = 3 * size_t(v) + k;
@@ -438,7 +447,7 @@ void fill_shell(const ShellSource& r, const FurOptions& opt, int layer, int laye
 // The viewer layout of one level: one primitive per shell, each with its own MASK material. One task per
 // shell, copies of the shared attributes included: the copying is most of the bytes, so it must not run on
 // one thread.
-std::vector<Primitive> viewer_shells(const ShellSource& r, const Grown& g, const FurOptions& opt, int n_k, const std::vector<int>& materials) {
+std::vector<Primitive> viewer_shells(const ShellSource& r, const ShellVertices& sv, const FurOptions& opt, int n_k, const std::vector<int>& materials) {
     std::vector<Primitive> shells(static_cast<size_t>(n_k));
     parallel(size_t(n_k), 1, [&](size_t i) {
         Primitive& out = shells[i];
@@ -446,7 +455,7 @@ std::vector<Primitive> viewer_shells(const ShellSource& r, const Grown& g, const
         out.positions.resize(3 * r.m);
         out.colors.resize(4 * r.m);
         fill_shell(r, opt, int(i) + 1, n_k, out.positions.data(), out.colors.data());
-        out.indices = g.sv.indices;
+        out.indices = sv.indices;
         out.material = materials[i];
     });
     return shells;
@@ -454,14 +463,14 @@ std::vector<Primitive> viewer_shells(const ShellSource& r, const Grown& g, const
 
 // The engine layout of one level: all shells in one primitive (every array sized once, each shell fills its
 // own slice), with _FUR_LAYER, _FUR_LENGTH and _FUR_DIRECTION for a shader.
-Primitive engine_shells(const ShellSource& r, const Grown& g, const FurOptions& opt, int n_k, int material) {
+Primitive engine_shells(const ShellSource& r, const ShellVertices& sv, const FurOptions& opt, int n_k, int material) {
     Primitive all;
     all.material = material;
     const size_t copies = size_t(n_k);
     auto sized = [&](std::vector<float>& v, const std::vector<float>& per_shell) { v.resize(copies * per_shell.size()); };
     all.positions.resize(copies * 3 * r.m);
     all.colors.resize(copies * 4 * r.m);
-    all.indices.resize(copies * g.sv.indices.size());
+    all.indices.resize(copies * sv.indices.size());
     sized(all.normals, r.proto.normals);
     sized(all.uv0, r.proto.uv0);
     sized(all.uv1, r.proto.uv1);
@@ -482,8 +491,8 @@ Primitive engine_shells(const ShellSource& r, const Grown& g, const FurOptions& 
         };
         fill_shell(r, opt, int(i) + 1, n_k, all.positions.data() + i * 3 * r.m, all.colors.data() + i * 4 * r.m);
         const uint32_t offset = uint32_t(i * r.m);
-        uint32_t* idx = all.indices.data() + i * g.sv.indices.size();
-        for (size_t x = 0; x < g.sv.indices.size(); ++x) idx[x] = offset + g.sv.indices[x];
+        uint32_t* idx = all.indices.data() + i * sv.indices.size();
+        for (size_t x = 0; x < sv.indices.size(); ++x) idx[x] = offset + sv.indices[x];
         put(all.normals, r.proto.normals);
         put(all.uv0, r.proto.uv0);
         put(all.uv1, r.proto.uv1);
@@ -522,15 +531,16 @@ Primitive instanced_base(const ShellSource& r, const Grown& g, int material) {
 }
 
 // Fins: a quad standing on every manifold edge of the welded mesh, from the base to the tips.
-std::optional<Primitive> fins_of(const Grown& g, const Primitive& base, const FurOptions& opt, double scale, int material, size_t& quads) {
+std::optional<Primitive> fins_of(const Grown& g, const std::vector<uint32_t>& tris, const Primitive& base, const FurOptions& opt,
+                                 double scale, int material, size_t& quads) {
     const size_t n = base.vertex_count();
     std::vector<uint32_t> remap(n);
     weld_positions(remap.data(), base.positions.data(), n);
     std::map<std::pair<uint32_t, uint32_t>, std::vector<std::pair<size_t, int>>> edges; // welded edge -> (face, corner)
-    const size_t T = g.tris.size() / 3;
+    const size_t T = tris.size() / 3;
     for (size_t f = 0; f < T; ++f)
         for (int c = 0; c < 3; ++c) {
-            uint32_t a = remap[g.tris[3 * f + c]], b = remap[g.tris[3 * f + (c + 1) % 3]];
+            uint32_t a = remap[tris[3 * f + c]], b = remap[tris[3 * f + (c + 1) % 3]];
             if (a == b) continue;
             edges[{std::min(a, b), std::max(a, b)}].push_back({f, c});
         }
@@ -540,9 +550,9 @@ std::optional<Primitive> fins_of(const Grown& g, const Primitive& base, const Fu
     std::vector<float> fin_uv, fin_normal;
     std::vector<uint8_t> is_tip;
     auto face_normal = [&](size_t f) {
-        const float* p0 = &base.positions[3 * size_t(g.tris[3 * f])];
-        const float* p1 = &base.positions[3 * size_t(g.tris[3 * f + 1])];
-        const float* p2 = &base.positions[3 * size_t(g.tris[3 * f + 2])];
+        const float* p0 = &base.positions[3 * size_t(tris[3 * f])];
+        const float* p1 = &base.positions[3 * size_t(tris[3 * f + 1])];
+        const float* p2 = &base.positions[3 * size_t(tris[3 * f + 2])];
         double e1[3] = {double(p1[0]) - p0[0], double(p1[1]) - p0[1], double(p1[2]) - p0[2]};
         double e2[3] = {double(p2[0]) - p0[0], double(p2[1]) - p0[1], double(p2[2]) - p0[2]};
         std::array<double, 3> c{e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]};
@@ -554,7 +564,7 @@ std::optional<Primitive> fins_of(const Grown& g, const Primitive& base, const Fu
     for (const auto& [key, uses] : edges) {
         if (uses.size() != 2) continue;
         const auto [f, c] = uses[0];
-        uint32_t a = g.tris[3 * f + size_t(c)], b = g.tris[3 * f + size_t((c + 1) % 3)];
+        uint32_t a = tris[3 * f + size_t(c)], b = tris[3 * f + size_t((c + 1) % 3)];
         if (!(g.frame.length[a] > 0 || g.frame.length[b] > 0)) continue;
         double el = 0;
         for (int k = 0; k < 3; ++k) el += std::pow(double(base.positions[3 * b + k]) - base.positions[3 * a + k], 2);
@@ -601,6 +611,39 @@ std::optional<Primitive> fins_of(const Grown& g, const Primitive& base, const Fu
     return fins;
 }
 
+// Model only what is there: a triangle whose three corners are bald would sit on the skin. `dropped` counts
+// the others.
+std::vector<uint8_t> kept_faces(const std::vector<uint32_t>& tris, const ShellFrame& frame, size_t& dropped) {
+    const size_t T = tris.size() / 3;
+    std::vector<uint8_t> keep(T, 0);
+    for (size_t f = 0; f < T; ++f)
+        keep[f] = frame.length[tris[3 * f]] > 0 || frame.length[tris[3 * f + 1]] > 0 || frame.length[tris[3 * f + 2]] > 0;
+    dropped = T - size_t(std::count(keep.begin(), keep.end(), uint8_t(1)));
+    return keep;
+}
+
+// FurOptions::lod_simplify_error: the simplified base of every LOD level k >= 1 (simplify_lod.cpp) with its
+// shell vertex set, and per level its base triangles and meshopt's error in the report.
+void simplify_levels(Grown& g, const Primitive& base, const FurOptions& opt, double tile_obj, FurReport& rep) {
+    const int levels = opt.shells.lod_levels;
+    rep.lod_base_triangles.resize(size_t(levels), 0);
+    rep.lod_simplify_error.resize(size_t(levels), 0.0);
+    const bool simplify = opt.lod_simplify_error > 0 && opt.layout != ShellLayout::instanced;
+    for (int k = 0; k < levels; ++k) {
+        if (k == 0 || !simplify) {
+            rep.lod_base_triangles[size_t(k)] += g.tris.size() / 3;
+            continue;
+        }
+        shells_detail::SimplifiedBase sb = shells_detail::simplify_base(base, g.tris, k, opt.lod_simplify_error);
+        Grown::Level lv;
+        lv.tris = std::move(sb.tris);
+        lv.sv = shell_vertices(base, lv.tris, kept_faces(lv.tris, g.frame, lv.dropped), tile_obj);
+        rep.lod_base_triangles[size_t(k)] += lv.tris.size() / 3;
+        rep.lod_simplify_error[size_t(k)] = std::max(rep.lod_simplify_error[size_t(k)], sb.relative_error);
+        g.lods.push_back(std::move(lv));
+    }
+}
+
 // The frame and shell vertex set of one base primitive (refined where clamps starve its faces), after the
 // checks that must pass before the scene changes.
 Status grow_base(Grown& g, const Scene& scene, const Placement& pl, const FurOptions& opt, size_t all_base, FurReport& rep) {
@@ -644,14 +687,10 @@ Status grow_base(Grown& g, const Scene& scene, const Placement& pl, const FurOpt
         }
     }
     if (!s.ok()) return Status::error(s.code, "mesh " + std::to_string(g.mesh) + " primitive " + std::to_string(g.prim) + ": " + s.message);
-    // Model only what is there: a triangle whose three corners are bald would sit on the skin.
     const size_t T = g.tris.size() / 3;
-    std::vector<uint8_t> keep(T, 0);
-    for (size_t f = 0; f < T; ++f)
-        keep[f] = g.frame.length[g.tris[3 * f]] > 0 || g.frame.length[g.tris[3 * f + 1]] > 0 || g.frame.length[g.tris[3 * f + 2]] > 0;
-    g.dropped = T - size_t(std::count(keep.begin(), keep.end(), uint8_t(1)));
     const double tile_world = opt.tile_size > 0 ? opt.tile_size : 4.0 * std::max(opt.shells.length, 1e-12);
-    g.sv = shell_vertices(base_of(scene, g), g.tris, keep, tile_world / pl.scale);
+    g.sv = shell_vertices(base_of(scene, g), g.tris, kept_faces(g.tris, g.frame, g.dropped), tile_world / pl.scale);
+    simplify_levels(g, base_of(scene, g), opt, tile_world / pl.scale, rep);
     if (opt.keep_frames) rep.frames.push_back(FurFrame{g.mesh, g.prim, o.length, g.tris, g.frame});
     rep.primitives += 1;
     rep.base_triangles += T;
@@ -713,7 +752,7 @@ void emit_grown(const Grown& g, const Primitive& base, const FurOptions& opt, co
                 size_t original_meshes, std::vector<std::vector<Primitive>>& added, std::vector<std::vector<Primitive>>& bases,
                 FurReport& rep) {
     if (g.sv.src.empty()) return;
-    const ShellSource r = shell_source(g, base);
+    const ShellSource r = shell_source(g, g.sv, base);
     const int levels = opt.shells.lod_levels;
     if (opt.layout == ShellLayout::instanced) {
         bases[g.mesh].push_back(instanced_base(r, g, mat.engine));
@@ -721,25 +760,35 @@ void emit_grown(const Grown& g, const Primitive& base, const FurOptions& opt, co
         rep.dropped_triangles += g.dropped;
     }
     for (int k = 0; k < levels && opt.layout != ShellLayout::instanced; ++k) {
+        // Level k's base: the full one, or its simplification (then its own shell vertices).
+        const bool own = k > 0 && !g.lods.empty();
+        const ShellVertices& sv = own ? g.lods[size_t(k - 1)].sv : g.sv;
+        const std::optional<ShellSource> rk = own ? std::optional<ShellSource>(shell_source(g, sv, base)) : std::nullopt;
+        const ShellSource& src = rk ? *rk : r;
         const int n_k = layers_of(opt.shells.layers, k);
         std::vector<Primitive>& dst = added[size_t(k) * original_meshes + g.mesh];
         if (opt.layout == ShellLayout::viewer) {
-            for (auto& sh : viewer_shells(r, g, opt, n_k, mat.shell[size_t(k)])) {
+            for (auto& sh : viewer_shells(src, sv, opt, n_k, mat.shell[size_t(k)])) {
                 rep.shell_triangles += sh.indices.size() / 3;
                 dst.push_back(std::move(sh));
             }
         } else {
-            dst.push_back(engine_shells(r, g, opt, n_k, mat.engine));
+            dst.push_back(engine_shells(src, sv, opt, n_k, mat.engine));
             rep.shell_triangles += dst.back().indices.size() / 3;
         }
-        rep.dropped_triangles += g.dropped * size_t(n_k);
+        rep.dropped_triangles += (own ? g.lods[size_t(k - 1)].dropped : g.dropped) * size_t(n_k);
     }
     if (!opt.fins) return;
-    if (std::optional<Primitive> fins = fins_of(g, base, opt, scale, mat.fins, rep.fin_quads))
-        for (int k = 0; k < levels; ++k) {
-            added[size_t(k) * original_meshes + g.mesh].push_back(*fins);
-            rep.shell_triangles += fins->indices.size() / 3;
-        }
+    // Fins stand on the edges of each level's own base; fin_quads counts level 0's.
+    std::optional<Primitive> fins = fins_of(g, g.tris, base, opt, scale, mat.fins, rep.fin_quads);
+    for (int k = 0; k < levels && fins; ++k) {
+        size_t uncounted = 0;
+        const bool own = k > 0 && !g.lods.empty();
+        std::optional<Primitive> fk = own ? fins_of(g, g.lods[size_t(k - 1)].tris, base, opt, scale, mat.fins, uncounted) : fins;
+        if (!fk) continue;
+        rep.shell_triangles += fk->indices.size() / 3;
+        added[size_t(k) * original_meshes + g.mesh].push_back(std::move(*fk));
+    }
 }
 
 // A node outside the default scene drawing `mesh` where node `src_node` draws its source: same skin and
@@ -913,6 +962,7 @@ Status validate(const FurOptions& opt) {
     if (Status s = validate(opt.shells); !s.ok()) return s;
     if (!std::isfinite(opt.tile_size) || opt.tile_size < 0) return bad("tile size must be a finite number >= 0");
     if (!(opt.root_shade >= 0 && opt.root_shade <= 1)) return bad("root shade must be in 0..1");
+    if (!(opt.lod_simplify_error >= 0 && opt.lod_simplify_error <= 1)) return bad("LOD simplify error must be in 0..1");
     if (!opt.mask.pixels.empty()) {
         const ImageF& m = opt.mask;
         if (m.width <= 0 || m.height <= 0 || m.channels <= 0 || m.pixels.size() != size_t(m.width) * size_t(m.height) * size_t(m.channels))

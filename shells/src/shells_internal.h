@@ -124,4 +124,17 @@ std::shared_ptr<const std::vector<uint8_t>> strand_texture_png(const StrandTextu
 // (x + 0.5) / width; wrap: 10497 REPEAT, 33648 MIRRORED_REPEAT, 33071 CLAMP_TO_EDGE.
 float sample_bilinear(const ImageF& image, int channel, float u, float v, int wrap_s = 10497, int wrap_t = 10497);
 
+// simplify_lod.cpp: the base triangles of LOD level k >= 1 simplified (meshopt_simplify) toward 1/4^k of them
+// within the relative error error·2^(k−1) (FurOptions::lod_simplify_error), checked on the sampled distance
+// between the surfaces (original vertices to the simplified faces, simplified face centroids and edge
+// midpoints to the original); indices into the same vertices.
+// error 0 or level 0: the triangles unchanged, errors 0.
+struct SimplifiedBase {
+    std::vector<uint32_t> tris;
+    double relative_error = 0; // meshopt's result error: fraction of the mesh extent (meshopt_simplifyScale)
+    double absolute_error = 0; // the same in object units
+    double distance = 0;       // sampled two-sided distance between the surfaces, relative to the extent: <= the bound
+};
+SimplifiedBase simplify_base(const Primitive& base, const std::vector<uint32_t>& tris, int level, double error);
+
 } // namespace furrow::shells_detail

@@ -169,6 +169,15 @@ struct FurOptions {
                                 // the base surface and its shading do not change (FurReport::refined_faces)
     size_t refine_budget = 4096; // refinement makes a primitive of T triangles at most 8·T + this many (and
                                  // never more than max_triangles leaves room for)
+    double lod_simplify_error = 0; // > 0: LOD level k >= 1 grows on the base simplified (meshopt_simplify, UV
+                                // seams and borders kept) toward 1/4^k of its triangles, within a relative error
+                                // of this × 2^(k−1) (fraction of the mesh's largest extent, as meshopt defines
+                                // it; e.g. 0.01: 1 % at level 1, 2 % at level 2), checked on the sampled distance
+                                // between the two surfaces both ways (meshopt asked again with half the error until
+                                // it holds: its own quadric error can understate it); 0 = off (every level on the full
+                                // base); 0..1. Not in the instanced layout (one shell base for every level).
+                                // The clamps were computed on the full base: a simplified level may cut corners
+                                // by up to its error.
     size_t max_triangles = 0;   // > 0: refuse (invalid_argument), before anything is grown, when the shells,
                                 // fins and LOD levels could add more triangles than this (base triangles ×
                                 // shells of every level, + 6 per triangle and level with fins); `furrow shells`
@@ -195,6 +204,10 @@ struct FurReport {
     size_t bald_vertices = 0;
     size_t refined_faces = 0;       // base triangles bisected so that fur grows inside coarse faces whose
                                     // corners are clamped (the base primitive is replaced by its refinement)
+    std::vector<size_t> lod_base_triangles; // per LOD level 0..K-1: base triangles its shells grow on (level 0:
+                                            // base_triangles; fewer with lod_simplify_error)
+    std::vector<double> lod_simplify_error; // per LOD level: meshopt's result error, relative to the extent of
+                                            // the mesh (the largest over the primitives; 0 at level 0 or when off)
     std::vector<int> lod_nodes;     // LOD level k >= 1: node index (outside the default scene), per source node
     std::vector<int> shell_nodes;   // instanced layout: the shell base's node (outside the default scene),
                                     // per furred mesh
