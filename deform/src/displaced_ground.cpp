@@ -57,15 +57,17 @@ FaceTerm face_term(const double* P, const uint32_t* t) {
     return f;
 }
 
-// Angle-weighted normal (Thürmer & Wüthrich) of welded point v from the cached terms of its faces.
-void gather_normal(double* o, uint32_t v, const FaceTerms& terms, const uint32_t* tri, const std::vector<uint32_t>& off,
+// Angle-weighted normal (Thürmer & Wüthrich) of welded point v from the terms of its faces: `term(f)` is the
+// cached term, or (without a cache) the term computed again, with the same bits.
+template <class Term>
+void gather_normal(double* o, uint32_t v, const Term& term, const uint32_t* tri, const std::vector<uint32_t>& off,
                    const std::vector<uint32_t>& faces) {
     kernel::Vec3 sum;
     for (uint32_t k = off[v]; k < off[size_t(v) + 1]; ++k) {
         const uint32_t f = faces[k];
         const uint32_t* t = tri + 3 * size_t(f);
         const int c = t[0] == v ? 0 : t[1] == v ? 1 : 2;
-        const FaceTerm& ft = terms[f];
+        decltype(auto) ft = term(f); // a reference into the cache, or a fresh term
         if (ft.angle[c] < 0) continue;
         sum = sum + ft.angle[c] * kernel::Vec3{ft.unit[0], ft.unit[1], ft.unit[2]};
     }
@@ -74,15 +76,26 @@ void gather_normal(double* o, uint32_t v, const FaceTerms& terms, const uint32_t
     else o[0] = o[1] = o[2] = 0;
 }
 
-// All faces' terms, then all points' normals.
-void all_normals(double* normals, FaceTerms& terms, const double* P, const std::vector<uint32_t>& tri,
+// All faces' terms, then all points' normals. With `keep` false (a one-shot displacement) no term is kept:
+// each point computes its faces' terms itself (each face three times), and the 48 bytes per triangle of the
+// cache, the largest array of a `furrow stamp`, are never allocated.
+void all_normals(double* normals, FaceTerms& terms, bool keep, const double* P, const std::vector<uint32_t>& tri,
                  const std::vector<uint32_t>& off, const std::vector<uint32_t>& faces) {
+    if (!keep) {
+        FaceTerms().swap(terms);
+        auto fresh = [&](uint32_t f) { return face_term(P, &tri[3 * size_t(f)]); };
+        tbb::parallel_for(tbb::blocked_range<size_t>(0, off.size() - 1, 1024), [&](const tbb::blocked_range<size_t>& r) {
+            for (size_t v = r.begin(); v != r.end(); ++v) gather_normal(normals + 3 * v, uint32_t(v), fresh, tri.data(), off, faces);
+        });
+        return;
+    }
     if (terms.size() != tri.size() / 3) kernel::assign_huge(terms, tri.size() / 3);
     tbb::parallel_for(tbb::blocked_range<size_t>(0, terms.size(), 1024), [&](const tbb::blocked_range<size_t>& r) {
         for (size_t f = r.begin(); f != r.end(); ++f) terms[f] = face_term(P, &tri[3 * f]);
     });
+    auto cached = [&](uint32_t f) -> const FaceTerm& { return terms[f]; };
     tbb::parallel_for(tbb::blocked_range<size_t>(0, off.size() - 1, 1024), [&](const tbb::blocked_range<size_t>& r) {
-        for (size_t v = r.begin(); v != r.end(); ++v) gather_normal(normals + 3 * v, uint32_t(v), terms, tri.data(), off, faces);
+        for (size_t v = r.begin(); v != r.end(); ++v) gather_normal(normals + 3 * v, uint32_t(v), cached, tri.data(), off, faces);
     });
 }
 
@@ -214,7 +227,7 @@ Status DisplacedGround::prepare(const float* positions, size_t vertex_count, con
         } else {
             // The rest faces' terms stay cached: an update() before any displace_all() starts from them, and
             // displace_all() overwrites them in place (no second allocation of the largest array).
-            all_normals(m->dir.data(), m->terms, m->rest.data(), m->tris, m->face_off, m->faces);
+            all_normals(m->dir.data(), m->terms, m->opt.keep_face_terms, m->rest.data(), m->tris, m->face_off, m->faces);
             for (size_t p = 0; p < points; ++p) {
                 double* o = &m->dir[3 * p];
                 if (o[0] == 0 && o[1] == 0 && o[2] == 0) o[0] = frame.up[0], o[1] = frame.up[1], o[2] = frame.up[2];
@@ -267,7 +280,7 @@ size_t DisplacedGround::displace_all(const Heightmap& h, float* pos, float* nor)
     Impl& m = *impl_;
     const size_t P = m.rest.size() / 3;
     tbb::parallel_for(size_t(0), P, [&](size_t p) { m.displace(uint32_t(p), h); });
-    all_normals(m.nrm.data(), m.terms, m.cur.data(), m.tris, m.face_off, m.faces);
+    all_normals(m.nrm.data(), m.terms, m.opt.keep_face_terms, m.cur.data(), m.tris, m.face_off, m.faces);
     tbb::parallel_for(size_t(0), P, [&](size_t p) {
         m.fix_normal(uint32_t(p));
         m.write(uint32_t(p), pos, nor);
@@ -360,7 +373,8 @@ size_t DisplacedGround::update(const Heightmap& h, const std::vector<TexelRect>&
     });
     tbb::parallel_for(size_t(0), chunks, [&](size_t c) {
         for (const uint32_t p : m.claims[c]) {
-            gather_normal(&m.nrm[3 * size_t(p)], p, m.terms, m.tris.data(), m.face_off, m.faces);
+            gather_normal(&m.nrm[3 * size_t(p)], p, [&](uint32_t f) -> const FaceTerm& { return m.terms[f]; }, m.tris.data(),
+                          m.face_off, m.faces);
             m.fix_normal(p);
             m.write(p, pos, nor);
         }

@@ -84,12 +84,6 @@ Status build_surfaces(PreparedMesh& m) {
     });
     const size_t F = m.face_count();
     m.face_refiner.assign(F, -1);
-    m.face_vtx.assign(F, Surface());
-    m.face_fvar.assign(m.K > 0 ? F : 0, Surface());
-    m.patch_v.clear();
-    m.patch_a.clear();
-    m.patch_v_begin.assign(F + 1, 0);
-    m.patch_a_begin.assign(F + 1, 0);
     std::vector<int> verts_per_face, vert_indices, fvar_indices;
     std::vector<uint32_t> fvar_of_value(m.value_attrs.size() / std::max(1, m.K) + 1, none);
     std::vector<uint32_t> fvar_values;
@@ -174,48 +168,25 @@ Status build_surfaces(PreparedMesh& m) {
     m.factory_uncached = std::make_unique<SurfaceFactory>(*m.refiner, fo);
 
     const size_t unsafe = keep_valence2_faces_off_creases(m, crease_pairs);
-    // Each face's surfaces, kept for every tessellation (and a face without one becomes linear).
+    std::vector<uint8_t> failed(F, 0);
     tbb::parallel_for(tbb::blocked_range<size_t>(0, F, 256), [&](const tbb::blocked_range<size_t>& range) {
+        Surface vtx, fvar;
         for (size_t f = range.begin(); f != range.end(); ++f) {
             if (m.face_refiner[f] < 0) continue;
-            bool ok = m.factory_of(f).InitVertexSurface(m.face_refiner[f], &m.face_vtx[f]);
-            if (ok && m.K > 0) ok = m.factory_of(f).InitFaceVaryingSurface(m.face_refiner[f], &m.face_fvar[f]);
-            if (!ok) {
-                m.face_vtx[f] = Surface();
-                if (m.K > 0) m.face_fvar[f] = Surface();
-            }
+            bool ok = m.factory_of(f).InitVertexSurface(m.face_refiner[f], &vtx);
+            if (ok && m.K > 0) ok = m.factory_of(f).InitFaceVaryingSurface(m.face_refiner[f], &fvar);
+            if (!ok) failed[f] = 1;
         }
     });
     for (size_t f = 0; f < F; ++f)
-        if (m.face_refiner[f] >= 0 && !m.face_vtx[f].IsValid()) {
+        if (failed[f]) {
             m.face_linear[f] = 1;
             ++m.stats.failed_faces;
         }
-    prepare_patch_points(m);
     if (m.stats.failed_faces > unsafe)
         m.stats.warnings.push_back(std::to_string(m.stats.failed_faces - unsafe) +
                                    " faces have no limit surface in OpenSubdiv; tessellated linearly");
     return Status::success();
-}
-
-void prepare_patch_points(PreparedMesh& m) {
-    const size_t F = m.face_count();
-    auto layout = [&](std::vector<size_t>& begin, const std::vector<Surface>& surfaces, int size) {
-        begin.assign(F + 1, 0);
-        for (size_t f = 0; f < F; ++f)
-            begin[f + 1] = begin[f] + (f < surfaces.size() && surfaces[f].IsValid() ? size_t(surfaces[f].GetNumPatchPoints()) * size_t(size) : 0);
-        return begin[F];
-    };
-    m.patch_v.resize(layout(m.patch_v_begin, m.face_vtx, m.W));
-    m.patch_a.resize(layout(m.patch_a_begin, m.face_fvar, m.K));
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, F, 256), [&](const tbb::blocked_range<size_t>& range) {
-        for (size_t f = range.begin(); f != range.end(); ++f) {
-            if (m.face_vtx[f].IsValid())
-                m.face_vtx[f].PreparePatchPoints(m.refiner_data.data(), m.W, &m.patch_v[m.patch_v_begin[f]], m.W);
-            if (m.K > 0 && m.face_fvar[f].IsValid())
-                m.face_fvar[f].PreparePatchPoints(m.refiner_fvar.data(), m.K, &m.patch_a[m.patch_a_begin[f]], m.K);
-        }
-    });
 }
 
 void choose_owners(PreparedMesh& m) {

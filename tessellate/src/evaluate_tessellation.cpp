@@ -42,7 +42,7 @@ bool is_zero(const float* n) { return n[0] == 0.0f && n[1] == 0.0f && n[2] == 0.
 // Per-thread buffers, reused from face to face.
 struct Scratch {
     std::vector<int> rates, bidx, facets;
-    std::vector<float> coords, P, Du, Dv, w;
+    std::vector<float> coords, patch_v, patch_a, P, Du, Dv, w;
     std::vector<const float*> corner_data, control;
 };
 
@@ -151,8 +151,7 @@ struct FaceEvaluation {
     const int W, K;
     const size_t f;
     const bool smooth;
-    const Surface &vtx, &fvar;   // the face's surfaces (build_surfaces), when smooth
-    const float *patch_v, *patch_a; // and their patch points
+    Surface &vtx, &fvar;
     Scratch& x;
     const uint32_t c0;
     const int n;
@@ -162,7 +161,7 @@ struct FaceEvaluation {
     const int ncoords, nb;
     float face_normal[3] = {0, 0, 1};
 
-    FaceEvaluation(Evaluation& ev, size_t f, bool smooth, bool limit_corners, Scratch& x);
+    FaceEvaluation(Evaluation& ev, size_t f, bool smooth, bool limit_corners, Surface& vtx, Surface& fvar, Scratch& x);
     void control_normal(float* nrm);
     void eval_point(const float* uv, float* nrm);
     void eval_attrs(const float* uv, size_t o);
@@ -172,10 +171,9 @@ struct FaceEvaluation {
     void triangles();
 };
 
-FaceEvaluation::FaceEvaluation(Evaluation& ev, size_t f, bool smooth, bool limit_corners, Scratch& x)
-    : ev(ev), m(ev.m), L(ev.L), W(ev.W), K(ev.K), f(f), smooth(smooth), vtx(m.face_vtx[f]),
-      fvar(K > 0 ? m.face_fvar[f] : m.face_vtx[f]), patch_v(m.patch_v.data() + m.patch_v_begin[f]),
-      patch_a(m.patch_a.data() + m.patch_a_begin[f]), x(x), c0(m.face_offset[f]),
+FaceEvaluation::FaceEvaluation(Evaluation& ev, size_t f, bool smooth, bool limit_corners, Surface& vtx, Surface& fvar,
+                               Scratch& x)
+    : ev(ev), m(ev.m), L(ev.L), W(ev.W), K(ev.K), f(f), smooth(smooth), vtx(vtx), fvar(fvar), x(x), c0(m.face_offset[f]),
       n(int(m.face_size(f))), param(m.parameterization(f)), nr(face_rates(m, f, ev.rates, x.rates)),
       tess(param, nr, x.rates.data(), osd::Bfr::Tessellation::Options().SetFacetSize(3)), ncoords(tess.GetNumCoords()),
       nb(tess.GetNumBoundaryCoords()) {
@@ -187,7 +185,14 @@ FaceEvaluation::FaceEvaluation(Evaluation& ev, size_t f, bool smooth, bool limit
     x.Dv.resize(size_t(W));
     x.w.resize(size_t(n));
     x.corner_data.resize(size_t(n));
-    if (!smooth) {
+    if (smooth) {
+        x.patch_v.resize(size_t(vtx.GetNumPatchPoints()) * size_t(W));
+        vtx.PreparePatchPoints(m.refiner_data.data(), W, x.patch_v.data(), W);
+        if (K > 0) {
+            x.patch_a.resize(size_t(fvar.GetNumPatchPoints()) * size_t(K));
+            fvar.PreparePatchPoints(m.refiner_fvar.data(), K, x.patch_a.data(), K);
+        }
+    } else {
         for (int k = 0; k < n; ++k) {
             const uint32_t c = c0 + uint32_t(k), p = m.corner_point[c];
             x.corner_data[size_t(k)] = limit_corners && m.smooth(m.corner_face[m.point_owner[p]])
@@ -218,7 +223,7 @@ void FaceEvaluation::control_normal(float* nrm) {
 void FaceEvaluation::eval_point(const float* uv, float* nrm) {
     std::vector<float>&P = x.P, &Du = x.Du, &Dv = x.Dv, &w = x.w;
     if (smooth) {
-        vtx.Evaluate(uv, patch_v, W, P.data(), Du.data(), Dv.data());
+        vtx.Evaluate(uv, x.patch_v.data(), W, P.data(), Du.data(), Dv.data());
         nrm[0] = Du[1] * Dv[2] - Du[2] * Dv[1];
         nrm[1] = Du[2] * Dv[0] - Du[0] * Dv[2];
         nrm[2] = Du[0] * Dv[1] - Du[1] * Dv[0];
@@ -238,7 +243,7 @@ void FaceEvaluation::eval_attrs(const float* uv, size_t o) {
     if (K > 0) {
         float* a = &ev.attrs[o * size_t(K)];
         if (smooth) {
-            fvar.Evaluate(uv, patch_a, K, a);
+            fvar.Evaluate(uv, x.patch_a.data(), K, a);
         } else {
             linear_weights(param, uv, w.data());
             std::fill(a, a + K, 0.0f);
@@ -344,8 +349,8 @@ void FaceEvaluation::triangles() {
 }
 
 // limit_corners: linear faces read their corners' limit positions (only once all smooth faces are done).
-void process(Evaluation& ev, size_t f, bool smooth, bool limit_corners, Scratch& x) {
-    FaceEvaluation face(ev, f, smooth, limit_corners, x);
+void process(Evaluation& ev, size_t f, bool smooth, bool limit_corners, Surface& vtx, Surface& fvar, Scratch& x) {
+    FaceEvaluation face(ev, f, smooth, limit_corners, vtx, fvar, x);
     face.boundary();
     face.interior();
     face.triangles();
@@ -359,17 +364,18 @@ void evaluate_faces(Evaluation& ev) {
     for (int pass = 0; pass < 2; ++pass) {
         const bool smooth_pass = pass == 0;
         tbb::parallel_for(tbb::blocked_range<size_t>(0, F, 16), [&](const tbb::blocked_range<size_t>& range) {
+            Surface vtx, fvar;
             Scratch scratch;
             for (size_t f = range.begin(); f != range.end(); ++f) {
                 if (m.smooth(f) != smooth_pass) continue;
                 if (smooth_pass) {
-                    // Every smooth face has valid surfaces (build_surfaces made the others linear); were one
-                    // missing, it must not become a crash or a crack: the face would keep its (already shared)
-                    // boundary points.
-                    const bool ok = m.face_vtx[f].IsValid() && (K == 0 || m.face_fvar[f].IsValid());
-                    process(ev, f, ok, false, scratch);
+                    // Surfaces were checked in build_surfaces; a failure here would be a bug, but it must not
+                    // become a crash or a crack: such a face would keep its (already shared) boundary points.
+                    bool ok = m.factory_of(f).InitVertexSurface(m.face_refiner[f], &vtx);
+                    if (ok && K > 0) ok = m.factory_of(f).InitFaceVaryingSurface(m.face_refiner[f], &fvar);
+                    process(ev, f, ok, false, vtx, fvar, scratch);
                 } else {
-                    process(ev, f, false, true, scratch);
+                    process(ev, f, false, true, vtx, fvar, scratch);
                 }
             }
         });

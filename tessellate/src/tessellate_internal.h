@@ -95,13 +95,6 @@ struct PreparedMesh {
     const SurfaceFactory& factory_of(size_t f) const { return face_uncached[f] ? *factory_uncached : *factory; }
     std::vector<float> refiner_data;  // W per refiner vertex
     std::vector<float> refiner_fvar;  // K per refiner face-varying value
-    // Per face, built once by build_surfaces and evaluated by every tessellation (the Bfr documentation's
-    // advice: one Surface per face and its patch points prepared once): the vertex surface and, with K > 0,
-    // the face-varying one (invalid for linear faces), and their patch points, W resp. K floats each, from
-    // patch_v[patch_v_begin[f]] resp. patch_a[patch_a_begin[f]].
-    std::vector<Surface> face_vtx, face_fvar;
-    std::vector<size_t> patch_v_begin, patch_a_begin;
-    std::vector<float> patch_v, patch_a;
 
     std::array<double, 3> bbox_min{0, 0, 0}, bbox_max{0, 0, 0};
     TessellateStats stats;
@@ -126,8 +119,6 @@ Status check_surface_options(const SurfaceOptions& options);
 // build_surfaces.cpp: the refiner and the Bfr factory over the smooth faces; faces without a limit surface
 // become linear. Then owners are chosen (they depend on which faces are smooth).
 Status build_surfaces(PreparedMesh& m);
-// The patch points of every valid surface of build_surfaces, into patch_v / patch_a.
-void prepare_patch_points(PreparedMesh& m);
 void choose_owners(PreparedMesh& m);
 
 // edge_rates.cpp: real-valued rate wanted per edge (before scale, rounding and cap).

@@ -58,6 +58,38 @@ TEST(DisplacedGround, IncrementalUpdatesEqualAFullPass) {
     EXPECT_GT(moved_total, 100u);
 }
 
+// keep_face_terms = false (the one-shot path of `furrow stamp`, which keeps no per-face cache) gives the same
+// bits as the cached path, in displace_all and in the updates that follow it.
+TEST(DisplacedGround, WithoutTheFaceTermCacheTheSameBits) {
+    Prepared cached, lean;
+    cached.ground = lean.ground = hill_ground(4, 60);
+    prepare(cached);
+    DisplaceOptions o;
+    o.keep_face_terms = false;
+    prepare(lean, o);
+    const size_t n = cached.ground.positions.size();
+    std::vector<float> pa(n), na(n), pb(n), nb(n);
+    for (Prepared* p : {&cached, &lean}) {
+        ASSERT_TRUE(p->field.add_collider(sphere(0.3, {{0.2, hill_height(0.2, 0.1) + 0.1, 0.1}})).ok());
+        p->field.update();
+    }
+    cached.dg.displace_all(cached.field.heightmap(), pa.data(), na.data());
+    lean.dg.displace_all(lean.field.heightmap(), pb.data(), nb.data());
+    EXPECT_EQ(pa, pb);
+    EXPECT_EQ(na, nb);
+    size_t moved = 0;
+    for (size_t i = 1; i < n; i += 3) moved += pa[i] != cached.ground.positions[i];
+    EXPECT_GT(moved, 10u); // the collider moved points: the normals compared are not all the rest's
+    for (Prepared* p : {&cached, &lean}) {
+        ASSERT_TRUE(p->field.stamp(sphere(0.15, {}), ColliderPose{{-0.5, hill_height(-0.5, 0.4) + 0.1, 0.4}, 0, 0}).ok());
+    }
+    const auto ra = cached.field.update(), rb = lean.field.update();
+    EXPECT_GT(cached.dg.update(cached.field.heightmap(), ra, pa.data(), na.data()), 0u);
+    EXPECT_GT(lean.dg.update(lean.field.heightmap(), rb, pb.data(), nb.data()), 0u);
+    EXPECT_EQ(pa, pb);
+    EXPECT_EQ(na, nb);
+}
+
 TEST(DisplacedGround, SeamCopiesMoveTogether) {
     Prepared p;
     p.ground = seam_ground(4, 40);

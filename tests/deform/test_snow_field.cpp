@@ -675,7 +675,9 @@ TEST(SnowField, IncrementalRimEqualsFromScratchByteForByte) {
             for (int threads : {1, 2}) {
                 tbb::global_control limit(tbb::global_control::max_allowed_parallelism, size_t(threads));
                 SnowField inc = make_field(g, o), scratch = make_field(g, o);
-                if (with_base) ASSERT_TRUE(inc.set_base(base).ok() && scratch.set_base(base).ok());
+                if (with_base) {
+                    ASSERT_TRUE(inc.set_base(base).ok() && scratch.set_base(base).ok());
+                }
                 size_t changed = 0;
                 for (const auto& frame : frames) {
                     stamp_frame(inc, frame);
@@ -688,7 +690,9 @@ TEST(SnowField, IncrementalRimEqualsFromScratchByteForByte) {
                 ASSERT_EQ(a.size(), b.size());
                 EXPECT_EQ(std::memcmp(a.data(), b.data(), a.size() * sizeof(float)), 0) << threads << " threads";
                 EXPECT_GT(changed, 0u);
-                if (rim_width > 0) EXPECT_GT(*std::max_element(a.begin(), a.end()), 0.0f); // a rim rose
+                if (rim_width > 0) {
+                    EXPECT_GT(*std::max_element(a.begin(), a.end()), 0.0f); // a rim rose
+                }
                 if (threads == 1) at_one_thread = a;
                 else EXPECT_EQ(std::memcmp(at_one_thread.data(), a.data(), a.size() * sizeof(float)), 0) << "1 vs 2 threads";
             }

@@ -28,7 +28,7 @@ Primitive quad(float x0, float y0, float x1, float y1, float z = 0, int material
 // One node holding one mesh of these primitives.
 Scene scene_of(std::vector<Primitive> prims, std::vector<Material> materials = {}) {
     Scene s;
-    s.meshes.push_back(Mesh{"m", std::move(prims), {}});
+    s.meshes.push_back(Mesh{"m", std::move(prims), {}, {}});
     s.nodes.push_back(Node{});
     s.nodes[0].mesh = 0;
     s.roots = {0};

@@ -263,6 +263,9 @@ struct DisplaceOptions {
     bool along_up = false;   // move along up instead of the undeformed vertex normal
     bool top_only = false;   // leave vertices below the top surface alone (grounds with overhangs)
     double top_tolerance = 0.0; // with top_only: metres below the top surface still counted as top; 0 = 2 texels
+    bool keep_face_terms = true; // keep each triangle's normal terms (48 bytes a triangle) so that update() redoes
+                                 // only the faces it moves; false for a one-shot displace_all (less memory, the same
+                                 // bits; update() then computes them all on its first call)
 };
 
 class DisplacedGround {
