@@ -13,7 +13,6 @@
 #include <fcntl.h>
 #include <unistd.h>
 #include <spawn.h>
-#include <malloc.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
 
@@ -40,12 +39,6 @@ PeerRun run_peer_measured(const std::vector<std::string>& argv) {
     for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
     args.push_back(nullptr);
     PeerRun r;
-    // posix_spawn shares this process's memory until the child's exec, and exec starts the child's peak at this
-    // process's high-water mark (Linux: exec_mmap). Return the freed heap and reset the mark first, so the
-    // child's peak cannot read below this process's resident size now, and report that floor.
-    malloc_trim(0);
-    std::ofstream("/proc/self/clear_refs") << "5";
-    r.floor_kib = status_kib("VmRSS:");
     pid_t pid = 0;
     int status = 0;
     struct rusage usage {};
@@ -141,6 +134,8 @@ PeakMemory::PeakMemory() {
     std::ofstream("/proc/self/clear_refs") << "5"; // reset VmHWM to the current RSS
     base_kib_ = status_kib("VmRSS:");
 }
+
+double PeakMemory::base_mib() const { return base_kib_ / 1024.0; }
 
 double PeakMemory::peak_mib() const { return std::max(0.0, status_kib("VmHWM:") - base_kib_) / 1024.0; }
 

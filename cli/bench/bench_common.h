@@ -27,11 +27,10 @@ double median_seconds(int repeat, const std::function<void()>& f);
 int run_peer(const std::vector<std::string>& argv);
 // A peer run with the kernel's account of it: exit code (-1 = could not start or did not exit), wall time and
 // peak resident memory (wait4's ru_maxrss, KiB). Linux starts a spawned child's peak at the spawning process's
-// high-water mark; run_peer_measured resets that mark to this process's resident size first (floor_kib), so
-// max_rss_kib is the child's peak or the floor, whichever is larger.
+// high-water mark: reset that mark first (a PeakMemory constructed just before) to read the child's own peak.
 struct PeerRun {
     int exit_code = -1;
-    double seconds = 0, max_rss_kib = 0, floor_kib = 0;
+    double seconds = 0, max_rss_kib = 0;
 };
 PeerRun run_peer_measured(const std::vector<std::string>& argv);
 // Whether `program` is an executable file in a folder of PATH (a peer that is not is "not installed").
@@ -57,6 +56,7 @@ inline void do_not_optimize(const void* p) { asm volatile("" : : "g"(p) : "memor
 class PeakMemory {
 public:
     PeakMemory();
+    double base_mib() const; // the resident size at construction
     double peak_mib() const;
 
 private:

@@ -19,6 +19,8 @@
 #include <cstdio>
 #include <fstream>
 
+#include <malloc.h>
+
 #include <unistd.h>
 
 namespace furrow::cli {
@@ -72,10 +74,14 @@ MemoryRow measure(const std::string& model, const std::string& command, const st
     r.input_bytes = in_bytes;
     std::error_code ec;
     fs::remove(out, ec);
+    // Return the freed heap, then reset this process's high-water mark (PeakMemory): the child's peak starts
+    // there (Linux: exec_mmap), so it cannot read below this process's resident size now, the row's floor.
+    malloc_trim(0);
+    const PeakMemory floor;
     const PeerRun run = run_peer_measured(argv);
     r.exit_code = run.exit_code;
     r.seconds = run.seconds;
-    r.floor_mib = run.floor_kib / 1024.0;
+    r.floor_mib = floor.base_mib();
     if (run.exit_code == 0) {
         r.peak_mib = run.max_rss_kib / 1024.0;
         r.output_bytes = output_bytes(out);
