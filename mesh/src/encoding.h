@@ -36,6 +36,9 @@ bool quantize_unorm8(std::vector<uint8_t>& out, const std::vector<float>& v);
 // renumbers `indices` in place and returns the old → new vertex index; empty (indices untouched) when the
 // list is not eligible (not a whole number of triangles, an index out of range).
 std::vector<uint32_t> optimized_vertex_remap(std::vector<uint32_t>& indices, size_t n);
+// The same from `count` indices that stay as they are, into `out` (untouched when not eligible): the writer's
+// form, which never holds a third copy of a large index list.
+std::vector<uint32_t> optimized_vertex_remap(std::vector<uint32_t>& out, const uint32_t* indices, size_t count, size_t n);
 // Step 3 for one per-vertex array of `per_vertex` values: out[remap[i]] = v[i]. v unchanged when remap is
 // empty or v's size does not match.
 template <class T>

@@ -14,6 +14,7 @@
 #include <cstring>
 #include <filesystem>
 #include <map>
+#include <memory>
 #include <sstream>
 
 #ifndef FURROW_VERSION_STRING
@@ -26,37 +27,51 @@ namespace {
 // The binary chunk as a list of parts, one per buffer view with the zero padding before it. The parts go to
 // the file as they are (kernel::ByteSpan): one vector grown by doubling held up to 1.5x the chunk at its
 // peak, and the GLB was then assembled in a second copy, so a writing command peaked near 3x its output.
+// Each part is the writer's own array, adopted rather than copied (a copy held every attribute twice until the
+// file was written), or bytes of the Scene being saved, which outlives the writer.
 struct BinParts {
-    std::vector<std::vector<unsigned char>> parts;
+    std::vector<kernel::ByteSpan> parts;             // in file order, padding included
+    std::vector<std::shared_ptr<const void>> owners; // keep the adopted parts' bytes alive
     size_t size = 0;
 
     // Zero bytes up to the next multiple of 4 (glTF aligns every view, and the GLB's chunks, to 4 bytes).
     void pad_to_4() {
-        if (size % 4) append(nullptr, 0);
-    }
-    // Appends the bytes after padding to 4; returns their offset.
-    size_t append(const void* data, size_t bytes) {
+        static const unsigned char zeros[4] = {};
         const size_t pad = (4 - size % 4) % 4;
-        std::vector<unsigned char> part(pad, 0);
-        part.reserve(pad + bytes);
-        if (bytes) part.insert(part.end(), static_cast<const unsigned char*>(data), static_cast<const unsigned char*>(data) + bytes);
-        parts.push_back(std::move(part));
-        size += pad + bytes;
-        return size - bytes;
+        if (pad) parts.push_back({zeros, pad});
+        size += pad;
     }
-    std::vector<kernel::ByteSpan> spans() const {
-        std::vector<kernel::ByteSpan> out;
-        for (const auto& p : parts) out.push_back({p.data(), p.size()});
-        return out;
+    // Appends `bytes` at `data` after padding to 4, keeping `owner` with them (null: the bytes are the Scene's);
+    // returns their offset.
+    size_t append(const void* data, size_t bytes, std::shared_ptr<const void> owner) {
+        pad_to_4();
+        const size_t offset = size;
+        if (bytes) parts.push_back({data, bytes});
+        if (owner) owners.push_back(std::move(owner));
+        size += bytes;
+        return offset;
+    }
+    template <class T>
+    size_t adopt(const std::shared_ptr<const std::vector<T>>& v) {
+        return append(v->data(), v->size() * sizeof(T), v);
     }
     // One contiguous copy, for the meshopt encoder (its output is a fraction of this).
     std::vector<uint8_t> flatten() const {
         std::vector<uint8_t> out;
         out.reserve(size);
-        for (const auto& p : parts) out.insert(out.end(), p.begin(), p.end());
+        for (const kernel::ByteSpan& p : parts)
+            out.insert(out.end(), static_cast<const uint8_t*>(p.data), static_cast<const uint8_t*>(p.data) + p.size);
         return out;
     }
 };
+
+// An array the writer made, shared with the binary chunk that writes it.
+template <class T>
+using Shared = std::shared_ptr<const std::vector<T>>;
+template <class T>
+Shared<T> share(std::vector<T>&& v) {
+    return std::make_shared<const std::vector<T>>(std::move(v));
+}
 
 // Appends typed, 4-byte aligned data to the single output buffer.
 class BinWriter {
@@ -65,10 +80,11 @@ public:
     BinParts bin;
     explicit BinWriter(tinygltf::Model& model) : m(model) {}
 
-    int add_view(const void* data, size_t bytes, int target, size_t stride = 0) {
+    // A view of the Scene's own bytes (owner null) or of an adopted array.
+    int add_view(const void* data, size_t bytes, int target, size_t stride = 0, std::shared_ptr<const void> owner = nullptr) {
         tinygltf::BufferView bv;
         bv.buffer = 0;
-        bv.byteOffset = bin.append(data, bytes);
+        bv.byteOffset = bin.append(data, bytes, std::move(owner));
         bv.byteLength = bytes;
         bv.byteStride = stride;
         bv.target = target;
@@ -77,9 +93,10 @@ public:
     }
 
     // Float accessor of `components` (1,2,3,4,16) per element. min/max when asked (POSITION, animation input).
-    int add_floats(const std::vector<float>& v, int components, bool min_max, int target = TINYGLTF_TARGET_ARRAY_BUFFER) {
+    int add_floats(const Shared<float>& shared, int components, bool min_max, int target = TINYGLTF_TARGET_ARRAY_BUFFER) {
+        const std::vector<float>& v = *shared;
         tinygltf::Accessor a;
-        a.bufferView = add_view(v.data(), v.size() * sizeof(float), target);
+        a.bufferView = add_view(v.data(), v.size() * sizeof(float), target, 0, shared);
         a.componentType = TINYGLTF_COMPONENT_TYPE_FLOAT;
         a.count = v.size() / size_t(components);
         a.type = components == 1 ? TINYGLTF_TYPE_SCALAR
@@ -100,15 +117,21 @@ public:
         return int(m.accessors.size() - 1);
     }
 
+    int add_floats(std::vector<float>&& v, int components, bool min_max, int target = TINYGLTF_TARGET_ARRAY_BUFFER) {
+        return add_floats(share(std::move(v)), components, min_max, target);
+    }
+
     // An integer vertex attribute (KHR_mesh_quantization) of `components` values in elements of `stride`
     // bytes (4-byte aligned: a VEC3 of uint16 is stored in 8 bytes). min/max when asked (POSITION).
     template <class T>
-    int add_integers(const std::vector<T>& v, int component_type, int components, size_t stride, bool normalized,
+    int add_integers(std::vector<T>&& values, int component_type, int components, size_t stride, bool normalized,
                      bool min_max) {
+        const Shared<T> shared = share(std::move(values));
+        const std::vector<T>& v = *shared;
         tinygltf::Accessor a;
         const size_t per = stride / sizeof(T);
         a.bufferView = add_view(v.data(), v.size() * sizeof(T), TINYGLTF_TARGET_ARRAY_BUFFER,
-                                per == size_t(components) ? 0 : stride);
+                                per == size_t(components) ? 0 : stride, shared);
         a.componentType = component_type;
         a.normalized = normalized;
         a.count = v.size() / per;
@@ -126,28 +149,30 @@ public:
         return int(m.accessors.size() - 1);
     }
 
-    int add_joints(const std::vector<uint16_t>& j) {
+    int add_joints(std::vector<uint16_t>&& joints) {
+        const Shared<uint16_t> j = share(std::move(joints));
         tinygltf::Accessor a;
-        a.bufferView = add_view(j.data(), j.size() * sizeof(uint16_t), TINYGLTF_TARGET_ARRAY_BUFFER);
+        a.bufferView = add_view(j->data(), j->size() * sizeof(uint16_t), TINYGLTF_TARGET_ARRAY_BUFFER, 0, j);
         a.componentType = TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT;
-        a.count = j.size() / 4;
+        a.count = j->size() / 4;
         a.type = TINYGLTF_TYPE_VEC4;
         m.accessors.push_back(std::move(a));
         return int(m.accessors.size() - 1);
     }
 
     // uint16 when every index fits below the primitive-restart value 65535, else uint32.
-    int add_indices(const std::vector<uint32_t>& idx, size_t vertex_count) {
+    int add_indices(std::vector<uint32_t>&& idx, size_t vertex_count) {
         tinygltf::Accessor a;
+        a.count = idx.size();
         if (vertex_count <= 65535) {
-            std::vector<uint16_t> s(idx.begin(), idx.end());
-            a.bufferView = add_view(s.data(), s.size() * 2, TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER);
+            const Shared<uint16_t> s = share(std::vector<uint16_t>(idx.begin(), idx.end()));
+            a.bufferView = add_view(s->data(), s->size() * 2, TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER, 0, s);
             a.componentType = TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT;
         } else {
-            a.bufferView = add_view(idx.data(), idx.size() * 4, TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER);
+            const Shared<uint32_t> s = share(std::move(idx));
+            a.bufferView = add_view(s->data(), s->size() * 4, TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER, 0, s);
             a.componentType = TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT;
         }
-        a.count = idx.size();
         a.type = TINYGLTF_TYPE_SCALAR;
         m.accessors.push_back(std::move(a));
         return int(m.accessors.size() - 1);
@@ -165,9 +190,8 @@ bool any_degenerate(const std::vector<float>& v) {
 
 // glTF requires unit normals and tangents (validator: ACCESSOR_VECTOR3_NON_UNIT). A zero or non-finite
 // vector takes the fallback (the welded angle-weighted normal), else +Y.
-std::vector<float> unit_vectors(const std::vector<float>& v, size_t stride, const std::vector<float>& fallback) {
-    std::vector<float> out(v);
-    for (size_t i = 0; i * stride < v.size(); ++i) {
+std::vector<float> unit_vectors(std::vector<float> out, size_t stride, const std::vector<float>& fallback) {
+    for (size_t i = 0; i * stride < out.size(); ++i) {
         float* p = &out[i * stride];
         double l = std::sqrt(double(p[0]) * p[0] + double(p[1]) * p[1] + double(p[2]) * p[2]);
         if (!(l > 1e-20) || !std::isfinite(l)) {
@@ -257,28 +281,28 @@ std::vector<float> generate_tangents(const std::vector<float>& pos, const std::v
 }
 
 // The three attribute kinds that KHR_mesh_quantization shrinks (mesh_quantize.cpp); float otherwise.
-int add_position(BinWriter& w, const std::vector<float>& positions, const mesh_detail::PositionGrid& grid) {
+int add_position(BinWriter& w, const Shared<float>& positions, const mesh_detail::PositionGrid& grid) {
     if (!grid.quantized) return w.add_floats(positions, 3, true);
-    return w.add_integers(mesh_detail::quantize_positions(positions, grid), TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT, 3,
+    return w.add_integers(mesh_detail::quantize_positions(*positions, grid), TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT, 3,
                           8, false, true);
 }
 
-int add_unit_vectors(BinWriter& w, const std::vector<float>& v, int components, bool quantize) {
+int add_unit_vectors(BinWriter& w, const Shared<float>& v, int components, bool quantize) {
     if (!quantize) return w.add_floats(v, components, false);
-    return w.add_integers(mesh_detail::quantize_unit_vectors(v, size_t(components)), TINYGLTF_COMPONENT_TYPE_BYTE,
+    return w.add_integers(mesh_detail::quantize_unit_vectors(*v, size_t(components)), TINYGLTF_COMPONENT_TYPE_BYTE,
                           components, 4, true, false);
 }
 
-int add_unorm(BinWriter& w, const std::vector<float>& v, int components, bool quantize) {
+int add_unorm(BinWriter& w, const Shared<float>& v, int components, bool quantize) {
     std::vector<uint16_t> q;
-    if (!quantize || !mesh_detail::quantize_unorm16(q, v)) return w.add_floats(v, components, false);
-    return w.add_integers(q, TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT, components, size_t(components) * 2, true, false);
+    if (!quantize || !mesh_detail::quantize_unorm16(q, *v)) return w.add_floats(v, components, false);
+    return w.add_integers(std::move(q), TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT, components, size_t(components) * 2, true, false);
 }
 
-int add_colors(BinWriter& w, const std::vector<float>& rgba, bool quantize) {
+int add_colors(BinWriter& w, std::vector<float>&& rgba, bool quantize) {
     std::vector<uint8_t> q;
-    if (!quantize || !mesh_detail::quantize_unorm8(q, rgba)) return w.add_floats(rgba, 4, false);
-    return w.add_integers(q, TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE, 4, 4, true, false);
+    if (!quantize || !mesh_detail::quantize_unorm8(q, rgba)) return w.add_floats(std::move(rgba), 4, false);
+    return w.add_integers(std::move(q), TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE, 4, 4, true, false);
 }
 
 // The written topology of a primitive: n-gons fanned for glTF (the caller's primitive is left as it is) and,
@@ -297,13 +321,16 @@ struct VertexOrder {
 VertexOrder vertex_order(const Primitive& src, const SaveOptions& options) {
     VertexOrder o;
     o.mode = src.mode;
-    if (!src.face_sizes.empty() && src.mode == PrimitiveMode::triangles)
+    const bool optimize = options.optimize && o.mode == PrimitiveMode::triangles;
+    if (!src.face_sizes.empty() && src.mode == PrimitiveMode::triangles) {
         triangulate_polygons(o.indices, src.indices.data(), src.indices.size(), src.face_sizes.data(), src.face_sizes.size(),
                              src.positions.data(), src.vertex_count());
-    else
-        o.indices = src.indices;
-    if (options.optimize && o.mode == PrimitiveMode::triangles)
-        o.remap = mesh_detail::optimized_vertex_remap(o.indices, src.vertex_count());
+        if (optimize) o.remap = mesh_detail::optimized_vertex_remap(o.indices, src.vertex_count());
+        return o;
+    }
+    // Read from the source's indices, not from a copy of them (a third index list at the writer's peak).
+    if (optimize) o.remap = mesh_detail::optimized_vertex_remap(o.indices, src.indices.data(), src.indices.size(), src.vertex_count());
+    if (o.remap.empty()) o.indices = src.indices; // not optimised, or not eligible (the writer reports a bad index)
     return o;
 }
 
@@ -331,14 +358,14 @@ Status write_primitive(tinygltf::Primitive& out, const Primitive& src, bool need
     for (float x : src.positions)
         if (!std::isfinite(x)) return Status::error(StatusCode::invalid_argument, where + ": positions contain NaN or Inf");
 
-    const VertexOrder order = vertex_order(src, options);
+    VertexOrder order = vertex_order(src, options);
     for (uint32_t i : order.indices)
         if (i >= n) return Status::error(StatusCode::invalid_argument, where + ": index " + std::to_string(i) + " out of range");
     if (order.mode == PrimitiveMode::triangles && order.indices.empty())
         return Status::error(StatusCode::invalid_argument, where + ": has no faces");
     // Each per-vertex array is put in the written order as it is written, one at a time: the writer never holds
     // a second copy of the whole primitive (that copy was a whole output's bytes at the peak of every command).
-    const std::vector<float> positions = order.apply(src.positions, 3);
+    const Shared<float> positions = share(order.apply(src.positions, 3));
 
     // Fallback for zero-length normals, and the source when NORMAL is missing: computed only when needed (on a
     // 3 MB OBJ with normals, welding and computing them was a tenth of `convert`).
@@ -346,23 +373,24 @@ Status write_primitive(tinygltf::Primitive& out, const Primitive& src, bool need
     if (order.mode == PrimitiveMode::triangles &&
         ((needs_tangents && src.normals.empty()) || any_degenerate(src.normals))) {
         welded_normals.resize(n * 3);
-        compute_vertex_normals(welded_normals.data(), positions.data(), n, order.indices.data(), order.indices.size());
+        compute_vertex_normals(welded_normals.data(), positions->data(), n, order.indices.data(), order.indices.size());
     }
     out.attributes["POSITION"] = add_position(w, positions, grid);
-    const std::vector<float> uv0 = order.apply(src.uv0, 2);
-    std::vector<float> normals;
-    if (!src.normals.empty()) normals = unit_vectors(order.apply(src.normals, 3), 3, welded_normals);
-    else if (needs_tangents && !uv0.empty()) normals = unit_vectors(welded_normals, 3, {});
+    const Shared<float> uv0 = share(order.apply(src.uv0, 2));
+    Shared<float> normals = share(std::vector<float>{});
+    if (!src.normals.empty()) normals = share(unit_vectors(order.apply(src.normals, 3), 3, welded_normals));
+    else if (needs_tangents && !uv0->empty()) normals = share(unit_vectors(welded_normals, 3, {}));
     // Morph targets' normal and tangent deltas are float; their base vectors stay float with them.
     const bool quantize_vectors = quantize && src.targets.empty();
-    if (!normals.empty()) out.attributes["NORMAL"] = add_unit_vectors(w, normals, 3, quantize_vectors);
+    if (!normals->empty()) out.attributes["NORMAL"] = add_unit_vectors(w, normals, 3, quantize_vectors);
     if (!src.tangents.empty())
-        out.attributes["TANGENT"] = add_unit_vectors(w, unit_vectors(order.apply(src.tangents, 4), 4, {}), 4, quantize_vectors);
-    else if (needs_tangents && !uv0.empty() && !normals.empty())
-        out.attributes["TANGENT"] = add_unit_vectors(w, generate_tangents(positions, normals, uv0, order.indices), 4,
-                                                     quantize_vectors);
-    if (!uv0.empty()) out.attributes["TEXCOORD_0"] = add_unorm(w, uv0, 2, quantize);
-    if (!src.uv1.empty()) out.attributes["TEXCOORD_1"] = add_unorm(w, order.apply(src.uv1, 2), 2, quantize);
+        out.attributes["TANGENT"] =
+            add_unit_vectors(w, share(unit_vectors(order.apply(src.tangents, 4), 4, {})), 4, quantize_vectors);
+    else if (needs_tangents && !uv0->empty() && !normals->empty())
+        out.attributes["TANGENT"] = add_unit_vectors(w, share(generate_tangents(*positions, *normals, *uv0, order.indices)),
+                                                     4, quantize_vectors);
+    if (!uv0->empty()) out.attributes["TEXCOORD_0"] = add_unorm(w, uv0, 2, quantize);
+    if (!src.uv1.empty()) out.attributes["TEXCOORD_1"] = add_unorm(w, share(order.apply(src.uv1, 2)), 2, quantize);
     if (!src.colors.empty()) out.attributes["COLOR_0"] = add_colors(w, clamped01(order.apply(src.colors, 4)), quantize);
     if (!src.joints.empty()) {
         std::vector<float> weights = normalized_weights(order.apply(src.weights, 4));
@@ -370,8 +398,8 @@ Status write_primitive(tinygltf::Primitive& out, const Primitive& src, bool need
         std::vector<uint16_t> joints = order.apply(src.joints, 4);
         for (size_t i = 0; i < joints.size(); ++i)
             if (weights[i] == 0.0f) joints[i] = 0;
-        out.attributes["JOINTS_0"] = w.add_joints(joints);
-        out.attributes["WEIGHTS_0"] = w.add_floats(weights, 4, false);
+        out.attributes["JOINTS_0"] = w.add_joints(std::move(joints));
+        out.attributes["WEIGHTS_0"] = w.add_floats(std::move(weights), 4, false);
     }
     for (const auto& c : src.custom) {
         if (c.name.empty() || c.name[0] != '_')
@@ -388,7 +416,7 @@ Status write_primitive(tinygltf::Primitive& out, const Primitive& src, bool need
             if (!(s = check_size(t.position_deltas, 3, "morph position deltas")).ok()) return s;
             target["POSITION"] = w.add_floats(order.apply(t.position_deltas, 3), 3, true); // min/max required on morph POSITION
         }
-        if (!t.normal_deltas.empty() && !normals.empty()) {
+        if (!t.normal_deltas.empty() && !normals->empty()) {
             if (!(s = check_size(t.normal_deltas, 3, "morph normal deltas")).ok()) return s;
             target["NORMAL"] = w.add_floats(order.apply(t.normal_deltas, 3), 3, false);
         }
@@ -398,7 +426,7 @@ Status write_primitive(tinygltf::Primitive& out, const Primitive& src, bool need
         }
         out.targets.push_back(std::move(target));
     }
-    out.indices = w.add_indices(order.indices, n);
+    out.indices = w.add_indices(std::move(order.indices), n);
     out.mode = order.mode == PrimitiveMode::points ? TINYGLTF_MODE_POINTS
                : order.mode == PrimitiveMode::lines ? TINYGLTF_MODE_LINE
                                                     : TINYGLTF_MODE_TRIANGLES;
@@ -624,7 +652,7 @@ Status write_skins(tinygltf::Model& m, const Scene& scene, BinWriter& w) {
         if (!a.inverse_bind_matrices.empty()) {
             if (a.inverse_bind_matrices.size() != a.joints.size() * 16)
                 return bad("skin " + std::to_string(i) + ": inverse bind matrices do not match its joints");
-            o.inverseBindMatrices = w.add_floats(a.inverse_bind_matrices, 16, false, 0);
+            o.inverseBindMatrices = w.add_floats(std::vector<float>(a.inverse_bind_matrices), 16, false, 0);
         }
     }
 
@@ -647,7 +675,7 @@ Status write_animations(tinygltf::Model& m, const Scene& scene, const tinygltf::
                 int comps = 0;
                 Status s = mesh_detail::read_accessor_floats(v, src, *acc, comps);
                 if (!s.ok()) return s;
-                int out = w.add_floats(v, comps, acc == &smp.input, 0);
+                int out = w.add_floats(std::move(v), comps, acc == &smp.input, 0);
                 remap[*acc] = out;
                 *acc = out;
             }
@@ -763,7 +791,7 @@ Status write_glb(const std::string& path, std::string text, const BinParts& bin)
         u32(bin_header, uint32_t(bin.size));
         u32(bin_header, 0x004E4942); // BIN
         spans.push_back({bin_header.data(), bin_header.size()});
-        for (const kernel::ByteSpan& part : bin.spans()) spans.push_back(part);
+        spans.insert(spans.end(), bin.parts.begin(), bin.parts.end());
     }
     return kernel::atomic_write(path, spans);
 }
@@ -798,8 +826,7 @@ Status save_scene(const Scene& scene, const std::string& path, const SaveOptions
             mesh_detail::CompressedBin compressed;
             mesh_detail::compress_buffer_views(compressed, j, bin.flatten());
             bin = BinParts{};
-            bin.size = compressed.bin.size(); // padded to 4 by the encoder
-            bin.parts.push_back(std::move(compressed.bin));
+            bin.adopt(share(std::move(compressed.bin))); // padded to 4 by the encoder
             if (compressed.fallback_bytes > 0)
                 fallback = {{"byteLength", compressed.fallback_bytes},
                             {"extensions", {{"EXT_meshopt_compression", {{"fallback", true}}}}}};
@@ -820,7 +847,7 @@ Status save_scene(const Scene& scene, const std::string& path, const SaveOptions
             const std::string text = j.dump(options.pretty_json ? 2 : -1);
             // Both files or neither (the .bin used to be renamed into place before the .gltf was tried, so an
             // unwritable .gltf path left a stray .bin behind).
-            return kernel::atomic_write_pair(bin_path, bin.spans(), path, text.data(), text.size());
+            return kernel::atomic_write_pair(bin_path, bin.parts, path, text.data(), text.size());
         }
         const std::string text = j.dump(options.pretty_json ? 2 : -1);
         return kernel::atomic_write(path, text.data(), text.size());

@@ -38,16 +38,20 @@ void remap_array(std::vector<T>& v, const std::vector<uint32_t>& remap, size_t p
 
 namespace mesh_detail {
 
-std::vector<uint32_t> optimized_vertex_remap(std::vector<uint32_t>& indices, size_t n) {
-    if (n == 0 || indices.size() < 3 || indices.size() % 3 != 0) return {};
-    for (uint32_t i : indices)
-        if (i >= n) return {}; // the writer reports it
-    std::vector<uint32_t> reordered(indices.size());
-    meshopt_optimizeVertexCache(reordered.data(), indices.data(), indices.size(), n);
+std::vector<uint32_t> optimized_vertex_remap(std::vector<uint32_t>& out, const uint32_t* indices, size_t count, size_t n) {
+    if (n == 0 || count < 3 || count % 3 != 0) return {};
+    for (size_t k = 0; k < count; ++k)
+        if (indices[k] >= n) return {}; // the writer reports it
+    std::vector<uint32_t> reordered(count);
+    meshopt_optimizeVertexCache(reordered.data(), indices, count, n);
     std::vector<uint32_t> remap = fetch_order(reordered, n);
     for (uint32_t& i : reordered) i = remap[i];
-    indices.swap(reordered);
+    out.swap(reordered);
     return remap;
+}
+
+std::vector<uint32_t> optimized_vertex_remap(std::vector<uint32_t>& indices, size_t n) {
+    return optimized_vertex_remap(indices, indices.data(), indices.size(), n);
 }
 
 } // namespace mesh_detail

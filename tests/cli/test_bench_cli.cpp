@@ -179,31 +179,10 @@ TEST(bench_cli, StampFrameIsConsistentAtOneAndTwoThreads) {
 // The memory rule (issue 13): every writing command on the bundled models peaks at most 2 x (input + output
 // bytes) + 64 MiB, measured by the kernel for the command as a subprocess. Memory, not time: the figure does
 // not depend on the machine's load. Sanitizer builds are skipped (ASan's shadow memory and quarantine
-// multiply the resident size by design).
+// multiply the resident size by design). The corpus models' rows: test_bench_memory_corpus.cpp.
 TEST(bench_cli, MemoryRuleHoldsForEveryCommandOnTheBundledModels) {
-#if defined(__SANITIZE_ADDRESS__)
-    GTEST_SKIP() << "resident size under AddressSanitizer is not the program's";
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-    GTEST_SKIP() << "resident size under AddressSanitizer is not the program's";
-#endif
-#endif
-    RunResult r = run_furrow({"bench", "memory", (models_dir() / "creature.glb").string(), (models_dir() / "ground.glb").string(), "--json"});
-    ASSERT_EQ(r.exit_code, 0) << r.err;
-    nlohmann::json j = nlohmann::json::parse(r.out, nullptr, false);
-    ASSERT_FALSE(j.is_discarded()) << r.out.substr(0, 500);
-    const auto& rows = j["rows"];
-    ASSERT_EQ(rows.size(), 9u); // 4 commands on each model, and stamp on the ground
-    std::set<std::string> commands;
-    for (const auto& row : rows) {
-        const std::string what = row["model"].get<std::string>() + " " + row["command"].get<std::string>();
-        commands.insert(row["command"].get<std::string>());
-        ASSERT_EQ(row["exit_code"], 0) << what;
-        EXPECT_GT(row["output_bytes"].get<double>(), 0.0) << what;
-        // A real peak: above the 4 MiB any process of this size takes.
-        EXPECT_GT(row["peak_mib"].get<double>(), 4.0) << what;
-        EXPECT_LE(row["peak_mib"].get<double>(), row["limit_mib"].get<double>()) << what;
-        EXPECT_TRUE(row["within"].get<bool>()) << what;
-    }
-    EXPECT_EQ(commands.size(), 5u);
+    if (under_address_sanitizer()) GTEST_SKIP() << "resident size under AddressSanitizer is not the program's";
+    const std::set<std::string> commands =
+        expect_memory_rule({(models_dir() / "creature.glb").string(), (models_dir() / "ground.glb").string()}, 9);
+    EXPECT_EQ(commands.size(), 5u); // 4 commands on each model, and stamp on the ground
 }

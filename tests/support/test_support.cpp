@@ -153,4 +153,40 @@ nlohmann::json gltf_json(const fs::path& file) {
     return nlohmann::json::parse(b.begin(), b.end(), nullptr, false);
 }
 
+bool under_address_sanitizer() {
+#if defined(__SANITIZE_ADDRESS__)
+    return true;
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+    return true;
+#endif
+#endif
+    return false;
+}
+
+std::set<std::string> expect_memory_rule(const std::vector<std::string>& inputs, size_t rows) {
+    std::vector<std::string> args{"bench", "memory"};
+    args.insert(args.end(), inputs.begin(), inputs.end());
+    args.push_back("--json");
+    RunResult r = run_furrow(args);
+    std::set<std::string> commands;
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    nlohmann::json j = nlohmann::json::parse(r.out, nullptr, false);
+    if (j.is_discarded() || !j.contains("rows")) {
+        ADD_FAILURE() << "bench memory printed no JSON: " << r.out.substr(0, 500);
+        return commands;
+    }
+    EXPECT_EQ(j["rows"].size(), rows);
+    for (const auto& row : j["rows"]) {
+        const std::string what = row["model"].get<std::string>() + " " + row["command"].get<std::string>();
+        commands.insert(row["command"].get<std::string>());
+        EXPECT_EQ(row["exit_code"], 0) << what;
+        EXPECT_GT(row["output_bytes"].get<double>(), 0.0) << what;
+        EXPECT_GT(row["peak_mib"].get<double>(), 4.0) << what; // a real peak: above what any process of this size takes
+        EXPECT_LE(row["peak_mib"].get<double>(), row["limit_mib"].get<double>()) << what;
+        EXPECT_TRUE(row["within"].get<bool>()) << what;
+    }
+    return commands;
+}
+
 } // namespace furrow::test

@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 
 #include <filesystem>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -47,6 +48,12 @@ void write_text(const std::filesystem::path& file, const std::string& text);
 std::vector<std::string> list_dir(const std::filesystem::path& dir);
 
 bool all_finite(const Scene& scene);
+
+// Whether this build runs under AddressSanitizer (its shadow memory multiplies resident sizes).
+bool under_address_sanitizer();
+// `furrow bench memory` on the inputs: expects `rows` rows, each exiting 0 with a real peak (above 4 MiB) within
+// the memory rule's limit. Returns the commands measured.
+std::set<std::string> expect_memory_rule(const std::vector<std::string>& inputs, size_t rows);
 
 // The JSON document of a .gltf or .glb file (the GLB's JSON chunk); null on failure.
 nlohmann::json gltf_json(const std::filesystem::path& file);
