@@ -78,7 +78,7 @@ void run_shells(const ShellsArgs& a, const GlobalFlags& g) {
     if (r.refined_faces)
         line += "; " + plural(r.refined_faces, "base face") + " split where clamped corners starved the fur";
     info(g, line);
-    if (fur.shells.lod_levels > 1 && fur.lod_simplify_error > 0 && fur.layout != ShellLayout::instanced) {
+    if (fur.shells.lod_levels > 1 && fur.lod_simplify_error > 0) {
         std::string lod = "  LOD base triangles (meshopt error, relative to the extent):";
         for (size_t k = 0; k < r.lod_base_triangles.size(); ++k) {
             char err[32];
@@ -143,7 +143,7 @@ void register_shells(CLI::App& app, GlobalFlags& g) {
     cmd->add_option("--lod-simplify", a->fur.lod_simplify_error,
                     "With --lod: level k >= 1 grows on the base simplified (meshoptimizer, UV seams and borders kept) toward "
                     "1/4^k of its triangles within a relative error of ERROR x 2^(k-1) of the model's extent; 0 = off "
-                    "(default), e.g. 0.01; 0..1; not with --layout instanced")
+                    "(default), e.g. 0.01; 0..1; with --layout instanced, level k's base is a mesh '<mesh>_fur_shells_lod<k>'")
         ->check(finite_range(0.0, 1.0));
     cmd->add_option("--density", a->fur.strands.strands, "Strands per strand-texture tile (default 1400)")->check(finite_range(1, 1 << 22));
     cmd->add_option("--strand-radius", a->fur.strands.radius, "Strand root radius in texels (default 2.2)")->check(finite_range(0.25, 64.0));

@@ -513,11 +513,12 @@ Primitive engine_shells(const ShellSource& r, const ShellVertices& sv, const Fur
 // The instanced layout's shell base: the kept base triangles once, at the roots, with what a vertex shader
 // needs to place any shell (instanced_shell_positions) and colour it (COLOR_0 = albedo; the shader multiplies
 // by root_shade + (1 − root_shade)·s). _FUR_LEAN and _FUR_SAG only when some vertex has comb or droop.
-Primitive instanced_base(const ShellSource& r, const Grown& g, int material) {
+// `sv` is the level's base: the full one, or its simplification (FurOptions::lod_simplify_error).
+Primitive instanced_base(const ShellSource& r, const ShellVertices& sv, int material) {
     Primitive b = r.proto;
     b.material = material;
     b.positions = r.root;
-    b.indices = g.sv.indices;
+    b.indices = sv.indices;
     b.colors.resize(4 * r.m);
     for (size_t i = 0; i < r.m; ++i) {
         for (size_t k = 0; k < 3; ++k) b.colors[4 * i + k] = r.albedo[3 * i + k];
@@ -628,7 +629,7 @@ void simplify_levels(Grown& g, const Primitive& base, const FurOptions& opt, dou
     const int levels = opt.shells.lod_levels;
     rep.lod_base_triangles.resize(size_t(levels), 0);
     rep.lod_simplify_error.resize(size_t(levels), 0.0);
-    const bool simplify = opt.lod_simplify_error > 0 && opt.layout != ShellLayout::instanced;
+    const bool simplify = opt.lod_simplify_error > 0;
     for (int k = 0; k < levels; ++k) {
         if (k == 0 || !simplify) {
             rep.lod_base_triangles[size_t(k)] += g.tris.size() / 3;
@@ -747,7 +748,8 @@ ShellMaterials add_fur_materials(Scene& scene, const FurOptions& opt, const std:
 }
 
 // The shells (every level) and fins of one grown base, appended to added[level][mesh]; in the instanced
-// layout, its shell base instead of the shells, appended to bases[mesh].
+// layout, its shell base instead of the shells, appended to bases[level][mesh] (levels k >= 1 only when they
+// grow on a simplified base: otherwise every level draws level 0's).
 void emit_grown(const Grown& g, const Primitive& base, const FurOptions& opt, const ShellMaterials& mat, double scale,
                 size_t original_meshes, std::vector<std::vector<Primitive>>& added, std::vector<std::vector<Primitive>>& bases,
                 FurReport& rep) {
@@ -755,9 +757,14 @@ void emit_grown(const Grown& g, const Primitive& base, const FurOptions& opt, co
     const ShellSource r = shell_source(g, g.sv, base);
     const int levels = opt.shells.lod_levels;
     if (opt.layout == ShellLayout::instanced) {
-        bases[g.mesh].push_back(instanced_base(r, g, mat.engine));
+        bases[g.mesh].push_back(instanced_base(r, g.sv, mat.engine));
         rep.shell_triangles += g.sv.indices.size() / 3;
         rep.dropped_triangles += g.dropped;
+        for (size_t k = 1; k <= g.lods.size(); ++k) {
+            const Grown::Level& lv = g.lods[k - 1];
+            bases[k * original_meshes + g.mesh].push_back(instanced_base(shell_source(g, lv.sv, base), lv.sv, mat.engine));
+            rep.shell_triangles += lv.sv.indices.size() / 3;
+        }
     }
     for (int k = 0; k < levels && opt.layout != ShellLayout::instanced; ++k) {
         // Level k's base: the full one, or its simplification (then its own shell vertices).
@@ -821,8 +828,10 @@ std::string json_number(double x, int digits) {
 }
 
 // The instanced layout's extras, {"FURROW_shells": {...}}: everything a renderer needs besides the per-vertex
-// attributes, per LOD level the shell heights s and alpha cutoffs (README "Instanced layout").
-std::string furrow_shells_extras(const FurOptions& opt, const ShellMaterials& mat, bool lean, bool sag) {
+// attributes, per LOD level the shell heights s and alpha cutoffs and, when the level grows on a simplified
+// base, the index of that base's mesh (README "Instanced layout"). level_mesh[k] < 0: level 0's base.
+std::string furrow_shells_extras(const FurOptions& opt, const ShellMaterials& mat, bool lean, bool sag,
+                                 const std::vector<int>& level_mesh) {
     const ShellOptions& so = opt.shells;
     std::string j = "{\"FURROW_shells\":{\"version\":1,\"layers\":";
     j += std::to_string(so.layers);
@@ -849,6 +858,10 @@ std::string furrow_shells_extras(const FurOptions& opt, const ShellMaterials& ma
         if (k > 0) j += ',';
         j += "{\"layers\":";
         j += std::to_string(n);
+        if (size_t(k) < level_mesh.size() && level_mesh[size_t(k)] >= 0) {
+            j += ",\"mesh\":";
+            j += std::to_string(level_mesh[size_t(k)]);
+        }
         j += ",\"heights\":[";
         j += heights;
         j += "],\"cutoffs\":[";
@@ -860,32 +873,46 @@ std::string furrow_shells_extras(const FurOptions& opt, const ShellMaterials& ma
 }
 
 // The instanced layout's shell bases: per furred mesh, a mesh "<mesh>_fur_shells" of its shell bases (with
-// the base's morph weights) on a node "<node>_fur_shells" outside the default scene.
+// the base's morph weights) on a node "<node>_fur_shells" outside the default scene, and per LOD level k >= 1
+// grown on a simplified base, "<mesh>_fur_shells_lod<k>" on "<node>_fur_shells_lod<k>", named by level 0's extras.
 void attach_instanced(Scene& scene, std::vector<std::vector<Primitive>>& bases, const std::vector<int>& mesh_node,
                       const std::vector<Mat4>& world, const FurOptions& opt, const ShellMaterials& mat, FurReport& rep) {
-    for (size_t mi = 0; mi < bases.size(); ++mi) {
+    const size_t original_meshes = mesh_node.size(), levels = size_t(opt.shells.lod_levels);
+    for (size_t mi = 0; mi < original_meshes; ++mi) {
         if (bases[mi].empty()) continue;
         auto has = [&](const char* name) {
-            for (const Primitive& p : bases[mi])
-                for (const CustomAttribute& c : p.custom)
-                    if (c.name == name) return true;
+            for (size_t k = 0; k < levels; ++k)
+                for (const Primitive& p : bases[k * original_meshes + mi])
+                    for (const CustomAttribute& c : p.custom)
+                        if (c.name == name) return true;
             return false;
         };
-        Mesh m;
-        m.name = scene.meshes[mi].name + "_fur_shells";
-        m.weights = scene.meshes[mi].weights;
-        m.extras_json = furrow_shells_extras(opt, mat, has("_FUR_LEAN"), has("_FUR_SAG"));
-        // Every primitive of a glTF mesh carries the same attributes: zero lean/sag where one base has none.
-        for (const char* name : {"_FUR_LEAN", "_FUR_SAG"})
-            if (has(name))
-                for (Primitive& p : bases[mi])
-                    if (std::none_of(p.custom.begin(), p.custom.end(), [&](const CustomAttribute& c) { return c.name == name; }))
-                        p.custom.push_back(CustomAttribute{name, 3, std::vector<float>(3 * p.vertex_count(), 0.0f)});
-        rep.shell_primitives += bases[mi].size();
-        m.primitives = std::move(bases[mi]);
-        scene.meshes.push_back(std::move(m));
-        rep.shell_nodes.push_back(add_offscene_node(scene, int(scene.meshes.size()) - 1, mesh_node[mi], world,
-                                                    node_name(scene, mesh_node[mi], mi) + "_fur_shells"));
+        const bool lean = has("_FUR_LEAN"), sag = has("_FUR_SAG");
+        std::vector<int> level_mesh(levels, -1);
+        const std::string node = node_name(scene, mesh_node[mi], mi);
+        for (size_t k = 0; k < levels; ++k) {
+            std::vector<Primitive>& prims = bases[k * original_meshes + mi];
+            if (prims.empty()) continue;
+            // Every primitive of a glTF mesh carries the same attributes: zero lean/sag where one base has none.
+            for (const auto& [name, wanted] : {std::pair{"_FUR_LEAN", lean}, std::pair{"_FUR_SAG", sag}})
+                if (wanted)
+                    for (Primitive& p : prims)
+                        if (std::none_of(p.custom.begin(), p.custom.end(), [&](const CustomAttribute& c) { return c.name == name; }))
+                            p.custom.push_back(CustomAttribute{name, 3, std::vector<float>(3 * p.vertex_count(), 0.0f)});
+            const std::string suffix = k == 0 ? "_fur_shells" : "_fur_shells_lod" + std::to_string(k);
+            Mesh m;
+            m.name = scene.meshes[mi].name + suffix;
+            m.weights = scene.meshes[mi].weights;
+            rep.shell_primitives += prims.size();
+            m.primitives = std::move(prims);
+            scene.meshes.push_back(std::move(m));
+            level_mesh[k] = int(scene.meshes.size()) - 1;
+            const int n = add_offscene_node(scene, level_mesh[k], mesh_node[mi], world, node + suffix);
+            (k == 0 ? rep.shell_nodes : rep.lod_nodes).push_back(n);
+        }
+        const int own = level_mesh[0];
+        level_mesh[0] = -1;
+        scene.meshes[size_t(own)].extras_json = furrow_shells_extras(opt, mat, lean, sag, level_mesh);
     }
 }
 
@@ -1028,7 +1055,7 @@ Status add_fur_shells(Scene& scene, const FurOptions& opt, FurReport* report) {
         rep.setup_seconds = std::chrono::duration<double>(setup_done - started).count();
         const size_t original_meshes = scene.meshes.size();
         std::vector<std::vector<Primitive>> added(size_t(opt.shells.lod_levels) * original_meshes); // [level][mesh]
-        std::vector<std::vector<Primitive>> bases(original_meshes); // instanced layout: [mesh]
+        std::vector<std::vector<Primitive>> bases(size_t(opt.shells.lod_levels) * original_meshes); // instanced: [level][mesh]
         for (const Grown& g : grown)
             emit_grown(g, base_of(scene, g), opt, mat, placement[g.mesh].scale, original_meshes, added, bases, rep);
         attach(scene, grown, added, mesh_node, world, opt.shells.lod_levels, original_meshes, rep);

@@ -54,6 +54,55 @@ TEST(furrow_shells, InstancedLayoutWritesTheBaseOnceWithItsLayerParameters) {
     for (int root : j["scenes"][0]["nodes"]) EXPECT_NE(j["nodes"][size_t(root)]["name"], "mesh_fur_shells");
 }
 
+// Triangles of a mesh's primitives in a written file, by the mesh's name (0 if absent).
+size_t mesh_triangles(const nlohmann::json& j, const std::string& name) {
+    size_t n = 0;
+    for (const auto& m : j["meshes"])
+        if (m["name"] == name)
+            for (const auto& p : m["primitives"]) n += j["accessors"][p["indices"].get<size_t>()]["count"].get<size_t>() / 3;
+    return n;
+}
+
+// --lod-simplify: far levels grow on a simplified base in the viewer layout (their meshes have fewer
+// triangles than without it) and in the instanced layout (a base mesh per level, named in the extras); the
+// report lists the triangles per level; an error outside 0..1 is refused with exit 2 and nothing written.
+TEST(furrow_shells, LodSimplifyShrinksTheFarLevelsInEveryLayout) {
+    const fs::path dir = test::temp_dir(), creature = test::models_dir() / "creature.glb";
+    auto shells = [&](const std::string& out, std::vector<std::string> extra) {
+        std::vector<std::string> args{"shells", creature.string(), "-o", (dir / out).string(), "--layers", "8", "--length", "0.04", "--lod", "3"};
+        args.insert(args.end(), extra.begin(), extra.end());
+        return run_furrow(args);
+    };
+    auto r = shells("full.glb", {});
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    r = shells("simplified.glb", {"--lod-simplify", "0.01"});
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_NE(r.err.find("LOD base triangles"), std::string::npos) << r.err;
+    EXPECT_VALID_GLTF(dir / "simplified.glb");
+    const auto full = test::gltf_json(dir / "full.glb"), simplified = test::gltf_json(dir / "simplified.glb");
+    for (const char* level : {"creature_fur_lod1", "creature_fur_lod2"}) {
+        EXPECT_GT(mesh_triangles(simplified, level), 0u) << level;
+        EXPECT_LT(mesh_triangles(simplified, level), mesh_triangles(full, level)) << level;
+    }
+
+    r = shells("instanced.glb", {"--lod-simplify", "0.01", "--layout", "instanced"});
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_NE(r.err.find("LOD base triangles"), std::string::npos) << r.err;
+    EXPECT_VALID_GLTF(dir / "instanced.glb");
+    const auto inst = test::gltf_json(dir / "instanced.glb");
+    const size_t base = mesh_triangles(inst, "creature_fur_shells");
+    EXPECT_GT(base, 0u);
+    for (int k = 1; k <= 2; ++k) {
+        const std::string name = "creature_fur_shells_lod" + std::to_string(k);
+        EXPECT_GT(mesh_triangles(inst, name), 0u) << name;
+        EXPECT_LT(mesh_triangles(inst, name), base / 2) << name;
+    }
+
+    r = shells("refused.glb", {"--lod-simplify", "1.5"});
+    EXPECT_EQ(r.exit_code, 2) << r.err;
+    EXPECT_FALSE(fs::exists(dir / "refused.glb"));
+}
+
 TEST(furrow_shells, MaskWithChannelAndCreature) {
     fs::path dir = test::temp_dir();
     const fs::path models = test::models_dir();

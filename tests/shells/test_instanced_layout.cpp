@@ -224,6 +224,44 @@ TEST(instanced_layout, ExtrasCarryTheLayerParametersAndStayOutOfTheScene) {
     EXPECT_FALSE(j.contains("extensionsUsed")) << "extras need no extension";
 }
 
+// --lod-simplify in the instanced layout: each far level grows on its own simplified base, a mesh
+// "<mesh>_fur_shells_lod<k>" outside the scene that level 0's extras name (levels[k].mesh); rebuilt by the
+// same formula it gives the engine layout's level-k shells, and it has fewer triangles than level 0's base.
+TEST(instanced_layout, SimplifiedLevelsHaveTheirOwnBasesAndRebuildTheEngineLevels) {
+    const Scene creature = load(test::models_dir() / "creature.glb");
+    FurOptions o;
+    o.shells.layers = 8;
+    o.shells.length = 0.04;
+    o.shells.lod_levels = 3;
+    o.lod_simplify_error = 0.01;
+    ASSERT_TRUE(load_png(o.mask, (test::models_dir() / "creature_fur_mask.png").string()).ok());
+    Pair p = grow_both(creature, o);
+    ASSERT_EQ(p.engine_report.lod_nodes.size(), 2u);
+    ASSERT_EQ(p.instanced_report.lod_nodes.size(), 2u);
+    const Primitive& level0 = shell_base(p.instanced, p.instanced_report);
+    const int own_mesh = p.instanced.nodes[size_t(p.instanced_report.shell_nodes[0])].mesh;
+    const nlohmann::json x = nlohmann::json::parse(p.instanced.meshes[size_t(own_mesh)].extras_json)["FURROW_shells"];
+    ASSERT_EQ(x["levels"].size(), 3u);
+    EXPECT_FALSE(x["levels"][0].contains("mesh")) << "level 0 draws the mesh that holds the extras";
+    for (int k = 1; k <= 2; ++k) {
+        const Node& in = p.instanced.nodes[size_t(p.instanced_report.lod_nodes[size_t(k - 1)])];
+        const Node& en = p.engine.nodes[size_t(p.engine_report.lod_nodes[size_t(k - 1)])];
+        EXPECT_EQ(in.name, "creature_fur_shells_lod" + std::to_string(k));
+        EXPECT_EQ(x["levels"][size_t(k)]["mesh"], in.mesh);
+        const Primitive& base = p.instanced.meshes[size_t(in.mesh)].primitives.at(0);
+        EXPECT_LT(base.indices.size(), level0.indices.size() / 2) << "level " << k << " is not simplified";
+        const Primitive& engine = p.engine.meshes[size_t(en.mesh)].primitives.back();
+        EXPECT_LE(worst_relative_gap(engine, base, 8 >> k, o.shells.spacing_power), 1e-6) << "level " << k;
+    }
+    const std::vector<int> drawn = p.instanced.drawn_nodes();
+    for (int n : p.instanced_report.lod_nodes) EXPECT_EQ(std::count(drawn.begin(), drawn.end(), n), 0);
+    const fs::path f = test::temp_dir() / "instanced_lod.glb";
+    ASSERT_TRUE(save_scene(p.instanced, f.string()).ok());
+    EXPECT_VALID_GLTF(f);
+    const Scene back = load(f);
+    EXPECT_TRUE(mesh_named(back, "_fur_shells_lod1") && mesh_named(back, "_fur_shells_lod2"));
+}
+
 TEST(instanced_layout, EveryEncodingIsValidAndLoads) {
     const Scene creature = load(test::models_dir() / "creature.glb");
     FurOptions o;

@@ -175,7 +175,8 @@ struct FurOptions {
                                 // it; e.g. 0.01: 1 % at level 1, 2 % at level 2), checked on the sampled distance
                                 // between the two surfaces both ways (meshopt asked again with half the error until
                                 // it holds: its own quadric error can understate it); 0 = off (every level on the full
-                                // base); 0..1. Not in the instanced layout (one shell base for every level).
+                                // base); 0..1. Instanced layout: level k's simplified base is its own mesh
+                                // "<mesh>_fur_shells_lod<k>", named by FURROW_shells.levels[k].mesh.
                                 // The clamps were computed on the full base: a simplified level may cut corners
                                 // by up to its error.
     size_t max_triangles = 0;   // > 0: refuse (invalid_argument), before anything is grown, when the shells,
