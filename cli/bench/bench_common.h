@@ -113,6 +113,10 @@ nlohmann::json bench_shells_default(const BenchRun& r, const GlobalFlags& g);
 nlohmann::json bench_tessellate_default(const BenchRun& r, const GlobalFlags& g);
 nlohmann::json bench_stamp_default(const BenchRun& r, const GlobalFlags& g);
 nlohmann::json bench_memory_default(const BenchRun& r, const GlobalFlags& g);
+// bench_shells_lod.cpp: `bench shells`' LOD-by-simplification table on one model (N layers, `levels` LOD
+// levels, fur `length` in model units): rows for the error bounds off, 0.005, 0.01, 0.02; printed when asked.
+nlohmann::json bench_lod_simplify(const std::string& name, const Scene& base, const ImageF* mask, double length, int layers,
+                                  int levels, int repeat, bool tables);
 
 // One registration per benchmark (cli/bench/bench_<tool>.cpp), called by register_bench.
 void register_bench_io(CLI::App& bench, GlobalFlags& g);

@@ -35,6 +35,7 @@ struct ShellsArgs {
     double relative_length = 0.02;   // fur length as a fraction of the model's bounding-box diagonal
     size_t max_samples = 200000;     // distance queries per row (vertices sampled evenly)
     int lattice = 0;                 // cells per axis of the generated non-manifold lattice row (0: none)
+    bool lod_table = true;           // the LOD-by-simplification table on the first model
 };
 
 struct Row {
@@ -198,6 +199,20 @@ Row bench_one(const std::string& name, const Scene& base, const ImageF* mask, in
     return row;
 }
 
+// A bench model and its mask "<stem>_fur_mask.png" beside it, if there is one; false (said why) if unreadable.
+bool load_model(const fs::path& f, Scene& base, ImageF& mask, bool& has_mask, const GlobalFlags& g) {
+    has_mask = false;
+    try {
+        base = load_or_throw(f.string());
+        const fs::path mask_file = f.parent_path() / (f.stem().string() + "_fur_mask.png");
+        if (fs::exists(mask_file)) require_ok(load_png(mask, mask_file.string()), mask_file.string()), has_mask = true;
+    } catch (const InputError& e) {
+        info(g, "  skipped: " + e.file + ": " + e.what());
+        return false;
+    }
+    return true;
+}
+
 nlohmann::json run_bench_shells(const ShellsArgs& a, const GlobalFlags& g, bool tables) {
     BenchArgs ba = a.base;
     if (ba.inputs.empty()) {
@@ -212,14 +227,7 @@ nlohmann::json run_bench_shells(const ShellsArgs& a, const GlobalFlags& g, bool 
         Scene base;
         ImageF mask;
         bool has_mask = false;
-        try {
-            base = load_or_throw(f.string());
-            const fs::path mask_file = f.parent_path() / (f.stem().string() + "_fur_mask.png");
-            if (fs::exists(mask_file)) require_ok(load_png(mask, mask_file.string()), mask_file.string()), has_mask = true;
-        } catch (const InputError& e) {
-            info(g, "  skipped: " + e.file + ": " + e.what());
-            continue;
-        }
+        if (!load_model(f, base, mask, has_mask, g)) continue;
         for (int n : a.layers) {
             info(g, "bench shells: " + f.string() + " N=" + std::to_string(n));
             try {
@@ -275,8 +283,20 @@ nlohmann::json run_bench_shells(const ShellsArgs& a, const GlobalFlags& g, bool 
                     a.base.repeat, int(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism)), a.relative_length);
         t.print();
     }
+    // LOD by simplification on the first model (bench_shells_lod.cpp), at the largest N, 3 levels.
+    nlohmann::json lod = nlohmann::json::array();
+    Scene first;
+    ImageF first_mask;
+    bool first_has_mask = false;
+    if (a.lod_table && !files.empty() && load_model(files[0], first, first_mask, first_has_mask, g)) {
+        info(g, "bench shells: " + files[0].string() + " LOD by simplification");
+        lod = bench_lod_simplify(files[0].filename().string(), first, first_has_mask ? &first_mask : nullptr,
+                                 a.relative_length * bbox_diagonal(first), *std::max_element(a.layers.begin(), a.layers.end()), 3,
+                                 a.base.repeat, tables);
+    }
     return {{"bench", "shells"}, {"repeat", a.base.repeat}, {"relative_length", a.relative_length},
             {"threads", int(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism))}, {"rows", j},
+            {"lod_simplify", lod},
             {"plot", plot_json("max relative offset error", points)}};
 }
 
@@ -304,6 +324,8 @@ void register_bench_shells(CLI::App& bench, GlobalFlags& g) {
     cmd->add_option("--lattice", a->lattice, "Also a generated non-manifold lattice of this many cells per axis (25: 48750 quads, "
                                              "the issue's case, minutes per row today; default 0: none)")->check(finite_range(0, 64));
     cmd->add_option("--repeat", a->base.repeat, "Timed runs per row; the median is reported (default 3)")->check(finite_range(1, 1000));
+    cmd->add_flag("!--no-lod-table", a->lod_table,
+                  "Leave out the LOD-by-simplification table (--lod 3 --lod-simplify off/0.005/0.01/0.02 on the first model)");
     add_bench_output_flags(*cmd, *out);
     cmd->footer("Examples:\n  furrow bench shells\n  furrow bench shells models/creature.glb --layers 16,128 --repeat 5 --json\n"
                 "  furrow bench shells --lattice 25 --layers 8");
