@@ -270,8 +270,9 @@ struct CrossingTest::State {
     // The fewest halvings (1..max_halvings) of the shell offsets of the blamed corners (the shell point
     // pulled toward its base point: the offset is linear in the length) after which the crossing pair (f,
     // other) (other: as in run's candidates) no longer crosses, tested on the pair alone with the same
-    // decision as run's; max_halvings + 1 if none does (a crossing at every scale, as at a non-manifold edge
-    // shared by four walls, whose walls' shells meet however short the fur).
+    // decision as run's; max_halvings + 1 if it still crosses after max_halvings (taken as a crossing at
+    // every scale, as at a non-manifold edge shared by four walls, whose walls' shells meet however short
+    // the fur).
     uint8_t halvings_to_clear(uint32_t f, uint32_t other, bool blame_f, bool blame_g, int max_halvings) const {
         const bool shell_pair = other >= T;
         const uint32_t g = shell_pair ? other - uint32_t(T) : other;
@@ -298,17 +299,22 @@ struct CrossingTest::State {
         };
         sf = lifted(bf), sg = lifted(bg);
         std::vector<Exact::Point_3> q(2 * kW);
-        for (int k = 1; k <= max_halvings; ++k) {
+        auto crosses_at = [&](int k) {
             const double s = std::ldexp(1.0, -k);
             for (uint32_t i = 0; i < n; ++i) {
                 const Exact::Point_3 &b = pts[ids[i]], &t = pts[W + ids[i]];
                 q[i] = b;
                 q[kW + i] = blamed[i] ? Exact::Point_3(b.x() + s * (t.x() - b.x()), b.y() + s * (t.y() - b.y()), b.z() + s * (t.z() - b.z())) : t;
             }
-            const bool crosses = shell_pair ? pair_intersects(q, sf, sg) : shell_meets_base(q, kW, bf, bg, sf);
-            if (!crosses) return uint8_t(k);
-        }
-        return uint8_t(max_halvings + 1);
+            return shell_pair ? pair_intersects(q, sf, sg) : shell_meets_base(q, kW, bf, bg, sf);
+        };
+        // One halving, the common case, first; then the smallest scale: a crossing still there is taken to
+        // be there at every scale (the lattice's pairs need no more than these two tests).
+        if (!crosses_at(1)) return 1;
+        if (max_halvings <= 1 || crosses_at(max_halvings)) return uint8_t(max_halvings + 1);
+        for (int k = 2; k < max_halvings; ++k)
+            if (!crosses_at(k)) return uint8_t(k);
+        return uint8_t(max_halvings);
     }
     void rebuild_face(size_t f, const std::vector<uint8_t>& moving) {
         const auto& t = ix.triangles[f];
