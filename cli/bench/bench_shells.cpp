@@ -302,7 +302,7 @@ void register_bench_shells(CLI::App& bench, GlobalFlags& g) {
     cmd->add_option("--relative-length", a->relative_length, "Fur length as a fraction of the bbox diagonal (default 0.02)")
         ->check(finite_range(1e-6, 1.0));
     cmd->add_option("--lattice", a->lattice, "Also a generated non-manifold lattice of this many cells per axis (25: 48750 quads, "
-                                             "the issue's case, minutes per row today; default 0: none)")->check(finite_range(0, 64));
+                                             "the issue's case; default 0: none)")->check(finite_range(0, 64));
     cmd->add_option("--repeat", a->base.repeat, "Timed runs per row; the median is reported (default 3)")->check(finite_range(1, 1000));
     add_bench_output_flags(*cmd, *out);
     cmd->footer("Examples:\n  furrow bench shells\n  furrow bench shells models/creature.glb --layers 16,128 --repeat 5 --json\n"
