@@ -322,7 +322,7 @@ void register_bench_shells(CLI::App& bench, GlobalFlags& g) {
     cmd->add_option("--relative-length", a->relative_length, "Fur length as a fraction of the bbox diagonal (default 0.02)")
         ->check(finite_range(1e-6, 1.0));
     cmd->add_option("--lattice", a->lattice, "Also a generated non-manifold lattice of this many cells per axis (25: 48750 quads, "
-                                             "the issue's case, minutes per row today; default 0: none)")->check(finite_range(0, 64));
+                                             "the issue's case; default 0: none)")->check(finite_range(0, 64));
     cmd->add_option("--repeat", a->base.repeat, "Timed runs per row; the median is reported (default 3)")->check(finite_range(1, 1000));
     cmd->add_flag("!--no-lod-table", a->lod_table,
                   "Leave out the LOD-by-simplification table (--lod 3 --lod-simplify off/0.005/0.01/0.02 on the first model)");

@@ -267,6 +267,55 @@ struct CrossingTest::State {
         }
         return box;
     }
+    // The fewest halvings (1..max_halvings) of the shell offsets of the blamed corners (the shell point
+    // pulled toward its base point: the offset is linear in the length) after which the crossing pair (f,
+    // other) (other: as in run's candidates) no longer crosses, tested on the pair alone with the same
+    // decision as run's; max_halvings + 1 if it still crosses after max_halvings (taken as a crossing at
+    // every scale, as at a non-manifold edge shared by four walls, whose walls' shells meet however short
+    // the fur).
+    uint8_t halvings_to_clear(uint32_t f, uint32_t other, bool blame_f, bool blame_g, int max_halvings) const {
+        const bool shell_pair = other >= T;
+        const uint32_t g = shell_pair ? other - uint32_t(T) : other;
+        // The pair's distinct vertices at local ids 0..5, their shell points at 6 + id (shell_meets_base tells
+        // a stationary corner by an id below its W, here 6).
+        constexpr uint32_t kW = 6;
+        std::array<uint32_t, kW> ids{};
+        std::array<bool, kW> blamed{};
+        uint32_t n = 0;
+        auto local = [&](uint32_t v) {
+            for (uint32_t i = 0; i < n; ++i)
+                if (ids[i] == v) return i;
+            ids[n] = v;
+            return n++;
+        };
+        std::array<uint32_t, 3> bf, bg, sf, sg;
+        for (size_t c = 0; c < 3; ++c) bf[c] = local(ix.triangles[f][c]);
+        for (size_t c = 0; c < 3; ++c) bg[c] = local(ix.triangles[g][c]);
+        for (size_t c = 0; c < 3; ++c) blamed[bf[c]] = blamed[bf[c]] || blame_f, blamed[bg[c]] = blamed[bg[c]] || (shell_pair && blame_g);
+        auto lifted = [&](const std::array<uint32_t, 3>& b) {
+            std::array<uint32_t, 3> s;
+            for (size_t c = 0; c < 3; ++c) s[c] = shell_id[ids[b[c]]] >= W ? kW + b[c] : b[c];
+            return s;
+        };
+        sf = lifted(bf), sg = lifted(bg);
+        std::vector<Exact::Point_3> q(2 * kW);
+        auto crosses_at = [&](int k) {
+            const double s = std::ldexp(1.0, -k);
+            for (uint32_t i = 0; i < n; ++i) {
+                const Exact::Point_3 &b = pts[ids[i]], &t = pts[W + ids[i]];
+                q[i] = b;
+                q[kW + i] = blamed[i] ? Exact::Point_3(b.x() + s * (t.x() - b.x()), b.y() + s * (t.y() - b.y()), b.z() + s * (t.z() - b.z())) : t;
+            }
+            return shell_pair ? pair_intersects(q, sf, sg) : shell_meets_base(q, kW, bf, bg, sf);
+        };
+        // One halving, the common case, first; then the smallest scale: a crossing still there is taken to
+        // be there at every scale (the lattice's pairs need no more than these two tests).
+        if (!crosses_at(1)) return 1;
+        if (max_halvings <= 1 || crosses_at(max_halvings)) return uint8_t(max_halvings + 1);
+        for (int k = 2; k < max_halvings; ++k)
+            if (!crosses_at(k)) return uint8_t(k);
+        return uint8_t(max_halvings);
+    }
     void rebuild_face(size_t f, const std::vector<uint8_t>& moving) {
         const auto& t = ix.triangles[f];
         stri[f] = {shell_id[t[0]], shell_id[t[1]], shell_id[t[2]]};
@@ -280,7 +329,7 @@ CrossingTest::CrossingTest(const SurfaceIndex& index) : state_(std::make_unique<
 CrossingTest::~CrossingTest() = default;
 
 size_t CrossingTest::run(uint8_t* hit, const std::vector<double>& shell, const std::vector<uint8_t>& moving,
-                         const std::vector<uint8_t>* changed) {
+                         const std::vector<uint8_t>* changed, uint8_t* halvings, int max_halvings) {
     State& st = *state_;
     const size_t W = st.W, T = st.T;
     const auto& triangles = st.ix.triangles;
@@ -358,15 +407,34 @@ size_t CrossingTest::run(uint8_t* hit, const std::vector<double>& shell, const s
     std::vector<uint8_t> into_base(T, 0);
     for (const auto& [f, other] : pairs)
         if (other < T) into_base[f] = 1;
-    for (const auto& [f, other] : pairs) {
+    std::vector<std::array<bool, 2>> blame(pairs.size());
+    for (size_t k = 0; k < pairs.size(); ++k) {
+        const auto [f, other] = pairs[k];
         const bool shell_pair = other >= T;
         const uint32_t g = shell_pair ? other - T : 0;
         const bool blame_f = !shell_pair || into_base[f] || !into_base[g];
         const bool blame_g = shell_pair && (into_base[g] || !into_base[f]);
+        blame[k] = {blame_f, blame_g};
         if (blame_f)
             for (uint32_t v : triangles[f]) hit[v] = 1;
         if (blame_g)
             for (uint32_t v : triangles[g]) hit[v] = 1;
+    }
+    if (halvings) {
+        // Each pair on its own: how many halvings of its blamed corners' fur clear it (the caller's next round
+        // re-tests everything around what it shortened, so this only saves rounds, it decides nothing).
+        std::vector<uint8_t> per_pair(pairs.size());
+        tbb::parallel_for(tbb::blocked_range<size_t>(0, pairs.size(), 64), [&](const tbb::blocked_range<size_t>& r) {
+            for (size_t k = r.begin(); k != r.end(); ++k)
+                per_pair[k] = st.halvings_to_clear(pairs[k].first, pairs[k].second, blame[k][0], blame[k][1], max_halvings);
+        });
+        for (size_t k = 0; k < pairs.size(); ++k) {
+            const uint32_t f = pairs[k].first, other = pairs[k].second;
+            for (int side = 0; side < 2; ++side) {
+                if (!blame[k][size_t(side)]) continue;
+                for (uint32_t v : triangles[side == 0 ? f : other - uint32_t(T)]) halvings[v] = std::max(halvings[v], per_pair[k]);
+            }
+        }
     }
     return pairs.size();
 }

@@ -101,7 +101,10 @@ void bend_limits(double* out, const SurfaceIndex& index, const uint32_t* ring_st
 // base triangle (adjacent triangles: only when they fold onto each other) gets hit[v] = 1. Returns the
 // number of such pairs. Exact predicates (Epick). `changed` (after the first run): the vertices whose shell
 // point changed since the previous run; only pairs with a shell triangle around them are tested (after a
-// repair, nothing else can have started to intersect), and only their triangles are rebuilt.
+// repair, nothing else can have started to intersect), and only their triangles are rebuilt. `halvings`
+// (optional, per vertex, zeroed by the caller): for the blamed corners of every crossing pair, the most, over
+// their pairs, of the halvings of those corners' offsets (1..max_halvings, max_halvings + 1 for none) that clear
+// the pair when it is tested alone.
 class CrossingTest {
 public:
     explicit CrossingTest(const SurfaceIndex& index);
@@ -109,7 +112,7 @@ public:
     CrossingTest(const CrossingTest&) = delete;
     CrossingTest& operator=(const CrossingTest&) = delete;
     size_t run(uint8_t* hit, const std::vector<double>& shell, const std::vector<uint8_t>& moving,
-               const std::vector<uint8_t>* changed = nullptr);
+               const std::vector<uint8_t>* changed = nullptr, uint8_t* halvings = nullptr, int max_halvings = 6);
 
 private:
     struct State;

@@ -146,3 +146,67 @@ TEST(free_distances_reach, ZeroReachFindsOnlyWhatTouchesTheOrigin) {
     EXPECT_EQ(near, std::numeric_limits<double>::infinity());
     EXPECT_EQ(far, full);
 }
+
+// CrossingTest::run's halvings: each crossing pair re-tested alone with its blamed corners' fur halved 1, 2, ...
+// times (verify_crossings shortens by that many halvings in one round).
+namespace {
+
+// Runs the crossing test once with every vertex v moved by offset(v) (a zero offset: not moving).
+template <class Offset>
+size_t run_crossings(const TriSoup& m, Offset offset, std::vector<uint8_t>& hit, std::vector<uint8_t>& halvings) {
+    const size_t W = m.points.size() / 3;
+    const shells_detail::SurfaceIndex index(m.points, m.triangles);
+    shells_detail::CrossingTest crossing(index);
+    std::vector<double> shell(m.points);
+    std::vector<uint8_t> moving(W, 0);
+    for (size_t v = 0; v < W; ++v) {
+        const std::array<double, 3> d = offset(v);
+        for (size_t k = 0; k < 3; ++k) shell[3 * v + k] += d[k];
+        moving[v] = d[0] != 0 || d[1] != 0 || d[2] != 0;
+    }
+    hit.assign(W, 0);
+    halvings.assign(W, 0);
+    return crossing.run(hit.data(), shell, moving, nullptr, halvings.data(), 6);
+}
+
+} // namespace
+
+TEST(crossing_halvings, APairClearsAtItsOwnScale) {
+    // A floor triangle whose shell tilts up through a ceiling triangle 1 above: corners lifted by 0.2, 0.2
+    // and 2.4 cross the ceiling, so do 0.1, 0.1 and 1.2 (one halving); 0.05, 0.05, 0.6 (two) clear it.
+    TriSoup m;
+    m.points = {0, 0, 0, 4, 0, 0, 0, 4, 0, -1, -1, 1, 6, -1, 1, -1, 6, 1};
+    m.triangles = {{0, 1, 2}, {3, 4, 5}};
+    std::vector<uint8_t> hit, halvings;
+    const size_t pairs = run_crossings(m, [](size_t v) {
+        return v < 2 ? std::array<double, 3>{0, 0, 0.2} : v == 2 ? std::array<double, 3>{0, 0, 2.4} : std::array<double, 3>{0, 0, 0};
+    }, hit, halvings);
+    EXPECT_EQ(pairs, 1u);
+    for (size_t v = 0; v < 3; ++v) {
+        EXPECT_EQ(hit[v], 1) << v;
+        EXPECT_EQ(halvings[v], 2) << v;
+    }
+    for (size_t v = 3; v < 6; ++v) EXPECT_EQ(halvings[v], 0) << v; // the ceiling is not blamed
+    // Lifted 0.2, 0.2, 1.6 instead: one halving (0.8 at most) clears it.
+    run_crossings(m, [](size_t v) {
+        return v < 2 ? std::array<double, 3>{0, 0, 0.2} : v == 2 ? std::array<double, 3>{0, 0, 1.6} : std::array<double, 3>{0, 0, 0};
+    }, hit, halvings);
+    for (size_t v = 0; v < 3; ++v) EXPECT_EQ(halvings[v], 1) << v;
+}
+
+TEST(crossing_halvings, FourWallEdgesCrossAtEveryScale) {
+    // The non-manifold lattice moved as a whole along (1, 1, 1): every wall's shell cuts the perpendicular
+    // walls through its edges however small the move (the crossing scales with it), so no number of
+    // halvings clears a pair: 6 + 1 for every blamed corner.
+    const TriSoup m = from_primitive(models::lattice_primitive(2));
+    std::vector<uint8_t> hit, halvings;
+    const size_t pairs = run_crossings(m, [](size_t) { return std::array<double, 3>{0.1, 0.1, 0.1}; }, hit, halvings);
+    ASSERT_GT(pairs, 0u);
+    size_t blamed = 0;
+    for (size_t v = 0; v < hit.size(); ++v) {
+        if (!hit[v]) continue;
+        ++blamed;
+        EXPECT_EQ(halvings[v], 7) << v;
+    }
+    EXPECT_GT(blamed, 0u);
+}

@@ -1,6 +1,7 @@
 // No self-intersection on hard concave cases: naive extrusion intersects (the case is really hard), ours gives
 // 0 intersecting triangle pairs among base + all shells (CGAL, via check_primitive).
 #include "shells_test_util.h"
+#include "../../models/lattice.h"
 
 #include <furrow/shapes.h>
 #include <furrow/shells.h>
@@ -65,6 +66,23 @@ TEST(compute_shell_frame, NoIntersectionWithDroop) {
     for (const Case& k : hard_cases()) {
         ShellFrame f = ours(k.base, k.length, 8, 1.5);
         EXPECT_EQ(test::intersecting_pairs(test::merged_shells(k.base, f, 8)), 0) << k.name;
+    }
+}
+
+// The non-manifold lattice (every interior edge shared by four walls): the walls' shells cross at those edges
+// at every length, so verify_crossings takes their fur in one round; nothing crosses, and the fur stays in
+// the middle of the walls.
+TEST(compute_shell_frame, NoIntersectionOnTheNonManifoldLattice) {
+    Primitive lattice = models::lattice_primitive(3);
+    triangulate(lattice);
+    for (int layers : {4, 8}) {
+        ShellFrame f = ours(lattice, 0.3, layers);
+        EXPECT_EQ(test::intersecting_pairs(test::merged_shells(lattice, f, layers)), 0) << "N=" << layers;
+        EXPECT_GT(f.clamped_by_fold, 0u);
+        EXPECT_GT(f.bald_vertices, 0u);
+        size_t furry = 0;
+        for (float h : f.length) furry += h > 0;
+        EXPECT_GT(furry, 0u);
     }
 }
 
