@@ -26,6 +26,7 @@
 //  - reader_mesh_to_scene: glTF vertices split by corner uv, recentring in double, v flipped.
 // OBJ: https://paulbourke.net/dataformats/obj/
 #include "document.h"
+#include <furrow_kernel/huge_pages.h>
 
 #include <charconv>
 #include <climits>
@@ -136,7 +137,7 @@ Status read_face(ObjText& obj, const char* p, const char* end, size_t line) {
         obj.corner_v.push_back(index[0]);
         for (auto [k, list] : {std::pair{1, &obj.corner_t}, std::pair{2, &obj.corner_n}})
             if (index[k] != -1 || !list->empty()) {
-                if (list->empty()) list->reserve(obj.corner_v.capacity());
+                if (list->empty()) kernel::reserve_huge(*list, obj.corner_v.capacity());
                 list->resize(obj.corner_v.size() - 1, -1); // the corners before the first index: none
                 list->push_back(index[k]);
             }
@@ -196,11 +197,11 @@ void reserve(ObjText& obj, const char* text, size_t size) {
         }
         at = e + 1;
     }
-    obj.points.reserve(v * 3);
-    obj.uvs.reserve(vt * 2);
-    obj.normals.reserve(vn * 3);
-    obj.face_start.reserve(f);
-    obj.corner_v.reserve(words);
+    kernel::reserve_huge(obj.points, v * 3);
+    kernel::reserve_huge(obj.uvs, vt * 2);
+    kernel::reserve_huge(obj.normals, vn * 3);
+    kernel::reserve_huge(obj.face_start, f);
+    kernel::reserve_huge(obj.corner_v, words);
 }
 
 Status read_lines(ObjText& obj, const char* text, size_t size) {
@@ -250,19 +251,19 @@ void set_corner_attributes(const ObjText& obj, ReaderMesh& m, size_t c, std::vec
     const bool vertex_ok = v >= 0 && size_t(v) < nv;
     auto in = [](int i, size_t n) { return i >= 0 && size_t(i) < n; };
     if (vertex_ok && in(v, obj.colors.size() / 3)) {
-        if (!m.any_color) m.colors.assign(nv * 4, 1.0f), m.any_color = true;
+        if (!m.any_color) kernel::assign_huge(m.colors, nv * 4, 1.0f), m.any_color = true;
         std::copy_n(&obj.colors[size_t(v) * 3], 3, &m.colors[size_t(v) * 4]);
     }
     if (!obj.corner_t.empty() && in(obj.corner_t[c], obj.uvs.size() / 2)) {
         const float* uv = &obj.uvs[size_t(obj.corner_t[c]) * 2];
         face_uv.insert(face_uv.end(), {uv[0], uv[1]});
         if (vertex_ok) {
-            if (!m.any_vertex_uv) m.vertex_uv.assign(nv * 2, 0.0f), m.any_vertex_uv = true;
+            if (!m.any_vertex_uv) kernel::assign_huge(m.vertex_uv, nv * 2, 0.0f), m.any_vertex_uv = true;
             std::copy_n(uv, 2, &m.vertex_uv[size_t(v) * 2]);
         }
     }
     if (vertex_ok && !obj.corner_n.empty() && in(obj.corner_n[c], obj.normals.size() / 3)) {
-        if (!m.any_normal) m.normals.assign(nv * 3, 0.0f), m.any_normal = true;
+        if (!m.any_normal) kernel::assign_huge(m.normals, nv * 3, 0.0f), m.any_normal = true;
         std::copy_n(&obj.normals[size_t(obj.corner_n[c]) * 3], 3, &m.normals[size_t(v) * 3]);
     }
 }
@@ -272,9 +273,9 @@ void set_corner_attributes(const ObjText& obj, ReaderMesh& m, size_t c, std::vec
 void to_reader_mesh(ObjText& obj, ReaderMesh& m) {
     m.points = std::move(obj.points);
     const size_t nv = m.vertex_count();
-    m.corners.reserve(obj.corner_v.size());
-    m.face_start.reserve(obj.face_start.size());
-    if (!obj.corner_t.empty()) m.corner_uv.reserve(obj.corner_v.size() * 2);
+    kernel::reserve_huge(m.corners, obj.corner_v.size());
+    kernel::reserve_huge(m.face_start, obj.face_start.size());
+    if (!obj.corner_t.empty()) kernel::reserve_huge(m.corner_uv, obj.corner_v.size() * 2);
     std::vector<float> face_uv;
     std::vector<int> distinct;
     for (size_t f = 0; f < obj.face_start.size(); ++f) {
@@ -301,7 +302,7 @@ void to_reader_mesh(ObjText& obj, ReaderMesh& m) {
     // Without faces, a point cloud: normals and colours in vertex order when there are enough of them.
     if (m.face_start.empty() && !obj.normals.empty() && obj.normals.size() == nv * 3) m.normals = obj.normals, m.any_normal = true;
     if (m.face_start.empty() && !obj.colors.empty() && obj.colors.size() >= nv * 3) {
-        m.colors.assign(nv * 4, 1.0f), m.any_color = true;
+        kernel::assign_huge(m.colors, nv * 4, 1.0f), m.any_color = true;
         for (size_t i = 0; i < nv; ++i) std::copy_n(&obj.colors[i * 3], 3, &m.colors[i * 4]);
     }
 }
