@@ -26,6 +26,7 @@
 //  - reader_mesh_to_scene: glTF vertices split by corner uv, recentring in double, v flipped.
 // OBJ: https://paulbourke.net/dataformats/obj/
 #include "document.h"
+#include "text_numbers.h"
 #include <furrow_kernel/huge_pages.h>
 
 #include <charconv>
@@ -36,52 +37,6 @@
 
 namespace furrow::mesh_detail {
 namespace {
-
-bool is_space(char c) { return c == ' ' || c == '\t' || c == '\n' || c == '\v' || c == '\f' || c == '\r'; }
-bool is_digit(char c) { return c >= '0' && c <= '9'; }
-
-// A number as `stream >> value` reads it: the span num_get takes, which must convert whole. Leading
-// whitespace is skipped. Returns the end of the number, nullptr if there is none.
-template <class T> const char* read_number(const char* p, const char* end, T& value) {
-    while (p < end && is_space(*p)) ++p;
-    const char* b = p;
-    if (p < end && (*p == '+' || *p == '-')) ++p;
-    bool digits = false;
-    while (p < end && is_digit(*p)) ++p, digits = true;
-    if (p < end && *p == '.')
-        for (++p; p < end && is_digit(*p); ++p) digits = true;
-    if (digits && p < end && (*p == 'e' || *p == 'E')) {
-        ++p;
-        if (p < end && (*p == '+' || *p == '-')) ++p;
-        while (p < end && is_digit(*p)) ++p;
-    }
-    const char* s = b < p && *b == '+' ? b + 1 : b;
-    const auto r = std::from_chars(s, p, value);
-    if (r.ptr != p || s == p) return nullptr;
-    if (r.ec == std::errc::result_out_of_range) { // overflow fails the stream; underflow reads as tiny or 0
-        const std::string copy(s, p);
-        const double d = std::strtod(copy.c_str(), nullptr);
-        if (std::abs(d) >= 1) return nullptr;
-        value = T(d);
-    }
-    return p;
-}
-
-// An index as `stream >> int` reads it: [sign] digits, what follows ignored; out of range clamps and fails.
-struct IntRead {
-    bool ok = false;
-    int value = 0;
-};
-IntRead read_int(const char* p, const char* end) {
-    bool negative = false;
-    if (p < end && (*p == '+' || *p == '-')) negative = *p++ == '-';
-    if (p == end || !is_digit(*p)) return {};
-    long long v = 0;
-    for (; p < end && is_digit(*p) && v <= 1LL << 32; ++p) v = v * 10 + (*p - '0');
-    v = negative ? -v : v;
-    if (v > INT_MAX || v < INT_MIN || (p < end && is_digit(*p))) return {false, negative ? INT_MIN : INT_MAX};
-    return {true, int(v)};
-}
 
 struct ObjText {
     std::vector<double> points;               // xyz per `v`
