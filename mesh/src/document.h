@@ -73,7 +73,7 @@ namespace furrow {
 // is the former OFF reader (a validation pass, then OpenMesh's), kept as the oracle of tests/mesh/test_off_load.cpp.
 Status load_gltf_bytes(Scene& out, const uint8_t* data, size_t size, const ResourceResolver& resolver,
                        const LoadOptions& options);
-Status load_stl_bytes(Scene& out, const std::string& bytes, const LoadOptions& options);
+Status load_stl_bytes(Scene& out, const char* data, size_t size, const LoadOptions& options);
 Status load_openmesh_bytes(Scene& out, const std::string& bytes, const std::string& ext, const LoadOptions& options);
 Status load_obj_bytes(Scene& out, const char* text, size_t size, const LoadOptions& options);
 Status load_off_bytes(Scene& out, const char* text, size_t size, const LoadOptions& options);

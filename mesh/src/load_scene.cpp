@@ -28,7 +28,7 @@ Status dispatch(Scene& out, const uint8_t* data, size_t size, const std::string&
     if (ext == ".glb" && size > 0 && (size < 4 || std::memcmp(data, "glTF", 4) != 0))
         return Status::error(StatusCode::invalid_input, "invalid GLB: the file does not start with the GLB magic 'glTF'");
     if (ext == ".gltf" || ext == ".glb") return load_gltf_bytes(out, data, size, resolver, options);
-    if (ext == ".stl") return load_stl_bytes(out, std::string(reinterpret_cast<const char*>(data), size), options);
+    if (ext == ".stl") return load_stl_bytes(out, reinterpret_cast<const char*>(data), size, options);
     if (ext == ".obj") return load_obj_bytes(out, reinterpret_cast<const char*>(data), size, options);
     if (ext == ".off") return load_off_bytes(out, reinterpret_cast<const char*>(data), size, options);
     if (ext == ".ply") return load_openmesh_bytes(out, std::string(reinterpret_cast<const char*>(data), size), ext, options);
