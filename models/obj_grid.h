@@ -1,5 +1,5 @@
 // A generated OBJ of any size: an n × n grid of vertices, a `vt` per vertex, one `vn`, two triangles per
-// cell with v/t/n corners. Every number is a multiple of a power of two written in full, so that the values a
+// cell with v/t/n corners (and the same grid as OFF, ASCII PLY and ASCII STL: write_text_grid). Every number is a multiple of a power of two written in full, so that the values a
 // reader must produce are known exactly (obj_grid_position, obj_grid_uv). Used by `furrow bench io` (its
 // ~100 MB row) and by tests/mesh/test_obj_large.cpp, which checks that such a file loads exactly.
 #pragma once
@@ -21,38 +21,106 @@ inline int obj_grid_side_for_bytes(double bytes) {
     return n;
 }
 
+// Buffered text output of the generators below (1 MiB at a time).
+class GridWriter {
+public:
+    explicit GridWriter(const std::string& path) : f_(std::fopen(path.c_str(), "wb")) { buf_.reserve(1 << 20); }
+    ~GridWriter() { if (f_) std::fclose(f_); }
+    GridWriter(const GridWriter&) = delete;
+    GridWriter& operator=(const GridWriter&) = delete;
+    bool open() const { return f_ != nullptr; }
+    template <class... A> void put(const char* format, A... args) {
+        char line[160];
+        const int len = std::snprintf(line, sizeof line, format, args...);
+        buf_.append(line, size_t(len));
+        if (buf_.size() > (1u << 20) - 160) std::fwrite(buf_.data(), 1, buf_.size(), f_), buf_.clear();
+    }
+    bool close() { // false if anything failed
+        std::fwrite(buf_.data(), 1, buf_.size(), f_);
+        const bool written = !std::ferror(f_);
+        const bool closed = std::fclose(f_) == 0;
+        f_ = nullptr;
+        return written && closed;
+    }
+
+private:
+    std::FILE* f_;
+    std::string buf_;
+};
+
 // Writes the grid to `path`; false if the file cannot be written.
 inline bool write_obj_grid(const std::string& path, int n) {
-    std::FILE* f = std::fopen(path.c_str(), "wb");
-    if (!f) return false;
-    std::string buf;
-    buf.reserve(1 << 20);
-    char line[160];
-    auto put = [&](int len) {
-        buf.append(line, size_t(len));
-        if (buf.size() > (1u << 20) - 160) std::fwrite(buf.data(), 1, buf.size(), f), buf.clear();
-    };
-    put(std::snprintf(line, sizeof line, "# furrow OBJ grid %d x %d\no grid\n", n, n));
+    GridWriter w(path);
+    if (!w.open()) return false;
+    w.put("# furrow OBJ grid %d x %d\no grid\n", n, n);
     for (int j = 0; j < n; ++j)
         for (int i = 0; i < n; ++i) {
             const auto p = obj_grid_position(i, j);
-            put(std::snprintf(line, sizeof line, "v %.3f %.3f %.3f\n", p[0], p[1], p[2]));
+            w.put("v %.3f %.3f %.3f\n", p[0], p[1], p[2]);
         }
     for (int j = 0; j < n; ++j)
         for (int i = 0; i < n; ++i) {
             const auto t = obj_grid_uv(i, j);
-            put(std::snprintf(line, sizeof line, "vt %.10g %.10g\n", t[0], t[1]));
+            w.put("vt %.10g %.10g\n", t[0], t[1]);
         }
-    put(std::snprintf(line, sizeof line, "vn 0 0 1\ns 1\n"));
+    w.put("vn 0 0 1\ns 1\n");
     for (int j = 0; j + 1 < n; ++j)
         for (int i = 0; i + 1 < n; ++i) {
             const long a = long(j) * n + i + 1, b = a + 1, c = a + n, d = c + 1;
-            put(std::snprintf(line, sizeof line, "f %ld/%ld/1 %ld/%ld/1 %ld/%ld/1\nf %ld/%ld/1 %ld/%ld/1 %ld/%ld/1\n", a, a, b, b, d, d,
-                              a, a, d, d, c, c));
+            w.put("f %ld/%ld/1 %ld/%ld/1 %ld/%ld/1\nf %ld/%ld/1 %ld/%ld/1 %ld/%ld/1\n", a, a, b, b, d, d, a, a, d, d, c, c);
         }
-    std::fwrite(buf.data(), 1, buf.size(), f);
-    const bool written = !std::ferror(f);
-    return std::fclose(f) == 0 && written;
+    return w.close();
+}
+
+// The same grid (positions and triangles, no texture coordinates) in the other text formats furrow reads,
+// for `furrow bench io`'s MB/s per format: OFF, ASCII PLY (float x y z, a uchar/int vertex_indices list) and
+// ASCII STL (one facet per triangle, its three positions written out). `format`: "off", "ply" or "stl".
+// The side n of such a file of about `bytes` (per vertex: a position line and two triangles).
+inline int text_grid_side_for_bytes(const std::string& format, double bytes) {
+    const double per_vertex = format == "stl" ? 293.0 : 57.0;
+    int n = 2;
+    while (n < 20000 && double(n + 1) * (n + 1) * per_vertex < bytes) ++n;
+    return n;
+}
+inline bool write_text_grid(const std::string& path, int n, const std::string& format) {
+    if (format != "off" && format != "ply" && format != "stl") return false;
+    GridWriter w(path);
+    if (!w.open()) return false;
+    const long cells = long(n - 1) * (n - 1);
+    if (format == "off") w.put("OFF\n%ld %ld 0\n", long(n) * n, 2 * cells);
+    if (format == "ply")
+        w.put("ply\nformat ascii 1.0\ncomment furrow grid %d x %d\nelement vertex %ld\n", n, n, long(n) * n),
+            w.put("property float x\nproperty float y\nproperty float z\nelement face %ld\n", 2 * cells),
+            w.put("property list uchar int vertex_indices\nend_header\n");
+    if (format == "stl") {
+        w.put("solid grid\n");
+        auto vertex = [&](int i, int j) {
+            const auto p = obj_grid_position(i, j);
+            w.put("      vertex %.3f %.3f %.3f\n", p[0], p[1], p[2]);
+        };
+        for (int j = 0; j + 1 < n; ++j)
+            for (int i = 0; i + 1 < n; ++i)
+                for (int t = 0; t < 2; ++t) {
+                    w.put("  facet normal 0 0 1\n    outer loop\n");
+                    vertex(i, j);
+                    t == 0 ? vertex(i + 1, j) : vertex(i + 1, j + 1);
+                    t == 0 ? vertex(i + 1, j + 1) : vertex(i, j + 1);
+                    w.put("    endloop\n  endfacet\n");
+                }
+        w.put("endsolid grid\n");
+        return w.close();
+    }
+    for (int j = 0; j < n; ++j)
+        for (int i = 0; i < n; ++i) {
+            const auto p = obj_grid_position(i, j);
+            w.put("%.3f %.3f %.3f\n", p[0], p[1], p[2]);
+        }
+    for (int j = 0; j + 1 < n; ++j)
+        for (int i = 0; i + 1 < n; ++i) {
+            const long a = long(j) * n + i, b = a + 1, c = a + n, d = c + 1;
+            w.put("3 %ld %ld %ld\n3 %ld %ld %ld\n", a, b, d, a, d, c);
+        }
+    return w.close();
 }
 
 } // namespace furrow::models

@@ -1,7 +1,8 @@
 // `furrow bench io`: load + save time per model as a ratio to memcpy of the same bytes, the load throughput
 // (MB/s) per format, peak memory, the round-trip error, and `furrow convert` against gltfpack (an optional
 // peer, run as a subprocess like furrow itself) on what gltfpack reads. Unless --quick, a generated ~100 MB
-// OBJ grid (models/obj_grid.h) is one more row: text meshes of that size are what the loader is for. Then,
+// OBJ grid (models/obj_grid.h) is one more row: text meshes of that size are what the loader is for; and the
+// same grid as OFF, ASCII PLY and ASCII STL at a fifth of that size, one row each (their readers' MB/s). Then,
 // per model and setting (plain, --quantize, --compress), the output's bytes, its round-trip position error in
 // % of the diagonal, and encode and decode times, with gltfpack at the matching setting (-vp 14, -cc -vp 14)
 // beside it as the peer ("peer not installed" without it).
@@ -345,6 +346,17 @@ nlohmann::json run_bench_io(const BenchArgs& args, const GlobalFlags& g, bool ta
         if (!models::write_obj_grid(grid.string(), n)) throw InputError(grid.string(), "cannot be written");
         rows.push_back(bench_one(grid, tmp, std::min(args.repeat, 2), gltfpack));
         rows.back().name = "generated " + rows.back().name;
+        fs::remove(grid);
+        // The same grid as OFF, ASCII PLY and ASCII STL, a fifth of the size: the MB/s of each text reader.
+        for (const std::string format : {"off", "ply", "stl"}) {
+            const int side = models::text_grid_side_for_bytes(format, generated_mb * 1e6 / 5);
+            const fs::path text = tmp / ("grid_" + std::to_string(side) + "." + format);
+            info(g, "bench io: generating " + text.string());
+            if (!models::write_text_grid(text.string(), side, format)) throw InputError(text.string(), "cannot be written");
+            rows.push_back(bench_one(text, tmp, std::min(args.repeat, 2), gltfpack));
+            rows.back().name = "generated " + rows.back().name;
+            fs::remove(text);
+        }
     }
     fs::remove_all(tmp);
     nlohmann::json size_json = nlohmann::json::array();
@@ -369,7 +381,7 @@ nlohmann::json run_bench_io(const BenchArgs& args, const GlobalFlags& g, bool ta
     }
     const std::string peer = gltfpack ? "gltfpack" : "peer not installed";
     if (tables) {
-        const std::string generated_runs = generated_mb > 0 ? " (" + std::to_string(std::min(args.repeat, 2)) + " for the generated OBJ)" : "";
+        const std::string generated_runs = generated_mb > 0 ? " (" + std::to_string(std::min(args.repeat, 2)) + " for the generated rows)" : "";
         std::printf("furrow bench io: load and save (GLB) per model, median of %d runs%s; baseline = memcpy of the input's bytes "
                     "(a .gltf with its .bin and image files) in this run; error = max |position change| after save + reload; "
                     "peak MiB = peak resident memory of load + save; convert and gltfpack -noq: wall time of each as a "
@@ -397,9 +409,9 @@ void register_bench_io(CLI::App& bench, GlobalFlags& g) {
     io->add_option("inputs", args->inputs, "Model files or folders (default: models/ and ../shared/corpus)");
     io->add_option("--repeat", args->repeat, "Runs per measurement; the median is reported (default 5)")
         ->check(finite_range(1, 1000));
-    io->add_option("--generated-mb", *generated_mb, "Size of the generated OBJ grid row in MB (default 100; 0 = none)")
+    io->add_option("--generated-mb", *generated_mb, "Size of the generated OBJ grid row in MB (default 100; 0 = none); the OFF, PLY and STL rows are a fifth of it")
         ->check(finite_range(0, 200));
-    io->add_flag("--quick", *quick, "No generated OBJ row");
+    io->add_flag("--quick", *quick, "No generated rows");
     add_bench_output_flags(*io, *out);
     io->footer("Examples:\n  furrow bench io\n  furrow bench io --quick\n  furrow bench io ../shared/corpus --repeat 9 --json --plots plots");
     io->callback([args, out, quick, generated_mb, &g] {

@@ -2,6 +2,7 @@
 // resources are read through LoadOptions::resolver, by default confined_file_resolver under the resource root
 // (LoadOptions::resource_root, or the input's own folder): see gltf_resources.cpp.
 #include "document.h"
+#include <furrow_kernel/huge_pages.h>
 #include <furrow_kernel/no_throw.h>
 
 #include <algorithm>
@@ -27,10 +28,10 @@ Status dispatch(Scene& out, const uint8_t* data, size_t size, const std::string&
     if (ext == ".glb" && size > 0 && (size < 4 || std::memcmp(data, "glTF", 4) != 0))
         return Status::error(StatusCode::invalid_input, "invalid GLB: the file does not start with the GLB magic 'glTF'");
     if (ext == ".gltf" || ext == ".glb") return load_gltf_bytes(out, data, size, resolver, options);
-    if (ext == ".stl") return load_stl_bytes(out, std::string(reinterpret_cast<const char*>(data), size), options);
+    if (ext == ".stl") return load_stl_bytes(out, reinterpret_cast<const char*>(data), size, options);
     if (ext == ".obj") return load_obj_bytes(out, reinterpret_cast<const char*>(data), size, options);
-    if (ext == ".ply" || ext == ".off")
-        return load_openmesh_bytes(out, std::string(reinterpret_cast<const char*>(data), size), ext, options);
+    if (ext == ".off") return load_off_bytes(out, reinterpret_cast<const char*>(data), size, options);
+    if (ext == ".ply") return load_openmesh_bytes(out, std::string(reinterpret_cast<const char*>(data), size), ext, options);
     return Status::error(StatusCode::unsupported,
                          "unsupported file type '" + ext + "' (expected .gltf, .glb, .obj, .ply, .off or .stl)");
 }
@@ -55,8 +56,10 @@ Status load_scene_unguarded(Scene& out, const std::string& path, const LoadOptio
         return Status::error(StatusCode::out_of_memory, "file is " + std::to_string(size) + " bytes, above the limit of " +
                                                             std::to_string(options.max_file_bytes));
     in.seekg(0);
-    // Not zero-filled first: a 100 MB OBJ spent a tenth of its load in that memset and its page faults.
-    const std::unique_ptr<uint8_t[]> bytes(new uint8_t[std::max<size_t>(size, 1)]);
+    // Not zero-filled first: a 100 MB OBJ spent a tenth of its load in that memset and its page faults; huge
+    // pages for the rest of those faults.
+    const kernel::HugeBytes bytes = kernel::allocate_huge_bytes(size);
+    if (!bytes) return Status::error(StatusCode::out_of_memory, "cannot allocate " + std::to_string(size) + " bytes to read it");
     if (size && !in.read(reinterpret_cast<char*>(bytes.get()), std::streamsize(size)))
         return Status::error(StatusCode::io_error, "read failed");
     const std::string base_dir = fs::absolute(fs::path(path), ec).parent_path().string();

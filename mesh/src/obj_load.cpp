@@ -26,6 +26,8 @@
 //  - reader_mesh_to_scene: glTF vertices split by corner uv, recentring in double, v flipped.
 // OBJ: https://paulbourke.net/dataformats/obj/
 #include "document.h"
+#include "text_numbers.h"
+#include <furrow_kernel/huge_pages.h>
 
 #include <charconv>
 #include <climits>
@@ -35,52 +37,6 @@
 
 namespace furrow::mesh_detail {
 namespace {
-
-bool is_space(char c) { return c == ' ' || c == '\t' || c == '\n' || c == '\v' || c == '\f' || c == '\r'; }
-bool is_digit(char c) { return c >= '0' && c <= '9'; }
-
-// A number as `stream >> value` reads it: the span num_get takes, which must convert whole. Leading
-// whitespace is skipped. Returns the end of the number, nullptr if there is none.
-template <class T> const char* read_number(const char* p, const char* end, T& value) {
-    while (p < end && is_space(*p)) ++p;
-    const char* b = p;
-    if (p < end && (*p == '+' || *p == '-')) ++p;
-    bool digits = false;
-    while (p < end && is_digit(*p)) ++p, digits = true;
-    if (p < end && *p == '.')
-        for (++p; p < end && is_digit(*p); ++p) digits = true;
-    if (digits && p < end && (*p == 'e' || *p == 'E')) {
-        ++p;
-        if (p < end && (*p == '+' || *p == '-')) ++p;
-        while (p < end && is_digit(*p)) ++p;
-    }
-    const char* s = b < p && *b == '+' ? b + 1 : b;
-    const auto r = std::from_chars(s, p, value);
-    if (r.ptr != p || s == p) return nullptr;
-    if (r.ec == std::errc::result_out_of_range) { // overflow fails the stream; underflow reads as tiny or 0
-        const std::string copy(s, p);
-        const double d = std::strtod(copy.c_str(), nullptr);
-        if (std::abs(d) >= 1) return nullptr;
-        value = T(d);
-    }
-    return p;
-}
-
-// An index as `stream >> int` reads it: [sign] digits, what follows ignored; out of range clamps and fails.
-struct IntRead {
-    bool ok = false;
-    int value = 0;
-};
-IntRead read_int(const char* p, const char* end) {
-    bool negative = false;
-    if (p < end && (*p == '+' || *p == '-')) negative = *p++ == '-';
-    if (p == end || !is_digit(*p)) return {};
-    long long v = 0;
-    for (; p < end && is_digit(*p) && v <= 1LL << 32; ++p) v = v * 10 + (*p - '0');
-    v = negative ? -v : v;
-    if (v > INT_MAX || v < INT_MIN || (p < end && is_digit(*p))) return {false, negative ? INT_MIN : INT_MAX};
-    return {true, int(v)};
-}
 
 struct ObjText {
     std::vector<double> points;               // xyz per `v`
@@ -136,7 +92,7 @@ Status read_face(ObjText& obj, const char* p, const char* end, size_t line) {
         obj.corner_v.push_back(index[0]);
         for (auto [k, list] : {std::pair{1, &obj.corner_t}, std::pair{2, &obj.corner_n}})
             if (index[k] != -1 || !list->empty()) {
-                if (list->empty()) list->reserve(obj.corner_v.capacity());
+                if (list->empty()) kernel::reserve_huge(*list, obj.corner_v.capacity());
                 list->resize(obj.corner_v.size() - 1, -1); // the corners before the first index: none
                 list->push_back(index[k]);
             }
@@ -196,11 +152,11 @@ void reserve(ObjText& obj, const char* text, size_t size) {
         }
         at = e + 1;
     }
-    obj.points.reserve(v * 3);
-    obj.uvs.reserve(vt * 2);
-    obj.normals.reserve(vn * 3);
-    obj.face_start.reserve(f);
-    obj.corner_v.reserve(words);
+    kernel::reserve_huge(obj.points, v * 3);
+    kernel::reserve_huge(obj.uvs, vt * 2);
+    kernel::reserve_huge(obj.normals, vn * 3);
+    kernel::reserve_huge(obj.face_start, f);
+    kernel::reserve_huge(obj.corner_v, words);
 }
 
 Status read_lines(ObjText& obj, const char* text, size_t size) {
@@ -250,19 +206,19 @@ void set_corner_attributes(const ObjText& obj, ReaderMesh& m, size_t c, std::vec
     const bool vertex_ok = v >= 0 && size_t(v) < nv;
     auto in = [](int i, size_t n) { return i >= 0 && size_t(i) < n; };
     if (vertex_ok && in(v, obj.colors.size() / 3)) {
-        if (!m.any_color) m.colors.assign(nv * 4, 1.0f), m.any_color = true;
+        if (!m.any_color) kernel::assign_huge(m.colors, nv * 4, 1.0f), m.any_color = true;
         std::copy_n(&obj.colors[size_t(v) * 3], 3, &m.colors[size_t(v) * 4]);
     }
     if (!obj.corner_t.empty() && in(obj.corner_t[c], obj.uvs.size() / 2)) {
         const float* uv = &obj.uvs[size_t(obj.corner_t[c]) * 2];
         face_uv.insert(face_uv.end(), {uv[0], uv[1]});
         if (vertex_ok) {
-            if (!m.any_vertex_uv) m.vertex_uv.assign(nv * 2, 0.0f), m.any_vertex_uv = true;
+            if (!m.any_vertex_uv) kernel::assign_huge(m.vertex_uv, nv * 2, 0.0f), m.any_vertex_uv = true;
             std::copy_n(uv, 2, &m.vertex_uv[size_t(v) * 2]);
         }
     }
     if (vertex_ok && !obj.corner_n.empty() && in(obj.corner_n[c], obj.normals.size() / 3)) {
-        if (!m.any_normal) m.normals.assign(nv * 3, 0.0f), m.any_normal = true;
+        if (!m.any_normal) kernel::assign_huge(m.normals, nv * 3, 0.0f), m.any_normal = true;
         std::copy_n(&obj.normals[size_t(obj.corner_n[c]) * 3], 3, &m.normals[size_t(v) * 3]);
     }
 }
@@ -272,9 +228,9 @@ void set_corner_attributes(const ObjText& obj, ReaderMesh& m, size_t c, std::vec
 void to_reader_mesh(ObjText& obj, ReaderMesh& m) {
     m.points = std::move(obj.points);
     const size_t nv = m.vertex_count();
-    m.corners.reserve(obj.corner_v.size());
-    m.face_start.reserve(obj.face_start.size());
-    if (!obj.corner_t.empty()) m.corner_uv.reserve(obj.corner_v.size() * 2);
+    kernel::reserve_huge(m.corners, obj.corner_v.size());
+    kernel::reserve_huge(m.face_start, obj.face_start.size());
+    if (!obj.corner_t.empty()) kernel::reserve_huge(m.corner_uv, obj.corner_v.size() * 2);
     std::vector<float> face_uv;
     std::vector<int> distinct;
     for (size_t f = 0; f < obj.face_start.size(); ++f) {
@@ -301,7 +257,7 @@ void to_reader_mesh(ObjText& obj, ReaderMesh& m) {
     // Without faces, a point cloud: normals and colours in vertex order when there are enough of them.
     if (m.face_start.empty() && !obj.normals.empty() && obj.normals.size() == nv * 3) m.normals = obj.normals, m.any_normal = true;
     if (m.face_start.empty() && !obj.colors.empty() && obj.colors.size() >= nv * 3) {
-        m.colors.assign(nv * 4, 1.0f), m.any_color = true;
+        kernel::assign_huge(m.colors, nv * 4, 1.0f), m.any_color = true;
         for (size_t i = 0; i < nv; ++i) std::copy_n(&obj.colors[i * 3], 3, &m.colors[i * 4]);
     }
 }

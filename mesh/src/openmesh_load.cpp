@@ -1,4 +1,5 @@
-// PLY / OFF loading through OpenMesh's readers (OBJ: obj_load.cpp). The readers feed a recording importer instead of
+// PLY loading through OpenMesh's reader (OBJ: obj_load.cpp, OFF: off_load.cpp; the OFF path here is the former
+// OFF reader, kept as the oracle its replacement is tested against). The readers feed a recording importer instead of
 // a halfedge mesh: a halfedge structure would silently drop or split the non-manifold and degenerate faces
 // that `furrow check` must see. Polygons stay polygons (Catmull-Clark wants the quads).
 #include "document.h"

@@ -8,6 +8,7 @@
 //    1e5 m from the origin would lose its millimetres in float.
 //  - v flipped: OBJ and PLY put v = 0 at the image bottom, glTF at the top.
 #include "document.h"
+#include <furrow_kernel/huge_pages.h>
 
 #include <algorithm>
 #include <cmath>
@@ -68,7 +69,8 @@ Status centre_of(const ReaderMesh& m, const LoadOptions& options, double centre[
 
 // Per glTF vertex, the reader vertex's values (`width` floats each).
 std::vector<float> gather(const std::vector<float>& per_reader_vertex, const std::vector<uint32_t>& reader_vertex, size_t width) {
-    std::vector<float> out(reader_vertex.size() * width);
+    std::vector<float> out;
+    kernel::assign_huge(out, reader_vertex.size() * width);
     for (size_t i = 0; i < reader_vertex.size(); ++i)
         std::copy_n(per_reader_vertex.begin() + std::ptrdiff_t(size_t(reader_vertex[i]) * width), width,
                     out.begin() + std::ptrdiff_t(i * width));
@@ -83,13 +85,14 @@ Status reader_mesh_to_scene(Scene& out, ReaderMesh& m, const LoadOptions& option
     Primitive p;
     CornerSplit split;
     if (m.any_corner_uv) {
-        split.head.assign(nv, 0);
-        split.reader_vertex.reserve(nv);
-        split.next.reserve(nv);
-        split.uvs.reserve(nv * 2);
+        kernel::assign_huge(split.head, nv, 0u);
+        kernel::reserve_huge(split.reader_vertex, nv);
+        kernel::reserve_huge(split.next, nv);
+        kernel::reserve_huge(split.uvs, nv * 2);
     }
     size_t dropped = m.dropped_faces, out_of_range = 0;
-    p.indices.reserve(m.corners.size());
+    kernel::reserve_huge(p.indices, m.corners.size());
+    kernel::reserve_huge(p.face_sizes, m.face_start.size());
     for (size_t f = 0; f < m.face_start.size(); ++f) {
         const size_t b = m.face_start[f], e = f + 1 < m.face_start.size() ? m.face_start[f + 1] : m.corners.size();
         if (e - b < 3) { ++dropped; continue; }
@@ -103,7 +106,7 @@ Status reader_mesh_to_scene(Scene& out, ReaderMesh& m, const LoadOptions& option
     if (out_of_range)
         return Status::error(StatusCode::invalid_input, std::to_string(out_of_range) + " faces reference vertices that do not exist");
     if (!m.any_corner_uv) {
-        split.reader_vertex.resize(nv);
+        kernel::assign_huge(split.reader_vertex, nv, 0u);
         for (size_t i = 0; i < nv; ++i) split.reader_vertex[i] = uint32_t(i);
         if (m.any_vertex_uv) split.uvs = std::move(m.vertex_uv);
     }
@@ -111,7 +114,7 @@ Status reader_mesh_to_scene(Scene& out, ReaderMesh& m, const LoadOptions& option
     if (Status s = centre_of(m, options, centre); !s.ok()) return s;
     const std::vector<uint32_t>& reader_vertex = split.reader_vertex;
     const size_t n = reader_vertex.size();
-    p.positions.resize(n * 3);
+    kernel::assign_huge(p.positions, n * 3, 0.0f);
     for (size_t i = 0; i < n; ++i)
         for (size_t k = 0; k < 3; ++k) p.positions[i * 3 + k] = float(m.points[size_t(reader_vertex[i]) * 3 + k] - centre[k]);
     if (m.any_normal) p.normals = gather(m.normals, reader_vertex, 3);
@@ -120,7 +123,7 @@ Status reader_mesh_to_scene(Scene& out, ReaderMesh& m, const LoadOptions& option
         for (size_t i = 1; i < split.uvs.size(); i += 2) split.uvs[i] = 1.0f - split.uvs[i];
         p.uv0 = std::move(split.uvs);
     }
-    if (std::all_of(p.face_sizes.begin(), p.face_sizes.end(), [](uint32_t s) { return s == 3; })) p.face_sizes.clear();
+    if (std::all_of(p.face_sizes.begin(), p.face_sizes.end(), [](uint32_t s) { return s == 3; })) std::vector<uint32_t>().swap(p.face_sizes);
     Scene scene = make_scene(std::move(p), "mesh");
     scene.nodes[0].translation = {centre[0], centre[1], centre[2]};
     if (dropped) scene.warnings.push_back(std::to_string(dropped) + " faces with fewer than 3 distinct corners were dropped by the reader");

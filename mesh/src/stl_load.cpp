@@ -1,26 +1,33 @@
 // STL (binary and ASCII). Not OpenMesh's reader: it drops facets whose corners coincide, and those
 // degenerate facets are exactly what `furrow check` must report (Thingi10K 73342 has 20 of them).
-// Corners are welded by exact position, as every STL reader does, to give an indexed mesh.
+// Corners are welded by exact position, as every STL reader does, to give an indexed mesh. The bytes are read
+// where load_scene put them (no copy), words split with text_numbers.h's is_space (not the locale's isspace,
+// a call per byte), and the corner soup sized once on huge pages: on the generated 19 MB ASCII grid these were
+// most of the load (the soup's regrowth copies, the copy of the file, isspace).
 #include "document.h"
+#include "text_numbers.h"
+#include <furrow_kernel/huge_pages.h>
 
 #include <charconv>
 #include <cmath>
 #include <cstring>
 #include <map>
+#include <string_view>
 
 namespace furrow {
 
 namespace {
-bool next_token(const std::string& s, size_t& at, std::string_view& tok) {
-    while (at < s.size() && std::isspace(static_cast<unsigned char>(s[at]))) ++at;
+bool next_token(std::string_view s, size_t& at, std::string_view& tok) {
+    while (at < s.size() && mesh_detail::is_space(s[at])) ++at;
     size_t b = at;
-    while (at < s.size() && !std::isspace(static_cast<unsigned char>(s[at]))) ++at;
-    tok = std::string_view(s).substr(b, at - b);
+    while (at < s.size() && !mesh_detail::is_space(s[at])) ++at;
+    tok = s.substr(b, at - b);
     return !tok.empty();
 }
 } // namespace
 
-Status load_stl_bytes(Scene& out, const std::string& bytes, const LoadOptions& options) {
+Status load_stl_bytes(Scene& out, const char* data, size_t size, const LoadOptions& options) {
+    const std::string_view bytes(data, size);
     std::vector<float> soup; // 9 floats per facet
     bool binary = bytes.size() >= 84 && bytes.compare(0, 5, "solid") != 0;
     if (bytes.size() >= 84 && !binary) { // binary files may start with "solid" too: trust 84 + 50·n
@@ -35,12 +42,15 @@ Status load_stl_bytes(Scene& out, const std::string& bytes, const LoadOptions& o
             return Status::error(StatusCode::invalid_input, "binary STL is truncated: header says " + std::to_string(n) +
                                                                 " facets, the file holds " +
                                                                 std::to_string((bytes.size() - 84) / 50));
-        soup.resize(size_t(n) * 9);
+        kernel::assign_huge(soup, size_t(n) * 9);
         for (size_t f = 0; f < n; ++f) std::memcpy(&soup[f * 9], bytes.data() + 84 + f * 50 + 12, 36);
     } else {
         size_t at = 0;
         std::string_view tok;
         if (!next_token(bytes, at, tok) || tok != "solid") return Status::error(StatusCode::invalid_input, "not an STL file");
+        // Room for every vertex the text could hold ("vertex a b c" is at least 12 bytes): sized once, on
+        // huge pages, so that push_back never copies and the pages fault once per 2 MiB (untouched ones cost nothing).
+        kernel::reserve_huge(soup, bytes.size() / 4 + 9);
         size_t corners = 0;
         while (next_token(bytes, at, tok)) {
             if (tok != "vertex") continue;

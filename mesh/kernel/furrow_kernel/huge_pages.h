@@ -10,8 +10,11 @@
 // Elsewhere (other systems, small sizes) it is a plain assign.
 #pragma once
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
+#include <cstdlib>
+#include <memory>
 #include <vector>
 
 #if defined(__linux__)
@@ -43,6 +46,26 @@ template <class T>
 void assign_huge(std::vector<T>& v, size_t n, const T& value = T()) {
     reserve_huge(v, n);
     v.assign(n, value);
+}
+
+// n uninitialised bytes (a file read whole), in a block advised for huge pages when it is at least 4 MiB:
+// a 100 MB OBJ faulted 24k times into its read buffer, now 50 times. Null if the allocation fails.
+struct FreeBytes {
+    void operator()(uint8_t* p) const { std::free(p); }
+};
+using HugeBytes = std::unique_ptr<uint8_t[], FreeBytes>;
+inline HugeBytes allocate_huge_bytes(size_t n) {
+    n = std::max<size_t>(n, 1);
+#if defined(__linux__) && defined(MADV_HUGEPAGE)
+    constexpr size_t huge = size_t(2) << 20;
+    if (n >= 2 * huge) {
+        const size_t rounded = (n + huge - 1) & ~(huge - 1); // aligned_alloc wants a multiple of the alignment
+        auto* p = static_cast<uint8_t*>(std::aligned_alloc(huge, rounded));
+        if (p) (void)::madvise(p, rounded, MADV_HUGEPAGE); // advice only
+        return HugeBytes(p);
+    }
+#endif
+    return HugeBytes(static_cast<uint8_t*>(std::malloc(n)));
 }
 
 } // namespace furrow::kernel

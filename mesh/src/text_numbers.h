@@ -1,0 +1,82 @@
+// Internal: the numbers of the text mesh readers (obj_load.cpp, off_load.cpp), read straight from the file's
+// bytes with std::from_chars the way a C++ stream (`in >> value`, what OpenMesh's readers used) reads them, so
+// that a file means what it meant before: the same spans are numbers, the same ones fail.
+#pragma once
+
+#include <charconv>
+#include <climits>
+#include <cmath>
+#include <cstdint>
+#include <cstdlib>
+#include <string>
+
+namespace furrow::mesh_detail {
+
+inline bool is_space(char c) { return c == ' ' || c == '\t' || c == '\n' || c == '\v' || c == '\f' || c == '\r'; }
+inline bool is_digit(char c) { return c >= '0' && c <= '9'; }
+
+// A number as `stream >> value` reads it: the span num_get takes, which must convert whole. Leading
+// whitespace is skipped. Returns the end of the number, nullptr if there is none.
+template <class T> const char* read_number(const char* p, const char* end, T& value) {
+    while (p < end && is_space(*p)) ++p;
+    const char* b = p;
+    if (p < end && (*p == '+' || *p == '-')) ++p;
+    bool digits = false;
+    while (p < end && is_digit(*p)) ++p, digits = true;
+    if (p < end && *p == '.')
+        for (++p; p < end && is_digit(*p); ++p) digits = true;
+    if (digits && p < end && (*p == 'e' || *p == 'E')) {
+        ++p;
+        if (p < end && (*p == '+' || *p == '-')) ++p;
+        while (p < end && is_digit(*p)) ++p;
+    }
+    const char* s = b < p && *b == '+' ? b + 1 : b;
+    const auto r = std::from_chars(s, p, value);
+    if (r.ptr != p || s == p) return nullptr;
+    if (r.ec == std::errc::result_out_of_range) { // overflow fails the stream; underflow reads as tiny or 0
+        const std::string copy(s, p);
+        const double d = std::strtod(copy.c_str(), nullptr);
+        if (std::abs(d) >= 1) return nullptr;
+        value = T(d);
+    }
+    return p;
+}
+
+// An index as `stream >> int` reads it: [sign] digits, what follows ignored; out of range clamps and fails.
+struct IntRead {
+    bool ok = false;
+    int value = 0;
+};
+inline IntRead read_int(const char* p, const char* end) {
+    bool negative = false;
+    if (p < end && (*p == '+' || *p == '-')) negative = *p++ == '-';
+    if (p == end || !is_digit(*p)) return {};
+    long long v = 0;
+    for (; p < end && is_digit(*p) && v <= 1LL << 32; ++p) v = v * 10 + (*p - '0');
+    v = negative ? -v : v;
+    if (v > INT_MAX || v < INT_MIN || (p < end && is_digit(*p))) return {false, negative ? INT_MIN : INT_MAX};
+    return {true, int(v)};
+}
+
+// A count or index as `stream >> unsigned int` reads it, after skipping whitespace: [sign] digits; a '-'
+// negates modulo 2^32 ("-1" is 4294967295), more than 2^32 - 1 fails. Returns the end, nullptr on failure.
+inline const char* read_unsigned(const char* p, const char* end, uint32_t& value) {
+    while (p < end && is_space(*p)) ++p;
+    bool negative = false;
+    if (p < end && (*p == '+' || *p == '-')) negative = *p++ == '-';
+    if (p == end || !is_digit(*p)) return nullptr;
+    uint64_t v = 0;
+    for (; p < end && is_digit(*p); ++p)
+        if ((v = v * 10 + uint64_t(*p - '0')) > UINT32_MAX) return nullptr;
+    value = negative ? uint32_t(0u - uint32_t(v)) : uint32_t(v);
+    return p;
+}
+
+// The 1-based line of position p in text (for messages: counted only when one is needed).
+inline size_t line_of(const char* text, const char* p) {
+    size_t line = 1;
+    for (const char* q = text; q < p; ++q) line += *q == '\n';
+    return line;
+}
+
+} // namespace furrow::mesh_detail
