@@ -58,15 +58,15 @@ FaceTerm face_term(const double* P, const uint32_t* t) {
 }
 
 // Angle-weighted normal (Thürmer & Wüthrich) of welded point v from the terms of its faces: `term(f)` is the
-// cached term, or (without a cache) the term computed again, with the same bits.
+// cached term, or (without a cache) the term computed again, with the same bits. A point's incidences are
+// corners (3 × face + corner, see Impl::faces): the corner is known without reading the face's indices (a
+// cache miss per face on the per-frame path).
 template <class Term>
-void gather_normal(double* o, uint32_t v, const Term& term, const uint32_t* tri, const std::vector<uint32_t>& off,
-                   const std::vector<uint32_t>& faces) {
+void gather_normal(double* o, uint32_t v, const Term& term, const std::vector<uint32_t>& off, const std::vector<uint32_t>& corners) {
     kernel::Vec3 sum;
     for (uint32_t k = off[v]; k < off[size_t(v) + 1]; ++k) {
-        const uint32_t f = faces[k];
-        const uint32_t* t = tri + 3 * size_t(f);
-        const int c = t[0] == v ? 0 : t[1] == v ? 1 : 2;
+        const uint32_t f = corners[k] / 3;
+        const uint32_t c = corners[k] % 3;
         decltype(auto) ft = term(f); // a reference into the cache, or a fresh term
         if (ft.angle[c] < 0) continue;
         sum = sum + ft.angle[c] * kernel::Vec3{ft.unit[0], ft.unit[1], ft.unit[2]};
@@ -85,7 +85,7 @@ void all_normals(double* normals, FaceTerms& terms, bool keep, const double* P, 
         FaceTerms().swap(terms);
         auto fresh = [&](uint32_t f) { return face_term(P, &tri[3 * size_t(f)]); };
         tbb::parallel_for(tbb::blocked_range<size_t>(0, off.size() - 1, 1024), [&](const tbb::blocked_range<size_t>& r) {
-            for (size_t v = r.begin(); v != r.end(); ++v) gather_normal(normals + 3 * v, uint32_t(v), fresh, tri.data(), off, faces);
+            for (size_t v = r.begin(); v != r.end(); ++v) gather_normal(normals + 3 * v, uint32_t(v), fresh, off, faces);
         });
         return;
     }
@@ -95,7 +95,7 @@ void all_normals(double* normals, FaceTerms& terms, bool keep, const double* P, 
     });
     auto cached = [&](uint32_t f) -> const FaceTerm& { return terms[f]; };
     tbb::parallel_for(tbb::blocked_range<size_t>(0, off.size() - 1, 1024), [&](const tbb::blocked_range<size_t>& r) {
-        for (size_t v = r.begin(); v != r.end(); ++v) gather_normal(normals + 3 * v, uint32_t(v), cached, tri.data(), off, faces);
+        for (size_t v = r.begin(); v != r.end(); ++v) gather_normal(normals + 3 * v, uint32_t(v), cached, off, faces);
     });
 }
 
@@ -112,7 +112,7 @@ struct DisplacedGround::Impl {
     Doubles texel;                        // (ti, tj) per point
     std::vector<uint8_t> movable;         // top_only: on the top surface
     std::vector<uint32_t> tris;           // welded, non-degenerate
-    std::vector<uint32_t> face_off, faces; // point -> incident triangles (CSR)
+    std::vector<uint32_t> face_off, faces; // point -> incident corners, 3 × triangle + corner (CSR)
     Doubles cur, nrm;                     // current displaced positions and normals per point
     // Points bucketed by 16 x 16-texel tiles of their footprint's lower corner.
     int tiles_x = 0, tiles_y = 0;
@@ -210,6 +210,7 @@ Status DisplacedGround::prepare(const float* positions, size_t vertex_count, con
             m->tris.insert(m->tris.end(), {a, b, c});
         }
         const size_t T = m->tris.size() / 3;
+        if (3 * T > size_t(UINT32_MAX)) return Status::error(StatusCode::invalid_input, "more than 1.4 billion triangles");
         m->face_off.assign(size_t(points) + 1, 0);
         for (uint32_t v : m->tris) ++m->face_off[size_t(v) + 1];
         for (size_t p = 0; p < points; ++p) m->face_off[p + 1] += m->face_off[p];
@@ -217,7 +218,7 @@ Status DisplacedGround::prepare(const float* positions, size_t vertex_count, con
         {
             std::vector<uint32_t> fill(m->face_off.begin(), m->face_off.end() - 1);
             for (size_t t = 0; t < T; ++t)
-                for (int k = 0; k < 3; ++k) m->faces[fill[m->tris[3 * t + size_t(k)]]++] = uint32_t(t);
+                for (int k = 0; k < 3; ++k) m->faces[fill[m->tris[3 * t + size_t(k)]]++] = uint32_t(3 * t + size_t(k));
         }
         // Undeformed normals give the displacement direction.
         kernel::assign_huge(m->dir, 3 * size_t(points), 0.0);
@@ -360,7 +361,7 @@ size_t DisplacedGround::update(const Heightmap& h, const std::vector<TexelRect>&
             if (!m.shifted[i]) continue;
             const uint32_t p = m.moved[i];
             for (uint32_t k = m.face_off[p]; k < m.face_off[size_t(p) + 1]; ++k) {
-                const uint32_t f = m.faces[k];
+                const uint32_t f = m.faces[k] / 3;
                 if (!claim(m.face_mark[f])) continue;
                 m.terms[f] = face_term(m.cur.data(), &m.tris[3 * size_t(f)]);
                 for (int corner = 0; corner < 3; ++corner) {
@@ -373,8 +374,7 @@ size_t DisplacedGround::update(const Heightmap& h, const std::vector<TexelRect>&
     });
     tbb::parallel_for(size_t(0), chunks, [&](size_t c) {
         for (const uint32_t p : m.claims[c]) {
-            gather_normal(&m.nrm[3 * size_t(p)], p, [&](uint32_t f) -> const FaceTerm& { return m.terms[f]; }, m.tris.data(),
-                          m.face_off, m.faces);
+            gather_normal(&m.nrm[3 * size_t(p)], p, [&](uint32_t f) -> const FaceTerm& { return m.terms[f]; }, m.face_off, m.faces);
             m.fix_normal(p);
             m.write(p, pos, nor);
         }
