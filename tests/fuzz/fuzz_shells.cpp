@@ -2,15 +2,18 @@
 // arrays, and (flag) add_fur_shells on a one-primitive scene with a tiny mask and comb map.
 //
 // Input: a fuzz::SmallMesh (triangles), then u8 flags (bit 0 mask, bit 1 comb, bit 2 add_fur_shells, bit 3
-// fins, bit 4 engine layout, bit 5 an option far out of range), then the options (see read_options), then
-// per-vertex mask (u8) and comb (3 × u16) values.
+// fins, bit 4 engine layout (with bit 6: the instanced layout), bit 5 an option far out of range, bit 7 far
+// LOD levels on a simplified base), then the options (see read_options), then per-vertex mask (u8) and comb
+// (3 × u16) values.
 // Properties: options outside the documented ranges are an invalid_argument error; an ok frame has the
 // documented sizes, finite values, unit or zero directions, 0 <= H <= requested × max_even_thickness,
 // bit-identical values on the copies of one position (what keeps shells crack-free), and finite shells;
-// add_fur_shells gives a consistent scene with finite attributes or a Status.
+// add_fur_shells gives a consistent scene with finite attributes and extras that are JSON objects, or a Status.
 #include "fuzz_common.h"
 
 #include <furrow/shells.h>
+
+#include <nlohmann/json.hpp>
 
 #include <cmath>
 
@@ -107,6 +110,9 @@ void check_fur_scene(const Scene& scene) {
             FUZZ_CHECK(fuzz::finite(p.colors), "non-finite colour in a fur primitive");
             for (const CustomAttribute& c : p.custom) FUZZ_CHECK(fuzz::finite(c.values), "%s is not finite", c.name.c_str());
         }
+    for (const Mesh& m : scene.meshes) // the instanced layout's FURROW_shells; the writer refuses anything else
+        FUZZ_CHECK(m.extras_json.empty() || nlohmann::json::parse(m.extras_json, nullptr, false).is_object(),
+                   "mesh '%s': extras_json is not a JSON object", m.name.c_str());
 }
 
 } // namespace
@@ -148,7 +154,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     fo.shells.layers = std::min(o.layers, 4);
     fo.shells.lod_levels = std::min(o.lod_levels, 2);
     fo.fins = flags & 8;
-    fo.layout = flags & 16 ? ShellLayout::engine : ShellLayout::viewer;
+    fo.layout = !(flags & 16) ? ShellLayout::viewer : flags & 64 ? ShellLayout::instanced : ShellLayout::engine;
+    if (flags & 128) fo.lod_simplify_error = 0.02;
     fo.strands.size = 16;
     fo.strands.strands = 6;
     // Refinement to at most 8·T + 256 triangles: the same rounds and code paths as the default 8·T + 4096, at

@@ -563,6 +563,9 @@ int main(int argc, char** argv) {
     seed("shells", "creature_back_scene_viewer.bin", shells_input(c1, 0x07, 0.02f));
     seed("shells", "creature_ear_scene_engine_fins.bin", shells_input(c2, 0x1d, 0.02f));
     seed("shells", "ground_piece_scene.bin", shells_input(gt, 0x04, 0.1f));
+    seed("shells", "creature_back_scene_instanced.bin", shells_input(c1, 0x57, 0.02f));
+    seed("shells", "creature_ear_scene_instanced_lod_simplify_fins.bin", shells_input(c2, 0xdd, 0.02f));
+    seed("shells", "creature_back_scene_viewer_lod_simplify.bin", shells_input(c1, 0x87, 0.02f));
 
     // --- tessellate
     seed("tessellate", "ground_quads_catmark_uniform.bin", tessellate_input(gq, {0, 0x01, 4, 4, false, 0}));
