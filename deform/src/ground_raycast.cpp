@@ -65,21 +65,18 @@ double GroundRaycaster::first_hit(const Vec3& o, const Vec3& d) const {
     // With coordinates near the double range (a collider 1e30 m up), the inexact kernel's predicates can
     // contradict each other, and CGAL reports the "impossible" case by throwing (CGAL_error, in release builds
     // too); thrown inside a TBB task it terminated the process (found by fuzz_stamp). No usable hit, then.
-    decltype(tree_->tree.first_intersection(ray)) hit;
+    // The hit is read where it is made: a default-constructed optional assigned later drew GCC 12's
+    // -Wmaybe-uninitialized on boost::optional's storage.
     try {
-        hit = tree_->tree.first_intersection(ray);
+        const auto hit = tree_->tree.first_intersection(ray);
+        if (!hit) return nan;
+        const double dd = dot(d, d);
+        auto param = [&](const Point& p) { return ((p.x() - o.x) * d.x + (p.y() - o.y) * d.y + (p.z() - o.z) * d.z) / dd; };
+        if (const Point* p = boost::get<Point>(&hit->first)) return param(*p);
+        // The ray runs inside a vertical face: its nearer end is where it lands.
+        if (const auto* seg = boost::get<Kernel::Segment_3>(&hit->first)) return std::min(param(seg->source()), param(seg->target()));
     } catch (const CGAL::Failure_exception&) {
         return nan;
-    }
-    if (!hit) return nan;
-    const double dd = dot(d, d);
-    if (const Point* p = boost::get<Point>(&hit->first)) {
-        return ((p->x() - o.x) * d.x + (p->y() - o.y) * d.y + (p->z() - o.z) * d.z) / dd;
-    }
-    if (const auto* s = boost::get<Kernel::Segment_3>(&hit->first)) {
-        // The ray runs inside a vertical face: its nearer end is where it lands.
-        auto param = [&](const Point& p) { return ((p.x() - o.x) * d.x + (p.y() - o.y) * d.y + (p.z() - o.z) * d.z) / dd; };
-        return std::min(param(s->source()), param(s->target()));
     }
     return nan;
 }
