@@ -34,8 +34,9 @@ bool quantize_unorm8(std::vector<uint8_t>& out, const std::vector<float>& v);
 
 // vertex_order.cpp: steps 1 and 2 of optimize_vertex_order on a triangle list of n vertices. Reorders and
 // renumbers `indices` in place and returns the old → new vertex index; empty (indices untouched) when the
-// list is not eligible (not a whole number of triangles, an index out of range).
-std::vector<uint32_t> optimized_vertex_remap(std::vector<uint32_t>& indices, size_t n);
+// list is not eligible (not a whole number of triangles, an index out of range). `strip`: step 1 uses
+// meshopt_optimizeVertexCacheStrip (the order for EXT_meshopt_compression).
+std::vector<uint32_t> optimized_vertex_remap(std::vector<uint32_t>& indices, size_t n, bool strip = false);
 // Step 3 for one per-vertex array of `per_vertex` values: out[remap[i]] = v[i]. v unchanged when remap is
 // empty or v's size does not match.
 template <class T>

@@ -303,7 +303,7 @@ VertexOrder vertex_order(const Primitive& src, const SaveOptions& options) {
     else
         o.indices = src.indices;
     if (options.optimize && o.mode == PrimitiveMode::triangles)
-        o.remap = mesh_detail::optimized_vertex_remap(o.indices, src.vertex_count());
+        o.remap = mesh_detail::optimized_vertex_remap(o.indices, src.vertex_count(), options.encoding == Encoding::compress);
     return o;
 }
 
