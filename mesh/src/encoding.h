@@ -26,8 +26,10 @@ PositionGrid position_grid(const Mesh& mesh, int bits);
 // Integer positions on `grid`, 4 uint16 per vertex (the 4th is 0: vertex attributes are 4-byte aligned).
 std::vector<uint16_t> quantize_positions(const std::vector<float>& positions, const PositionGrid& grid);
 // Unit vectors (3 or 4 components in `stride`) as normalized int8, 4 bytes per vertex (w = the tangent's sign
-// for stride 4, else 0).
-std::vector<int8_t> quantize_unit_vectors(const std::vector<float>& v, size_t stride);
+// for stride 4, else 0). `octahedral` (--compress): each x, y, z is the decoded 8-bit octahedral code of the
+// float vector (meshopt_encodeFilterOct then meshopt_decodeFilterOct), so the codec's OCTAHEDRAL filter
+// re-encodes it without a second rounding.
+std::vector<int8_t> quantize_unit_vectors(const std::vector<float>& v, size_t stride, bool octahedral = false);
 // Values in [0, 1] as normalized uint16 / uint8; false when one is outside (the caller keeps floats).
 bool quantize_unorm16(std::vector<uint16_t>& out, const std::vector<float>& v);
 bool quantize_unorm8(std::vector<uint8_t>& out, const std::vector<float>& v);

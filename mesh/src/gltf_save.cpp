@@ -263,9 +263,9 @@ int add_position(BinWriter& w, const std::vector<float>& positions, const mesh_d
                           8, false, true);
 }
 
-int add_unit_vectors(BinWriter& w, const std::vector<float>& v, int components, bool quantize) {
+int add_unit_vectors(BinWriter& w, const std::vector<float>& v, int components, bool quantize, bool octahedral) {
     if (!quantize) return w.add_floats(v, components, false);
-    return w.add_integers(mesh_detail::quantize_unit_vectors(v, size_t(components)), TINYGLTF_COMPONENT_TYPE_BYTE,
+    return w.add_integers(mesh_detail::quantize_unit_vectors(v, size_t(components), octahedral), TINYGLTF_COMPONENT_TYPE_BYTE,
                           components, 4, true, false);
 }
 
@@ -354,13 +354,13 @@ Status write_primitive(tinygltf::Primitive& out, const Primitive& src, bool need
     if (!src.normals.empty()) normals = unit_vectors(order.apply(src.normals, 3), 3, welded_normals);
     else if (needs_tangents && !uv0.empty()) normals = unit_vectors(welded_normals, 3, {});
     // Morph targets' normal and tangent deltas are float; their base vectors stay float with them.
-    const bool quantize_vectors = quantize && src.targets.empty();
-    if (!normals.empty()) out.attributes["NORMAL"] = add_unit_vectors(w, normals, 3, quantize_vectors);
+    const bool quantize_vectors = quantize && src.targets.empty(), oct = options.encoding == Encoding::compress;
+    if (!normals.empty()) out.attributes["NORMAL"] = add_unit_vectors(w, normals, 3, quantize_vectors, oct);
     if (!src.tangents.empty())
-        out.attributes["TANGENT"] = add_unit_vectors(w, unit_vectors(order.apply(src.tangents, 4), 4, {}), 4, quantize_vectors);
+        out.attributes["TANGENT"] = add_unit_vectors(w, unit_vectors(order.apply(src.tangents, 4), 4, {}), 4, quantize_vectors, oct);
     else if (needs_tangents && !uv0.empty() && !normals.empty())
         out.attributes["TANGENT"] = add_unit_vectors(w, generate_tangents(positions, normals, uv0, order.indices), 4,
-                                                     quantize_vectors);
+                                                     quantize_vectors, oct);
     if (!uv0.empty()) out.attributes["TEXCOORD_0"] = add_unorm(w, uv0, 2, quantize);
     if (!src.uv1.empty()) out.attributes["TEXCOORD_1"] = add_unorm(w, order.apply(src.uv1, 2), 2, quantize);
     if (!src.colors.empty()) out.attributes["COLOR_0"] = add_colors(w, clamped01(order.apply(src.colors, 4)), quantize);
