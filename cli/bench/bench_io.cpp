@@ -185,6 +185,9 @@ UvTransforms uv_transforms(const fs::path& file) {
             }
             for (const auto& [k, v] : o.items()) todo.push_back(&v);
         }
+        // A UV set no texture of the material reads: gltfpack quantized it with the material's one transform.
+        if (sets.size() == 1)
+            for (size_t set = 0; set < 2; ++set) sets.emplace(set, sets.begin()->second);
         by_material.push_back(sets);
     }
     for (size_t mi = 0; mi < j["meshes"].size(); ++mi) {
@@ -301,15 +304,19 @@ Errors nearest_errors(const std::vector<Sample>& ref, const std::vector<Sample>&
                     }
                 }
         worst.position = std::max(worst.position, std::isfinite(best) ? best : cell);
-        Errors best_attr{0, INFINITY, INFINITY};
+        // Dropped only when no original at that position matches (a zero-length shell vertex sits on its base).
+        Errors best_attr{0, INFINITY, INFINITY, !ties.empty(), !ties.empty()};
         for (size_t i : ties) {
             Errors e;
             attribute_errors(e, ref[i], p);
-            best_attr.uv = std::min(best_attr.uv, e.uv), best_attr.normal_deg = std::min(best_attr.normal_deg, e.normal_deg);
-            worst.uv_dropped |= e.uv_dropped, worst.normal_dropped |= e.normal_dropped;
+            const Sample& r = ref[i];
+            if (r.has_uv0 == p.has_uv0 && r.has_uv1 == p.has_uv1) best_attr.uv = std::min(best_attr.uv, e.uv);
+            if (r.has_n == p.has_n) best_attr.normal_deg = std::min(best_attr.normal_deg, e.normal_deg);
+            best_attr.uv_dropped &= e.uv_dropped, best_attr.normal_dropped &= e.normal_dropped;
         }
-        if (!ties.empty())
-            worst.uv = std::max(worst.uv, best_attr.uv), worst.normal_deg = std::max(worst.normal_deg, best_attr.normal_deg);
+        worst.uv_dropped |= best_attr.uv_dropped, worst.normal_dropped |= best_attr.normal_dropped;
+        if (std::isfinite(best_attr.uv)) worst.uv = std::max(worst.uv, best_attr.uv);
+        if (std::isfinite(best_attr.normal_deg)) worst.normal_deg = std::max(worst.normal_deg, best_attr.normal_deg);
     }
     return worst;
 }
