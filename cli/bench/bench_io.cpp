@@ -4,8 +4,9 @@
 // OBJ grid (models/obj_grid.h) is one more row: text meshes of that size are what the loader is for; and the
 // same grid as OFF, ASCII PLY and ASCII STL at a fifth of that size, one row each (their readers' MB/s). Then,
 // per model and setting (plain, --quantize, --compress), the output's bytes, its round-trip position error in
-// % of the diagonal, and encode and decode times, with gltfpack at the matching setting (-vp 14, -cc -vp 14)
-// beside it as the peer ("peer not installed" without it).
+// % of the diagonal, UV and normal errors, and encode and decode times, with gltfpack at the matching setting
+// (-vp 14, -cc -vp 14) beside it as the peer ("peer not installed" without it). gltfpack drops texture
+// coordinates no material reads (0.18 has no option to keep them); the table says "dropped" there.
 #include "bench_common.h"
 #include "data_dirs.h"
 #include "cli_common.h"
@@ -36,11 +37,11 @@ struct IoRow {
 
 // The scene in the vertex order save_scene writes (triangulated, SaveOptions::optimize's order), so that
 // vertex i of a reloaded file meets vertex i of the scene.
-Scene in_writer_order(Scene scene) {
+Scene in_writer_order(Scene scene, Encoding encoding = Encoding::plain) {
     for (Mesh& m : scene.meshes)
         for (Primitive& p : m.primitives) {
             triangulate(p);
-            optimize_vertex_order(p);
+            optimize_vertex_order(p, encoding);
         }
     return scene;
 }
@@ -146,64 +147,177 @@ IoRow bench_one(const fs::path& file, const fs::path& tmp, int repeat, bool gltf
 
 // ---- bytes against error against time, per setting (README "Output size")
 
-// World-space positions of every drawn mesh vertex, in double (node order, then primitive, then vertex).
-std::vector<std::array<double, 3>> world_points(const Scene& s) {
-    std::vector<std::array<double, 3>> out;
+// One drawn vertex: world position (double), object-space unit normal, TEXCOORD_0 and TEXCOORD_1 (after the
+// material's KHR_texture_transform, see uv_transforms); has_* say which the primitive carries.
+struct Sample {
+    std::array<double, 3> p{}, n{};
+    std::array<double, 4> uv{}; // u0, v0, u1, v1
+    bool has_n = false, has_uv0 = false, has_uv1 = false;
+};
+
+// The KHR_texture_transform (offset, scale; gltfpack writes no rotation) of each mesh primitive's UV sets,
+// read from the file's JSON (.glb or .gltf; none for other formats): gltfpack stores quantized UVs in [0, 1] and puts their range into the material,
+// which furrow's loader keeps as material data. Key: (mesh, primitive, set) -> {offset u, v, scale u, v}.
+using UvTransforms = std::map<std::array<size_t, 3>, std::array<double, 4>>;
+UvTransforms uv_transforms(const fs::path& file) {
+    UvTransforms out;
+    std::ifstream in(file, std::ios::binary);
+    std::vector<char> b((std::istreambuf_iterator<char>(in)), {});
+    uint32_t length = 0;
+    const bool glb = b.size() >= 20 && std::memcmp(b.data(), "glTF", 4) == 0;
+    if (glb) std::memcpy(&length, b.data() + 12, 4);
+    if (glb && size_t(length) > b.size() - 20) return out;
+    const nlohmann::json j = glb ? nlohmann::json::parse(b.begin() + 20, b.begin() + 20 + length, nullptr, false)
+                                 : nlohmann::json::parse(b.begin(), b.end(), nullptr, false);
+    if (!j.is_object() || !j.contains("meshes") || !j.contains("materials")) return out;
+    // Every texture reference in a material: {"index", "texCoord", "extensions": {"KHR_texture_transform"}}.
+    std::vector<std::map<size_t, std::array<double, 4>>> by_material;
+    for (const auto& m : j["materials"]) {
+        std::map<size_t, std::array<double, 4>> sets;
+        std::vector<const nlohmann::json*> todo{&m};
+        while (!todo.empty()) {
+            const nlohmann::json& o = *todo.back();
+            todo.pop_back();
+            if (!o.is_object()) continue;
+            if (o.contains("index") && o.contains("extensions") && o["extensions"].contains("KHR_texture_transform")) {
+                const auto& t = o["extensions"]["KHR_texture_transform"];
+                const auto off = t.value("offset", std::vector<double>{0, 0}), sc = t.value("scale", std::vector<double>{1, 1});
+                sets[o.value("texCoord", size_t(0))] = {off[0], off[1], sc[0], sc[1]};
+            }
+            for (const auto& [k, v] : o.items()) todo.push_back(&v);
+        }
+        // A UV set no texture of the material reads: gltfpack quantized it with the material's one transform.
+        if (sets.size() == 1)
+            for (size_t set = 0; set < 2; ++set) sets.emplace(set, sets.begin()->second);
+        by_material.push_back(sets);
+    }
+    for (size_t mi = 0; mi < j["meshes"].size(); ++mi) {
+        const auto& prims = j["meshes"][mi].value("primitives", nlohmann::json::array());
+        for (size_t pi = 0; pi < prims.size(); ++pi) {
+            const size_t mat = prims[pi].value("material", size_t(~size_t(0)));
+            if (mat < by_material.size())
+                for (const auto& [set, t] : by_material[mat]) out[{mi, pi, set}] = t;
+        }
+    }
+    return out;
+}
+
+// Every drawn mesh vertex (node order, then primitive, then vertex).
+std::vector<Sample> samples(const Scene& s, const UvTransforms& transforms = {}) {
+    std::vector<Sample> out;
     const auto world = s.world_matrices();
     for (int n : s.drawn_nodes()) {
         const int mi = s.nodes[size_t(n)].mesh;
         if (mi < 0 || size_t(mi) >= s.meshes.size()) continue;
         const auto& m = world[size_t(n)];
-        for (const Primitive& p : s.meshes[size_t(mi)].primitives)
-            for (size_t i = 0; i + 2 < p.positions.size(); i += 3) {
-                const double x = p.positions[i], y = p.positions[i + 1], z = p.positions[i + 2];
-                out.push_back({m[0] * x + m[4] * y + m[8] * z + m[12], m[1] * x + m[5] * y + m[9] * z + m[13],
-                               m[2] * x + m[6] * y + m[10] * z + m[14]});
+        for (size_t pi = 0; pi < s.meshes[size_t(mi)].primitives.size(); ++pi) {
+            const Primitive& p = s.meshes[size_t(mi)].primitives[pi];
+            std::array<std::array<double, 4>, 2> t{{{0, 0, 1, 1}, {0, 0, 1, 1}}};
+            for (size_t set = 0; set < 2; ++set)
+                if (auto it = transforms.find({size_t(mi), pi, set}); it != transforms.end()) t[set] = it->second;
+            for (size_t v = 0; v < p.vertex_count(); ++v) {
+                Sample q;
+                const double x = p.positions[v * 3], y = p.positions[v * 3 + 1], z = p.positions[v * 3 + 2];
+                q.p = {m[0] * x + m[4] * y + m[8] * z + m[12], m[1] * x + m[5] * y + m[9] * z + m[13],
+                       m[2] * x + m[6] * y + m[10] * z + m[14]};
+                if ((q.has_n = p.normals.size() == p.positions.size())) {
+                    const double l = std::hypot(p.normals[v * 3], p.normals[v * 3 + 1], p.normals[v * 3 + 2]);
+                    for (size_t k = 0; k < 3; ++k) q.n[k] = l > 0 ? p.normals[v * 3 + k] / l : 0.0;
+                }
+                const std::vector<float>* uvs[2] = {&p.uv0, &p.uv1};
+                bool* has[2] = {&q.has_uv0, &q.has_uv1};
+                for (size_t set = 0; set < 2; ++set)
+                    if ((*has[set] = uvs[set]->size() == p.vertex_count() * 2))
+                        for (size_t k = 0; k < 2; ++k) q.uv[set * 2 + k] = t[set][k] + t[set][2 + k] * (*uvs[set])[v * 2 + k];
+                out.push_back(q);
             }
+        }
     }
     return out;
 }
 
-double diagonal_of(const std::vector<std::array<double, 3>>& v) {
+double diagonal_of(const std::vector<Sample>& v) {
     std::array<double, 3> lo{INFINITY, INFINITY, INFINITY}, hi{-INFINITY, -INFINITY, -INFINITY};
     for (const auto& x : v)
-        for (size_t k = 0; k < 3; ++k) lo[k] = std::min(lo[k], x[k]), hi[k] = std::max(hi[k], x[k]);
+        for (size_t k = 0; k < 3; ++k) lo[k] = std::min(lo[k], x.p[k]), hi[k] = std::max(hi[k], x.p[k]);
     return v.empty() ? 0.0 : std::hypot(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]);
 }
 
+// The round-trip errors of one output: position (world units), UV (largest |du| or |dv| over both sets, in
+// texture-coordinate units) and normal (largest angle, degrees).
+struct Errors {
+    double position = 0, uv = 0, normal_deg = 0;
+    bool uv_dropped = false, normal_dropped = false; // the output lacks what the reference has
+};
+
+// The UV and normal differences of a reference vertex `a` and an output vertex `b`.
+void attribute_errors(Errors& e, const Sample& a, const Sample& b) {
+    e.uv_dropped |= (a.has_uv0 && !b.has_uv0) || (a.has_uv1 && !b.has_uv1);
+    e.normal_dropped |= a.has_n && !b.has_n;
+    if (a.has_uv0 && b.has_uv0) e.uv = std::max({e.uv, std::abs(a.uv[0] - b.uv[0]), std::abs(a.uv[1] - b.uv[1])});
+    if (a.has_uv1 && b.has_uv1) e.uv = std::max({e.uv, std::abs(a.uv[2] - b.uv[2]), std::abs(a.uv[3] - b.uv[3])});
+    if (a.has_n && b.has_n) {
+        const double c = std::clamp(a.n[0] * b.n[0] + a.n[1] * b.n[1] + a.n[2] * b.n[2], -1.0, 1.0);
+        e.normal_deg = std::max(e.normal_deg, std::acos(c) * 180.0 / M_PI);
+    }
+}
+
+double distance(const Sample& a, const Sample& b) { return std::hypot(a.p[0] - b.p[0], a.p[1] - b.p[1], a.p[2] - b.p[2]); }
+
 // furrow's error: vertex i of the reloaded file against vertex i of the scene in the order the writer gives
-// it (triangulated, optimize_vertex_order), so nothing is matched by guess.
-double indexed_error(const std::vector<std::array<double, 3>>& a, const std::vector<std::array<double, 3>>& b) {
-    if (a.size() != b.size()) return INFINITY;
-    double worst = 0;
-    for (size_t i = 0; i < a.size(); ++i)
-        worst = std::max(worst, std::hypot(a[i][0] - b[i][0], a[i][1] - b[i][1], a[i][2] - b[i][2]));
-    return worst;
+// it (triangulated, optimize_vertex_order for the setting's encoding), so nothing is matched by guess.
+Errors indexed_errors(const std::vector<Sample>& a, const std::vector<Sample>& b) {
+    if (a.size() != b.size()) return {INFINITY, INFINITY, INFINITY};
+    Errors e;
+    for (size_t i = 0; i < a.size(); ++i) {
+        e.position = std::max(e.position, distance(a[i], b[i]));
+        attribute_errors(e, a[i], b[i]);
+    }
+    return e;
 }
 
 // The peer's error: gltfpack reorders, welds and merges vertices, so each of its vertices is matched to the
-// nearest original vertex (a hash grid of cell `cell`, the 27 cells around); the largest such distance.
-double nearest_error(const std::vector<std::array<double, 3>>& ref, const std::vector<std::array<double, 3>>& out,
-                     double cell) {
-    if (ref.empty() || !(cell > 0)) return out.empty() ? 0.0 : INFINITY;
-    auto key = [cell](double x, double y, double z) {
-        return std::array<long long, 3>{(long long)std::floor(x / cell), (long long)std::floor(y / cell), (long long)std::floor(z / cell)};
+// nearest original vertex (a hash grid of cell `cell`, the 27 cells around); the largest such distance. UV
+// and normal errors: against the best of the original vertices at that same nearest distance (a seam's
+// copies share a position), so the peer gets the benefit of the doubt.
+Errors nearest_errors(const std::vector<Sample>& ref, const std::vector<Sample>& out, double cell) {
+    if (ref.empty() || !(cell > 0)) return out.empty() ? Errors{} : Errors{INFINITY, INFINITY, INFINITY};
+    auto key = [cell](const std::array<double, 3>& p) {
+        return std::array<long long, 3>{(long long)std::floor(p[0] / cell), (long long)std::floor(p[1] / cell), (long long)std::floor(p[2] / cell)};
     };
     std::map<std::array<long long, 3>, std::vector<size_t>> grid;
-    for (size_t i = 0; i < ref.size(); ++i) grid[key(ref[i][0], ref[i][1], ref[i][2])].push_back(i);
-    double worst = 0;
-    for (const auto& p : out) {
-        const auto k = key(p[0], p[1], p[2]);
+    for (size_t i = 0; i < ref.size(); ++i) grid[key(ref[i].p)].push_back(i);
+    Errors worst;
+    std::vector<size_t> ties;
+    for (const Sample& p : out) {
+        const auto k = key(p.p);
         double best = INFINITY;
+        ties.clear();
         for (long long dx = -1; dx <= 1; ++dx)
             for (long long dy = -1; dy <= 1; ++dy)
                 for (long long dz = -1; dz <= 1; ++dz) {
                     auto it = grid.find({k[0] + dx, k[1] + dy, k[2] + dz});
                     if (it == grid.end()) continue;
-                    for (size_t i : it->second)
-                        best = std::min(best, std::hypot(p[0] - ref[i][0], p[1] - ref[i][1], p[2] - ref[i][2]));
+                    for (size_t i : it->second) {
+                        const double d = distance(p, ref[i]);
+                        if (d < best) best = d, ties.clear();
+                        if (d == best) ties.push_back(i);
+                    }
                 }
-        worst = std::max(worst, std::isfinite(best) ? best : cell);
+        worst.position = std::max(worst.position, std::isfinite(best) ? best : cell);
+        // Dropped only when no original at that position matches (a zero-length shell vertex sits on its base).
+        Errors best_attr{0, INFINITY, INFINITY, !ties.empty(), !ties.empty()};
+        for (size_t i : ties) {
+            Errors e;
+            attribute_errors(e, ref[i], p);
+            const Sample& r = ref[i];
+            if (r.has_uv0 == p.has_uv0 && r.has_uv1 == p.has_uv1) best_attr.uv = std::min(best_attr.uv, e.uv);
+            if (r.has_n == p.has_n) best_attr.normal_deg = std::min(best_attr.normal_deg, e.normal_deg);
+            best_attr.uv_dropped &= e.uv_dropped, best_attr.normal_dropped &= e.normal_dropped;
+        }
+        worst.uv_dropped |= best_attr.uv_dropped, worst.normal_dropped |= best_attr.normal_dropped;
+        if (std::isfinite(best_attr.uv)) worst.uv = std::max(worst.uv, best_attr.uv);
+        if (std::isfinite(best_attr.normal_deg)) worst.normal_deg = std::max(worst.normal_deg, best_attr.normal_deg);
     }
     return worst;
 }
@@ -212,6 +326,8 @@ struct SizeRow {
     std::string model, setting;
     size_t bytes = 0;
     double error_percent = 0; // max |world position change| / world diagonal × 100
+    double uv_error = 0, normal_error_deg = 0;
+    bool uv_dropped = false, normal_dropped = false;
     double encode_s = 0, decode_s = 0;
     bool peer = false, available = true;
 };
@@ -222,9 +338,10 @@ Scene load_quiet(const fs::path& f) {
     return s;
 }
 
-// One furrow setting: encode (save_scene) and decode (load_scene) times, the file's bytes, the error.
-SizeRow furrow_setting(const Scene& scene, const std::string& model, const std::string& name, Encoding e,
-                       const fs::path& tmp, int repeat, const std::vector<std::array<double, 3>>& reference, double diag) {
+// One furrow setting: encode (save_scene) and decode (load_scene) times, the file's bytes, the errors
+// against the scene in the vertex order this encoding writes.
+SizeRow furrow_setting(const Scene& scene, const UvTransforms& source_uv, const std::string& model,
+                       const std::string& name, Encoding e, const fs::path& tmp, int repeat, double diag) {
     SizeRow r{model, name};
     SaveOptions o;
     o.encoding = e;
@@ -233,7 +350,9 @@ SizeRow furrow_setting(const Scene& scene, const std::string& model, const std::
     r.bytes = size_t(fs::file_size(out));
     Scene back;
     r.decode_s = median_seconds(repeat, [&] { back = load_quiet(out); });
-    r.error_percent = indexed_error(reference, world_points(back)) / diag * 100;
+    const Errors err = indexed_errors(samples(in_writer_order(scene, e), source_uv), samples(back, uv_transforms(out)));
+    r.error_percent = err.position / diag * 100, r.uv_error = err.uv, r.normal_error_deg = err.normal_deg;
+    r.uv_dropped = err.uv_dropped, r.normal_dropped = err.normal_dropped;
     fs::remove(out);
     return r;
 }
@@ -241,7 +360,7 @@ SizeRow furrow_setting(const Scene& scene, const std::string& model, const std::
 // The peer: gltfpack at the setting that matches --compress (-cc, -vp 14) and --quantize (-vp 14 alone).
 SizeRow gltfpack_setting(const fs::path& input, const std::string& model, const std::string& name,
                          const std::vector<std::string>& flags, const fs::path& tmp, int repeat,
-                         const std::vector<std::array<double, 3>>& reference, double diag) {
+                         const std::vector<Sample>& reference, double diag) {
     SizeRow r{model, name};
     r.peer = true;
     const fs::path out = tmp / (name + ".glb");
@@ -256,7 +375,9 @@ SizeRow gltfpack_setting(const fs::path& input, const std::string& model, const 
     r.bytes = size_t(fs::file_size(out));
     Scene back;
     r.decode_s = median_seconds(repeat, [&] { back = load_quiet(out); });
-    r.error_percent = nearest_error(reference, world_points(back), diag * 0.01) / diag * 100;
+    const Errors err = nearest_errors(reference, samples(back, uv_transforms(out)), diag * 0.01);
+    r.error_percent = err.position / diag * 100, r.uv_error = err.uv, r.normal_error_deg = err.normal_deg;
+    r.uv_dropped = err.uv_dropped, r.normal_dropped = err.normal_dropped;
     fs::remove(out);
     return r;
 }
@@ -264,12 +385,14 @@ SizeRow gltfpack_setting(const fs::path& input, const std::string& model, const 
 std::vector<SizeRow> size_rows(const fs::path& file, const fs::path& tmp, int repeat) {
     const std::string model = file.filename().string();
     const Scene scene = load_quiet(file);
-    const auto reference = world_points(in_writer_order(scene)); // furrow's error is vertex by vertex
+    const UvTransforms source_uv = lower_extension(file.string()) == ".glb" || lower_extension(file.string()) == ".gltf"
+                                       ? uv_transforms(file) : UvTransforms{};
+    const auto reference = samples(in_writer_order(scene, Encoding::plain), source_uv);
     const double diag = std::max(diagonal_of(reference), 1e-30);
     std::vector<SizeRow> rows;
-    rows.push_back(furrow_setting(scene, model, "plain", Encoding::plain, tmp, repeat, reference, diag));
-    rows.push_back(furrow_setting(scene, model, "--quantize", Encoding::quantize, tmp, repeat, reference, diag));
-    rows.push_back(furrow_setting(scene, model, "--compress", Encoding::compress, tmp, repeat, reference, diag));
+    rows.push_back(furrow_setting(scene, source_uv, model, "plain", Encoding::plain, tmp, repeat, diag));
+    rows.push_back(furrow_setting(scene, source_uv, model, "--quantize", Encoding::quantize, tmp, repeat, diag));
+    rows.push_back(furrow_setting(scene, source_uv, model, "--compress", Encoding::compress, tmp, repeat, diag));
     // gltfpack reads glTF only; an OBJ/PLY input goes through furrow's plain GLB first (not timed as its).
     fs::path input = file;
     const std::string ext = lower_extension(file.string());
@@ -283,22 +406,27 @@ std::vector<SizeRow> size_rows(const fs::path& file, const fs::path& tmp, int re
 }
 
 void print_size_table(const std::vector<SizeRow>& rows, int repeat) {
-    Table t({"model", "setting", "bytes", "vs plain", "max error % diag", "encode ms", "decode ms"});
+    Table t({"model", "setting", "bytes", "vs plain", "max error % diag", "max uv error", "max normal deg", "encode ms",
+             "decode ms"});
     size_t plain = 0;
     for (const auto& r : rows) {
         if (r.setting == "plain") plain = r.bytes;
         if (!r.available) {
-            t.add({r.model, r.setting, "peer not installed", "", "", "", ""});
+            t.add({r.model, r.setting, "peer not installed", "", "", "", "", "", ""});
             continue;
         }
         t.add({r.model, r.setting, std::to_string(r.bytes), plain ? fmt(double(r.bytes) / double(plain), 3) : "",
-               fmt_sci(r.error_percent), fmt(r.encode_s * 1e3, 2), fmt(r.decode_s * 1e3, 2)});
+               fmt_sci(r.error_percent), r.uv_dropped ? "dropped" : fmt_sci(r.uv_error),
+               r.normal_dropped ? "dropped" : fmt(r.normal_error_deg, 2), fmt(r.encode_s * 1e3, 2),
+               fmt(r.decode_s * 1e3, 2)});
     }
     std::printf("\nfurrow bench io: output bytes against position error against time, median of %d runs; encode = "
                 "save_scene (furrow) or the gltfpack process (peer, median of at most 3); decode = furrow's "
                 "load_scene of the output; error = max world-position change after the round trip in %% of the world "
                 "diagonal (furrow: vertex by vertex; gltfpack, which welds and reorders: each vertex to its nearest "
-                "original)\n",
+                "original); uv error = largest |du|, |dv| of TEXCOORD_0/1 after the material's KHR_texture_transform; normal "
+                "error = largest angle; gltfpack's against the best original vertex at the matched position; dropped = the "
+                "output lacks the attribute)\n",
                 repeat);
     t.print();
 }
@@ -363,6 +491,8 @@ nlohmann::json run_bench_io(const BenchArgs& args, const GlobalFlags& g, bool ta
     for (const auto& r : sizes)
         size_json.push_back({{"model", r.model}, {"setting", r.setting}, {"peer", r.peer}, {"available", r.available},
                              {"bytes", r.bytes}, {"max_error_percent_of_diagonal", r.error_percent},
+                             {"max_uv_error", r.uv_error}, {"max_normal_error_degrees", r.normal_error_deg},
+                             {"uv_dropped", r.uv_dropped}, {"normals_dropped", r.normal_dropped},
                              {"encode_s", r.encode_s}, {"decode_s", r.decode_s}});
 
     Table t({"model", "format", "input KiB", "triangles", "load ms", "save ms", "memcpy us", "load/memcpy", "save/memcpy",

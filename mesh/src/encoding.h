@@ -26,19 +26,23 @@ PositionGrid position_grid(const Mesh& mesh, int bits);
 // Integer positions on `grid`, 4 uint16 per vertex (the 4th is 0: vertex attributes are 4-byte aligned).
 std::vector<uint16_t> quantize_positions(const std::vector<float>& positions, const PositionGrid& grid);
 // Unit vectors (3 or 4 components in `stride`) as normalized int8, 4 bytes per vertex (w = the tangent's sign
-// for stride 4, else 0).
-std::vector<int8_t> quantize_unit_vectors(const std::vector<float>& v, size_t stride);
+// for stride 4, else 0). `octahedral` (--compress): each x, y, z is the decoded 8-bit octahedral code of the
+// float vector (meshopt_encodeFilterOct then meshopt_decodeFilterOct), so the codec's OCTAHEDRAL filter
+// re-encodes it without a second rounding.
+std::vector<int8_t> quantize_unit_vectors(const std::vector<float>& v, size_t stride, bool octahedral = false);
 // Values in [0, 1] as normalized uint16 / uint8; false when one is outside (the caller keeps floats).
 bool quantize_unorm16(std::vector<uint16_t>& out, const std::vector<float>& v);
 bool quantize_unorm8(std::vector<uint8_t>& out, const std::vector<float>& v);
 
 // vertex_order.cpp: steps 1 and 2 of optimize_vertex_order on a triangle list of n vertices. Reorders and
 // renumbers `indices` in place and returns the old → new vertex index; empty (indices untouched) when the
-// list is not eligible (not a whole number of triangles, an index out of range).
-std::vector<uint32_t> optimized_vertex_remap(std::vector<uint32_t>& indices, size_t n);
+// list is not eligible (not a whole number of triangles, an index out of range). `strip`: step 1 uses
+// meshopt_optimizeVertexCacheStrip (the order for EXT_meshopt_compression).
+std::vector<uint32_t> optimized_vertex_remap(std::vector<uint32_t>& indices, size_t n, bool strip = false);
 // The same from `count` indices that stay as they are, into `out` (untouched when not eligible): the writer's
 // form, which never holds a third copy of a large index list.
-std::vector<uint32_t> optimized_vertex_remap(std::vector<uint32_t>& out, const uint32_t* indices, size_t count, size_t n);
+std::vector<uint32_t> optimized_vertex_remap(std::vector<uint32_t>& out, const uint32_t* indices, size_t count, size_t n,
+                                             bool strip = false);
 // Step 3 for one per-vertex array of `per_vertex` values: out[remap[i]] = v[i]. v unchanged when remap is
 // empty or v's size does not match.
 template <class T>

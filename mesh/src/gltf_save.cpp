@@ -287,9 +287,9 @@ int add_position(BinWriter& w, const Shared<float>& positions, const mesh_detail
                           8, false, true);
 }
 
-int add_unit_vectors(BinWriter& w, const Shared<float>& v, int components, bool quantize) {
+int add_unit_vectors(BinWriter& w, const Shared<float>& v, int components, bool quantize, bool octahedral) {
     if (!quantize) return w.add_floats(v, components, false);
-    return w.add_integers(mesh_detail::quantize_unit_vectors(*v, size_t(components)), TINYGLTF_COMPONENT_TYPE_BYTE,
+    return w.add_integers(mesh_detail::quantize_unit_vectors(*v, size_t(components), octahedral), TINYGLTF_COMPONENT_TYPE_BYTE,
                           components, 4, true, false);
 }
 
@@ -322,14 +322,16 @@ VertexOrder vertex_order(const Primitive& src, const SaveOptions& options) {
     VertexOrder o;
     o.mode = src.mode;
     const bool optimize = options.optimize && o.mode == PrimitiveMode::triangles;
+    const bool strip = options.encoding == Encoding::compress; // meshopt_optimizeVertexCacheStrip, as gltfpack -cc
     if (!src.face_sizes.empty() && src.mode == PrimitiveMode::triangles) {
         triangulate_polygons(o.indices, src.indices.data(), src.indices.size(), src.face_sizes.data(), src.face_sizes.size(),
                              src.positions.data(), src.vertex_count());
-        if (optimize) o.remap = mesh_detail::optimized_vertex_remap(o.indices, src.vertex_count());
+        if (optimize) o.remap = mesh_detail::optimized_vertex_remap(o.indices, src.vertex_count(), strip);
         return o;
     }
     // Read from the source's indices, not from a copy of them (a third index list at the writer's peak).
-    if (optimize) o.remap = mesh_detail::optimized_vertex_remap(o.indices, src.indices.data(), src.indices.size(), src.vertex_count());
+    if (optimize)
+        o.remap = mesh_detail::optimized_vertex_remap(o.indices, src.indices.data(), src.indices.size(), src.vertex_count(), strip);
     if (o.remap.empty()) o.indices = src.indices; // not optimised, or not eligible (the writer reports a bad index)
     return o;
 }
@@ -381,14 +383,14 @@ Status write_primitive(tinygltf::Primitive& out, const Primitive& src, bool need
     if (!src.normals.empty()) normals = share(unit_vectors(order.apply(src.normals, 3), 3, welded_normals));
     else if (needs_tangents && !uv0->empty()) normals = share(unit_vectors(welded_normals, 3, {}));
     // Morph targets' normal and tangent deltas are float; their base vectors stay float with them.
-    const bool quantize_vectors = quantize && src.targets.empty();
-    if (!normals->empty()) out.attributes["NORMAL"] = add_unit_vectors(w, normals, 3, quantize_vectors);
+    const bool quantize_vectors = quantize && src.targets.empty(), oct = options.encoding == Encoding::compress;
+    if (!normals->empty()) out.attributes["NORMAL"] = add_unit_vectors(w, normals, 3, quantize_vectors, oct);
     if (!src.tangents.empty())
         out.attributes["TANGENT"] =
-            add_unit_vectors(w, share(unit_vectors(order.apply(src.tangents, 4), 4, {})), 4, quantize_vectors);
+            add_unit_vectors(w, share(unit_vectors(order.apply(src.tangents, 4), 4, {})), 4, quantize_vectors, oct);
     else if (needs_tangents && !uv0->empty() && !normals->empty())
         out.attributes["TANGENT"] = add_unit_vectors(w, share(generate_tangents(*positions, *normals, *uv0, order.indices)),
-                                                     4, quantize_vectors);
+                                                     4, quantize_vectors, oct);
     if (!uv0->empty()) out.attributes["TEXCOORD_0"] = add_unorm(w, uv0, 2, quantize);
     if (!src.uv1.empty()) out.attributes["TEXCOORD_1"] = add_unorm(w, share(order.apply(src.uv1, 2)), 2, quantize);
     if (!src.colors.empty()) out.attributes["COLOR_0"] = add_colors(w, clamped01(order.apply(src.colors, 4)), quantize);

@@ -7,13 +7,17 @@
 //   the error is at most half a step per axis whatever the distance. Skinned meshes (their node transform is
 //   ignored, glTF 2.0 §3.7.3) and meshes with morph targets (their deltas would need the same grid) keep
 //   float positions.
-//   Unit vectors: normalized int8 (the validator accepts a length within its tolerance for 8-bit vectors).
+//   Unit vectors: normalized int8 (the validator accepts a length within its tolerance for 8-bit vectors);
+//   for --compress, the decoded 8-bit octahedral code of the float vector (what the OCTAHEDRAL filter keeps).
 //   Texture coordinates: normalized uint16 when every value lies in [0, 1]. Colours (clamped to [0, 1] by the
 //   writer): normalized uint8, as gltfpack's default -vc 8.
 // Every value is rounded to the nearest integer, so the output is the same bytes at any thread count.
 #include "encoding.h"
 
+#include <meshoptimizer.h>
+
 #include <algorithm>
+#include <cstring>
 #include <cmath>
 #include <limits>
 
@@ -53,16 +57,27 @@ std::vector<uint16_t> quantize_positions(const std::vector<float>& positions, co
     return out;
 }
 
-std::vector<int8_t> quantize_unit_vectors(const std::vector<float>& v, size_t stride) {
+std::vector<int8_t> quantize_unit_vectors(const std::vector<float>& v, size_t stride, bool octahedral) {
     const size_t n = v.size() / stride;
     std::vector<int8_t> out(n * 4, 0);
+    std::vector<float> xyzw(octahedral ? n * 4 : 0, 0.0f);
     for (size_t i = 0; i < n; ++i) {
         for (size_t k = 0; k < 3; ++k) {
             const double x = std::isfinite(v[i * stride + k]) ? double(v[i * stride + k]) : 0.0;
             out[i * 4 + k] = int8_t(std::clamp(std::round(x * 127.0), -127.0, 127.0));
+            if (octahedral) xyzw[i * 4 + k] = float(x);
         }
-        if (stride == 4) out[i * 4 + 3] = v[i * 4 + 3] < 0 ? int8_t(-127) : int8_t(127);
     }
+    if (octahedral) {
+        // Rounded on the octahedral grid first, instead of int8 x, y, z rounded again by the filter: the demo
+        // fur's largest normal error falls from 1.20 to 1.14 degrees (bench io; gltfpack -cc: 0.98). The
+        // filter's re-encoding of these int8 vectors still moves about 0.6 % of them by one step.
+        std::vector<uint8_t> code(n * 4);
+        meshopt_encodeFilterOct(code.data(), n, 4, 8, xyzw.data());
+        meshopt_decodeFilterOct(code.data(), n, 4);
+        std::memcpy(out.data(), code.data(), code.size());
+    }
+    for (size_t i = 0; i < n; ++i) out[i * 4 + 3] = stride == 4 ? (v[i * 4 + 3] < 0 ? int8_t(-127) : int8_t(127)) : int8_t(0);
     return out;
 }
 

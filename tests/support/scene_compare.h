@@ -22,8 +22,9 @@ inline void expect_same_floats(const std::vector<float>& a, const std::vector<fl
 
 // `b` was written from `a` and read back: geometry must be identical (normals up to renormalisation).
 // `optimized`: b was written with SaveOptions::optimize (the default), so a's triangles are compared in the
-// order optimize_vertex_order gives them (tests/mesh/test_vertex_order.cpp checks that order on its own).
-inline void expect_same_scene(const Scene& a, const Scene& b, bool optimized = true) {
+// order optimize_vertex_order gives them for `encoding` (tests/mesh/test_vertex_order.cpp checks that order on
+// its own).
+inline void expect_same_scene(const Scene& a, const Scene& b, bool optimized = true, Encoding encoding = Encoding::plain) {
     ASSERT_EQ(a.meshes.size(), b.meshes.size());
     for (size_t mi = 0; mi < a.meshes.size(); ++mi) {
         ASSERT_EQ(a.meshes[mi].primitives.size(), b.meshes[mi].primitives.size());
@@ -32,7 +33,7 @@ inline void expect_same_scene(const Scene& a, const Scene& b, bool optimized = t
             Primitive pa = a.meshes[mi].primitives[pi], pb = b.meshes[mi].primitives[pi];
             triangulate(pa);
             triangulate(pb);
-            if (optimized) optimize_vertex_order(pa);
+            if (optimized) optimize_vertex_order(pa, encoding);
             const std::string w = "mesh " + std::to_string(mi) + " prim " + std::to_string(pi);
             EXPECT_EQ(int(pa.mode), int(pb.mode)) << w;
             expect_same_floats(pa.positions, pb.positions, 0.0f, w + " positions");
