@@ -112,6 +112,15 @@ Scene load(const fs::path& f) {
     return s;
 }
 
+// The bundled creature's fur: `layers` shells of 0.04 under its mask (the demo's options).
+FurOptions creature_fur(int layers) {
+    FurOptions o;
+    o.shells.layers = layers;
+    o.shells.length = 0.04;
+    EXPECT_TRUE(load_png(o.mask, (test::models_dir() / "creature_fur_mask.png").string()).ok());
+    return o;
+}
+
 // The mesh whose name ends in `suffix` in a loaded scene (by mesh name: a quantized file moves the mesh from
 // its named node to a dequantizing child).
 const Mesh* mesh_named(const Scene& s, const std::string& suffix) {
@@ -144,10 +153,7 @@ void expect_rebuilds_engine_layout(const Scene& source, const FurOptions& o, con
 
 TEST(instanced_layout, RebuildsTheEngineShellsOfTheMaskedCreature) {
     const Scene creature = load(test::models_dir() / "creature.glb");
-    FurOptions o;
-    o.shells.layers = 16;
-    o.shells.length = 0.04;
-    ASSERT_TRUE(load_png(o.mask, (test::models_dir() / "creature_fur_mask.png").string()).ok());
+    const FurOptions o = creature_fur(16);
     expect_rebuilds_engine_layout(creature, o, "creature");
 }
 
@@ -229,12 +235,9 @@ TEST(instanced_layout, ExtrasCarryTheLayerParametersAndStayOutOfTheScene) {
 // same formula it gives the engine layout's level-k shells, and it has fewer triangles than level 0's base.
 TEST(instanced_layout, SimplifiedLevelsHaveTheirOwnBasesAndRebuildTheEngineLevels) {
     const Scene creature = load(test::models_dir() / "creature.glb");
-    FurOptions o;
-    o.shells.layers = 8;
-    o.shells.length = 0.04;
+    FurOptions o = creature_fur(8);
     o.shells.lod_levels = 3;
     o.lod_simplify_error = 0.01;
-    ASSERT_TRUE(load_png(o.mask, (test::models_dir() / "creature_fur_mask.png").string()).ok());
     Pair p = grow_both(creature, o);
     ASSERT_EQ(p.engine_report.lod_nodes.size(), 2u);
     ASSERT_EQ(p.instanced_report.lod_nodes.size(), 2u);
@@ -301,10 +304,7 @@ TEST(instanced_layout, ExtrasMustBeAJsonObject) {
 // About 1/N of the engine layout: what the shells add (file minus the bare model's) with 32 layers.
 TEST(instanced_layout, AddsAboutOneNthOfTheEngineLayoutsBytes) {
     const Scene creature = load(test::models_dir() / "creature.glb");
-    FurOptions o;
-    o.shells.layers = 32;
-    o.shells.length = 0.04;
-    ASSERT_TRUE(load_png(o.mask, (test::models_dir() / "creature_fur_mask.png").string()).ok());
+    const FurOptions o = creature_fur(32);
     Pair p = grow_both(creature, o);
     const fs::path d = test::temp_dir();
     ASSERT_TRUE(save_scene(creature, (d / "bare.glb").string()).ok());
