@@ -894,11 +894,14 @@ void attach_instanced(Scene& scene, std::vector<std::vector<Primitive>>& bases, 
             std::vector<Primitive>& prims = bases[k * original_meshes + mi];
             if (prims.empty()) continue;
             // Every primitive of a glTF mesh carries the same attributes: zero lean/sag where one base has none.
-            for (const auto& [name, wanted] : {std::pair{"_FUR_LEAN", lean}, std::pair{"_FUR_SAG", sag}})
-                if (wanted)
-                    for (Primitive& p : prims)
-                        if (std::none_of(p.custom.begin(), p.custom.end(), [&](const CustomAttribute& c) { return c.name == name; }))
-                            p.custom.push_back(CustomAttribute{name, 3, std::vector<float>(3 * p.vertex_count(), 0.0f)});
+            // (A plain pair, not a structured binding: clang 14 cannot capture a binding in the lambda.)
+            for (const std::pair<const char*, bool>& attribute : {std::pair{"_FUR_LEAN", lean}, std::pair{"_FUR_SAG", sag}}) {
+                const std::string name = attribute.first;
+                if (!attribute.second) continue;
+                for (Primitive& p : prims)
+                    if (std::none_of(p.custom.begin(), p.custom.end(), [&](const CustomAttribute& c) { return c.name == name; }))
+                        p.custom.push_back(CustomAttribute{name, 3, std::vector<float>(3 * p.vertex_count(), 0.0f)});
+            }
             const std::string suffix = k == 0 ? "_fur_shells" : "_fur_shells_lod" + std::to_string(k);
             Mesh m;
             m.name = scene.meshes[mi].name + suffix;
