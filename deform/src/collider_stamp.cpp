@@ -411,7 +411,20 @@ StampResult stamp_sweep_sharp(const StampTarget& T, const Collider& c, const Loc
         // give a pressing foot its second stamp; counted up to the grid's size, a print dropped from 1e30 m
         // no longer takes 1e6 stamps (found by fuzz_stamp), and nothing smaller changes.
         const double vertical = std::min(std::abs(p1.w - p0.w), U + V);
-        double n_wanted = std::max(dist + vertical, turn * R_turn) / (0.5 * t);
+        // While the grid stays inside the brush's rectangle, no texel crosses its outline, and a step only has
+        // to move each texel's sample in the brush by half a brush pixel (or half a texel, whichever is
+        // larger). The grid's bounding circle is inside the rectangle at every stamp when the centre's farthest
+        // distance from it, at an end of the straight path, plus its radius is within the brush's half width.
+        // A brush of 3 pixels 1e25 m wide turning 2 rad near a 2 m field took 1e6 full-field stamps (found by
+        // fuzz_stamp). Any other brush still stamps every half texel of travel of its far corner.
+        double scale = 1;
+        if (c.brush && c.brush->width > 0 && c.brush->height > 0) {
+            const double grid_r = 0.5 * std::hypot(U, V) + t;
+            const double reach = std::max(std::hypot(p0.u - 0.5 * U, p0.v - 0.5 * V), std::hypot(p1.u - 0.5 * U, p1.v - 0.5 * V));
+            const double pixel = std::min(c.size[0] / c.brush->width, c.size[1] / c.brush->height);
+            if (reach + grid_r <= 0.5 * std::min(c.size[0], c.size[1])) scale = t / std::max(t, pixel);
+        }
+        double n_wanted = std::max(dist * scale + vertical, turn * R_turn * scale) / (0.5 * t);
         if (fixed_heading && c.brush && c.brush->width > 0 && c.brush->height > 0) {
             // Sliding without turning: along each brush axis a step may move the brush by half a texel or by
             // half a brush pixel, whichever is larger. Every texel the rectangle passes over is still covered by

@@ -368,6 +368,36 @@ TEST(SnowField, ContactRaysFollowAHill) {
 // Collider values may be anything finite: a path point 4e28 m away or a 1e30 m capsule asked for more sweep
 // steps and texels than an int holds (undefined behaviour, found by fuzz_colliders). Now the steps are capped
 // and the trench still reaches the near end of the path.
+// A turning brush with pixels far coarser than the texels still stamps every half texel of its far corner's
+// travel: its outline is sharp at the texel scale, and a texel near the corner radius is inside it for a
+// short turn only. (Only a brush that holds the whole field inside it steps by its pixels.)
+TEST(SnowField, TurningCoarseImageSweepsItsCorners) {
+    SnowField f = make_field(flat_ground(4, 1), fine(0.01));
+    Collider c = image(2, 2, 0.4, 0.4, 0.05, 0, {0, 0, 0}, [](int, int) { return 1.0; }); // 20 cm pixels
+    c.path = {{0, 0, 0}, {0, 0, 0}};
+    c.heading = {0, 90};
+    ASSERT_TRUE(f.add_collider(c).ok());
+    f.update();
+    const double R = 0.2 * std::sqrt(2.0);
+    for (double a = 0; a < 6.28; a += 0.05) {
+        const double x = 0.9 * R * std::cos(a), z = 0.9 * R * std::sin(a);
+        EXPECT_LT(texel_at(f.heightmap(), x, z), -0.04) << a;
+    }
+}
+
+// A brush that holds the whole field inside it steps by half a brush pixel: 3 pixels 1e11 m wide turning
+// 2 rad from 1e8 m away took 1e6 full-field stamps (found by fuzz_stamp). Every texel is pressed by the
+// brush's value. (The slowness itself is the fuzz regression's: a kept input that takes 5 s fails.)
+TEST(SnowField, TurningBrushLargerThanTheFieldStampsAtItsPixelScale) {
+    SnowField f = make_field(flat_ground(1, 2), fine(0.05));
+    Collider c = image(3, 6, 1.1e11, 1.1e25, 0.05, 0, {0, 0, 0}, [](int, int) { return 1.0; });
+    c.path = {{-1e8, 0, -1e8}, {0.5, 0, 0.5}};
+    c.heading = {0, 114.6};
+    ASSERT_TRUE(f.add_collider(c).ok());
+    f.update();
+    for (float v : f.heightmap().values) ASSERT_NEAR(v, -0.05, 1e-6);
+}
+
 TEST(SnowField, CollidersOfAbsurdSizeOrDistanceStampSafely) {
     SnowOptions o = fine(0.02);
     o.rim_width = 0.1;
