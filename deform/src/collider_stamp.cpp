@@ -227,6 +227,27 @@ void rasterise(const StampTarget& T, double u0, double u1, double v0, double v1,
     }
 }
 
+// Whether the convex hull of `pts` (u, v), grown by `grow`, reaches the grid's texel centres [0, U] × [0, V].
+// Separating axes: the grid's two and the normal of every pair of points (a superset of the hull's edges).
+// Most sweeps of a huge shape turning near a small field miss it, but each would still rasterise its whole
+// bounding box: a capsule 2.6e11 m long turning near a 2 x 6 m field took minutes (found by fuzz_stamp).
+bool hull_reaches_grid(const std::vector<std::array<double, 2>>& pts, double grow, double U, double V) {
+    auto separated = [&](double nu, double nv) {
+        const double l = std::hypot(nu, nv);
+        if (!(l > 0) || !std::isfinite(l)) return false;
+        nu /= l, nv /= l;
+        double lo = kInf, hi = -kInf;
+        for (const auto& p : pts) lo = std::min(lo, p[0] * nu + p[1] * nv), hi = std::max(hi, p[0] * nu + p[1] * nv);
+        const double b0 = std::min(0.0, U * nu) + std::min(0.0, V * nv), b1 = std::max(0.0, U * nu) + std::max(0.0, V * nv);
+        return lo > b1 + grow || hi < b0 - grow;
+    };
+    if (separated(1, 0) || separated(0, 1)) return false;
+    for (size_t i = 0; i < pts.size(); ++i)
+        for (size_t j = i + 1; j < pts.size(); ++j)
+            if (separated(pts[i][1] - pts[j][1], pts[j][0] - pts[i][0])) return false;
+    return true;
+}
+
 // Translation sweep with a fixed heading, p0 → p1.
 void sweep_fixed(const StampTarget& T, const Collider& c, const LocalPose& p0, const LocalPose& p1, double heading,
                  double decay, StampResult& res) {
@@ -234,9 +255,11 @@ void sweep_fixed(const StampTarget& T, const Collider& c, const LocalPose& p0, c
     const double u0 = std::min(p0.u, p1.u) - R, u1 = std::max(p0.u, p1.u) + R;
     const double v0 = std::min(p0.v, p1.v) - R, v1 = std::max(p0.v, p1.v) + R;
     const Vec3 c0{p0.u, p0.v, p0.w}, c1{p1.u, p1.v, p1.w};
+    const double U = double(T.width - 1) * T.texel, V = double(T.height - 1) * T.texel;
     switch (c.shape) {
     case ColliderShape::sphere: {
         const double r = c.radius;
+        if (!hull_reaches_grid({{c0.x, c0.y}, {c1.x, c1.y}}, r + T.texel, U, V)) return;
         rasterise(T, u0, u1, v0, v1, decay, res, [&](double qu, double qv, double g) { return capsule_low(qu, qv, c0, c1, r) - g; });
         break;
     }
@@ -244,6 +267,7 @@ void sweep_fixed(const StampTarget& T, const Collider& c, const LocalPose& p0, c
         const double r = c.radius;
         const Vec3 h = capsule_half_axis(c, heading);
         const Vec3 a0 = c0 - h, b0 = c0 + h, a1 = c1 - h, b1 = c1 + h;
+        if (!hull_reaches_grid({{a0.x, a0.y}, {b0.x, b0.y}, {a1.x, a1.y}, {b1.x, b1.y}}, r + T.texel, U, V)) return;
         const SlabFace face = make_face(a0, b0 - a0, a1 - a0);
         const bool moving = dot(c1 - c0, c1 - c0) > 0;
         rasterise(T, u0, u1, v0, v1, decay, res, [&](double qu, double qv, double g) {
@@ -342,7 +366,8 @@ double collider_top_offset(const Collider& c) {
 
 namespace {
 
-StampResult stamp_sweep_sharp(const StampTarget& T, const Collider& c, const LocalPose& from, const LocalPose& to, double decay) {
+StampResult stamp_sweep_sharp(const StampTarget& T, const Collider& c, const LocalPose& from, const LocalPose& to, double decay,
+                              double share) {
     StampResult res;
     res.reach = shape_radius(c);
     const double t = T.texel;
@@ -397,7 +422,11 @@ StampResult stamp_sweep_sharp(const StampTarget& T, const Collider& c, const Loc
     // Step counts are clamped while still doubles: a path point 1e28 m away or a collider 1e27 m long asks
     // for more steps than an int holds (found by fuzz_colliders); NaN (coordinates that overflow) takes one.
     // 1e6 steps stay the cap they always were.
-    auto steps = [](double x) { return clamped_int(std::ceil(x), 1, 1000000); };
+    // The caps are per path segment: a segment cut into refill sub-steps gives each its `share` of them
+    // (10,000 sub-steps each taking the whole cap of a 1e11 m capsule's turn took minutes, found by
+    // fuzz_stamp).
+    auto capped = [&](double x, double cap) { return clamped_int(std::ceil(x), 1, std::max(1, int(std::ceil(cap * share)))); };
+    auto steps = [&](double x) { return capped(x, 1000000); };
     // How far the sub-steps of a turn must resolve the shape: to its far corner, but texels exist only on
     // the grid, and none is farther from the centre than the grid's farthest corner (the distance to a
     // fixed point is largest at an end of the centre's straight path). A 120 m log turning over a 2 m field
@@ -450,7 +479,7 @@ StampResult stamp_sweep_sharp(const StampTarget& T, const Collider& c, const Loc
     // coarsely. A 1e26 m box turning 1e-12 rad near a 2 m field asked for 1e6 full-field sweeps (found by
     // fuzz_stamp). Ordinary shapes stay far below the cap: a 1 m box turning a full turn on 1 cm texels
     // takes 900 sweeps.
-    auto sweeps = [](double x) { return clamped_int(std::ceil(x), 1, 10000); };
+    auto sweeps = [&](double x) { return capped(x, 10000); };
     int n = sweeps(dist / chunk);
     if (turns) n = std::max(n, sweeps(turn * R_turn / (0.5 * t)));
     for (int k = 0; k < n; ++k) {
@@ -469,7 +498,8 @@ StampResult stamp_sweep_sharp(const StampTarget& T, const Collider& c, const Loc
 // footprint). The profile kernel is cut at kMaxFalloffTexels texels (its cost grows with its area).
 constexpr int kMaxFalloffTexels = 64;
 
-StampResult stamp_sweep_soft(const StampTarget& T, const Collider& c, const LocalPose& from, const LocalPose& to, double decay) {
+StampResult stamp_sweep_soft(const StampTarget& T, const Collider& c, const LocalPose& from, const LocalPose& to, double decay,
+                             double share) {
     StampResult res;
     const double t = T.texel;
     const int k = clamped_int(std::ceil(c.falloff / t), 1, kMaxFalloffTexels);
@@ -488,7 +518,7 @@ StampResult stamp_sweep_soft(const StampTarget& T, const Collider& c, const Loca
     StampTarget L = T;
     L.carve = sharp.data(), L.ground = ground.data(), L.width = W, L.height = H;
     auto local = [&](LocalPose p) { return p.u -= ia * t, p.v -= ja * t, p; };
-    const StampResult inner = stamp_sweep_sharp(L, c, local(from), local(to), decay);
+    const StampResult inner = stamp_sweep_sharp(L, c, local(from), local(to), decay, share);
     res.reach = inner.reach + f;
     if (inner.written == 0) return res;
     // The profile on the kernel's offsets.
@@ -535,9 +565,11 @@ StampResult stamp_sweep_soft(const StampTarget& T, const Collider& c, const Loca
 
 } // namespace
 
-StampResult stamp_sweep(const StampTarget& T, const Collider& c, const LocalPose& from, const LocalPose& to, double decay) {
-    if (c.falloff > 0 && c.shape != ColliderShape::image) return stamp_sweep_soft(T, c, from, to, decay);
-    return stamp_sweep_sharp(T, c, from, to, decay);
+StampResult stamp_sweep(const StampTarget& T, const Collider& c, const LocalPose& from, const LocalPose& to, double decay,
+                        double share) {
+    share = std::clamp(share, 0.0, 1.0);
+    if (c.falloff > 0 && c.shape != ColliderShape::image) return stamp_sweep_soft(T, c, from, to, decay, share);
+    return stamp_sweep_sharp(T, c, from, to, decay, share);
 }
 
 } // namespace furrow::deform_detail

@@ -87,9 +87,11 @@ struct StampResult {
 // Rasterises the shape swept from p0 to p1 (p0 == p1: one sample) into target.carve with min-compositing,
 // scaled by `decay` (refill). Sphere sweeps are capsules, box sweeps exact for a fixed heading; turning
 // shapes and images are sub-stepped finely enough (half a texel at the far corner). Thread-safe: concurrent
-// calls composite with atomic min.
+// calls composite with atomic min. Sub-steps are capped per path segment (10,000 sweeps, 1e6 image stamps;
+// a shape that would need more is resolved more coarsely); `share` is the part of its segment this sweep is
+// (refill sub-steps cut a segment into parts), and gets that part of the caps.
 StampResult stamp_sweep(const StampTarget& target, const Collider& shape, const LocalPose& p0, const LocalPose& p1,
-                        double decay);
+                        double decay, double share = 1.0);
 
 // Lowest point of the collider below its centre (metres along up), as the contact test uses it.
 double collider_bottom_offset(const Collider& shape);

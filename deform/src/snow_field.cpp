@@ -208,6 +208,7 @@ struct Job {
     const Collider* collider = nullptr;
     LocalPose p0, p1;
     double decay = 1;
+    double share = 1; // the part of its path segment (stamp_sweep's caps are per segment)
 };
 
 } // namespace
@@ -241,7 +242,7 @@ static void collect_jobs(const SnowField::Impl& m, const Collider& c, std::vecto
                 return LocalPose{a.u + (b.u - a.u) * f, a.v + (b.v - a.v) * f, a.w + (b.w - a.w) * f,
                                  a.heading + (b.heading - a.heading) * f, a.penetration + (b.penetration - a.penetration) * f};
             };
-            jobs.push_back({&c, lerp(f0), lerp(f1), decay_at(ta + (tb - ta) * f1)});
+            jobs.push_back({&c, lerp(f0), lerp(f1), decay_at(ta + (tb - ta) * f1), 1.0 / steps});
         }
     };
     if (n == 1) {
@@ -261,7 +262,8 @@ static StampStats run_jobs(SnowField::Impl& m, const std::vector<Job>& jobs, Sta
     T.texel = m.ground.frame.texel;
     T.snow_depth = m.opt.snow_depth;
     std::vector<StampResult> res(jobs.size());
-    tbb::parallel_for(size_t(0), jobs.size(), [&](size_t k) { res[k] = stamp_sweep(T, *jobs[k].collider, jobs[k].p0, jobs[k].p1, jobs[k].decay); });
+    tbb::parallel_for(size_t(0), jobs.size(), [&](size_t k) { res[k] = stamp_sweep(T, *jobs[k].collider, jobs[k].p0, jobs[k].p1, jobs[k].decay, jobs[k].share);
+    });
     for (const StampResult& r : res) {
         ++st.stamps;
         st.texels_written += r.written;
