@@ -15,6 +15,7 @@
 #include <algorithm>
 #include <array>
 #include <map>
+#include <set>
 #include <cmath>
 #include <cstring>
 #include <unistd.h>
@@ -147,17 +148,18 @@ IoRow bench_one(const fs::path& file, const fs::path& tmp, int repeat, bool gltf
 
 // ---- bytes against error against time, per setting (README "Output size")
 
-// One drawn vertex: world position (double), object-space unit normal, TEXCOORD_0 and TEXCOORD_1 (after the
-// material's KHR_texture_transform, see uv_transforms); has_* say which the primitive carries.
+// One drawn vertex: world position (double), object-space unit normal, TEXCOORD_0 and TEXCOORD_1 (see
+// uv_transforms); has_* say which the primitive carries.
 struct Sample {
     std::array<double, 3> p{}, n{};
     std::array<double, 4> uv{}; // u0, v0, u1, v1
     bool has_n = false, has_uv0 = false, has_uv1 = false;
 };
 
-// The KHR_texture_transform (offset, scale; gltfpack writes no rotation) of each mesh primitive's UV sets,
-// read from the file's JSON (.glb or .gltf; none for other formats): gltfpack stores quantized UVs in [0, 1] and puts their range into the material,
-// which furrow's loader keeps as material data. Key: (mesh, primitive, set) -> {offset u, v, scale u, v}.
+// furrow's loader applies a material's KHR_texture_transform to the sets its textures sample
+// (mesh/src/texture_transform.cpp). gltfpack also stores a set that no texture of the material samples on the
+// material's one box, with no transform to say so: that set's (offset u, v, scale u, v), read from the file's
+// JSON of gltfpack's files (.glb or .gltf). Key: (mesh, primitive, set).
 using UvTransforms = std::map<std::array<size_t, 3>, std::array<double, 4>>;
 UvTransforms uv_transforms(const fs::path& file) {
     UvTransforms out;
@@ -170,15 +172,19 @@ UvTransforms uv_transforms(const fs::path& file) {
     const nlohmann::json j = glb ? nlohmann::json::parse(b.begin() + 20, b.begin() + 20 + length, nullptr, false)
                                  : nlohmann::json::parse(b.begin(), b.end(), nullptr, false);
     if (!j.is_object() || !j.contains("meshes") || !j.contains("materials")) return out;
+    const std::string generator = j.contains("asset") ? j["asset"].value("generator", "") : "";
+    if (generator.rfind("gltfpack", 0) != 0) return out; // furrow's writer quantizes no unsampled set
     // Every texture reference in a material: {"index", "texCoord", "extensions": {"KHR_texture_transform"}}.
     std::vector<std::map<size_t, std::array<double, 4>>> by_material;
     for (const auto& m : j["materials"]) {
         std::map<size_t, std::array<double, 4>> sets;
+        std::set<size_t> sampled;
         std::vector<const nlohmann::json*> todo{&m};
         while (!todo.empty()) {
             const nlohmann::json& o = *todo.back();
             todo.pop_back();
             if (!o.is_object()) continue;
+            if (o.contains("index")) sampled.insert(o.value("texCoord", size_t(0)));
             if (o.contains("index") && o.contains("extensions") && o["extensions"].contains("KHR_texture_transform")) {
                 const auto& t = o["extensions"]["KHR_texture_transform"];
                 const auto off = t.value("offset", std::vector<double>{0, 0}), sc = t.value("scale", std::vector<double>{1, 1});
@@ -186,10 +192,11 @@ UvTransforms uv_transforms(const fs::path& file) {
             }
             for (const auto& [k, v] : o.items()) todo.push_back(&v);
         }
-        // A UV set no texture of the material reads: gltfpack quantized it with the material's one transform.
+        std::map<size_t, std::array<double, 4>> unsampled;
         if (sets.size() == 1)
-            for (size_t set = 0; set < 2; ++set) sets.emplace(set, sets.begin()->second);
-        by_material.push_back(sets);
+            for (size_t set = 0; set < 2; ++set)
+                if (!sampled.count(set)) unsampled.emplace(set, sets.begin()->second);
+        by_material.push_back(unsampled);
     }
     for (size_t mi = 0; mi < j["meshes"].size(); ++mi) {
         const auto& prims = j["meshes"][mi].value("primitives", nlohmann::json::array());
@@ -424,7 +431,7 @@ void print_size_table(const std::vector<SizeRow>& rows, int repeat) {
                 "save_scene (furrow) or the gltfpack process (peer, median of at most 3); decode = furrow's "
                 "load_scene of the output; error = max world-position change after the round trip in %% of the world "
                 "diagonal (furrow: vertex by vertex; gltfpack, which welds and reorders: each vertex to its nearest "
-                "original); uv error = largest |du|, |dv| of TEXCOORD_0/1 after the material's KHR_texture_transform; normal "
+                "original); uv error = largest |du|, |dv| of TEXCOORD_0/1 (KHR_texture_transform applied); normal "
                 "error = largest angle; gltfpack's against the best original vertex at the matched position; dropped = the "
                 "output lacks the attribute)\n",
                 repeat);

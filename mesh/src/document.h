@@ -2,6 +2,8 @@
 // extensions, the asset block). Only mesh/ sees tinygltf types.
 #pragma once
 
+#include "encoding.h"
+
 #include <furrow/mesh.h>
 #include <tiny_gltf.h>
 
@@ -18,6 +20,14 @@ struct Document {
 Status read_accessor_floats(std::vector<float>& out, const tinygltf::Model& model, int index, int& components);
 // Reads an index or joint accessor (unsigned integer types) as uint32.
 Status read_accessor_uints(std::vector<uint32_t>& out, const tinygltf::Model& model, int index, int& components);
+
+// texture_transform.cpp. Loader: KHR_texture_transform applied to the texture coordinates it transforms and
+// removed from the material's references, where every reference of the material to a set agrees (the
+// extension is no longer declared when none is left). Writer (--quantize, --compress): per material of `m`
+// (already written) and set 0/1, the grid of a set outside [0, 1] that a texture samples, and the transform
+// that dequantizes it on those references (declared used and required).
+void bake_texture_transforms(Scene& scene, tinygltf::Model& model);
+std::vector<std::array<UvGrid, 2>> texture_uv_grids(tinygltf::Model& m, const Scene& scene);
 
 } // namespace furrow::mesh_detail
 

@@ -34,6 +34,16 @@ std::vector<int8_t> quantize_unit_vectors(const std::vector<float>& v, size_t st
 bool quantize_unorm16(std::vector<uint16_t>& out, const std::vector<float>& v);
 bool quantize_unorm8(std::vector<uint8_t>& out, const std::vector<float>& v);
 
+// texture_transform.cpp: a texture-coordinate set stored as normalized uint16 on its bounding box,
+// uv = offset + scale · q (KHR_texture_transform on the references that sample it). `used` is false where the
+// set stays float or fits [0, 1] as it is.
+struct UvGrid {
+    bool used = false;
+    std::array<double, 2> offset{0, 0}, scale{1, 1};
+};
+// q = round(65535 · (uv − offset) / scale), clamped to [0, 65535].
+std::vector<uint16_t> quantize_uv(const std::vector<float>& uv, const UvGrid& grid);
+
 // vertex_order.cpp: steps 1 and 2 of optimize_vertex_order on a triangle list of n vertices. Reorders and
 // renumbers `indices` in place and returns the old → new vertex index; empty (indices untouched) when the
 // list is not eligible (not a whole number of triangles, an index out of range). `strip`: step 1 uses

@@ -651,6 +651,7 @@ Status convert_model(Scene& out, tinygltf::Model&& model, const LoadOptions& opt
                 ch.target_node >= int(model.nodes.size()))
                 return Status::error(StatusCode::invalid_input, "animation " + std::to_string(a) + ": channel references a missing sampler or node");
     }
+    mesh_detail::bake_texture_transforms(scene, model); // the coordinates the textures are sampled at
     auto doc = std::make_shared<mesh_detail::Document>();
     doc->model = std::move(model);
     scene.document = std::move(doc);

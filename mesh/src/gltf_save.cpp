@@ -293,9 +293,11 @@ int add_unit_vectors(BinWriter& w, const Shared<float>& v, int components, bool 
                           components, 4, true, false);
 }
 
-int add_unorm(BinWriter& w, const Shared<float>& v, int components, bool quantize) {
+// grid: the material's grid for this texture-coordinate set (texture_transform.cpp), for values outside [0, 1].
+int add_unorm(BinWriter& w, const Shared<float>& v, int components, bool quantize, const mesh_detail::UvGrid& grid = {}) {
     std::vector<uint16_t> q;
-    if (!quantize || !mesh_detail::quantize_unorm16(q, *v)) return w.add_floats(v, components, false);
+    if (quantize && grid.used) q = mesh_detail::quantize_uv(*v, grid);
+    else if (!quantize || !mesh_detail::quantize_unorm16(q, *v)) return w.add_floats(v, components, false);
     return w.add_integers(std::move(q), TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT, components, size_t(components) * 2, true, false);
 }
 
@@ -337,7 +339,8 @@ VertexOrder vertex_order(const Primitive& src, const SaveOptions& options) {
 }
 
 Status write_primitive(tinygltf::Primitive& out, const Primitive& src, bool needs_tangents, BinWriter& w,
-                       const std::string& where, const SaveOptions& options, const mesh_detail::PositionGrid& grid) {
+                       const std::string& where, const SaveOptions& options, const mesh_detail::PositionGrid& grid,
+                       const std::array<mesh_detail::UvGrid, 2>& uv_grids) {
     const bool quantize = options.encoding != Encoding::plain;
     const size_t n = src.vertex_count();
     if (n == 0 || src.positions.size() != n * 3)
@@ -391,8 +394,8 @@ Status write_primitive(tinygltf::Primitive& out, const Primitive& src, bool need
     else if (needs_tangents && !uv0->empty() && !normals->empty())
         out.attributes["TANGENT"] = add_unit_vectors(w, share(generate_tangents(*positions, *normals, *uv0, order.indices)),
                                                      4, quantize_vectors, oct);
-    if (!uv0->empty()) out.attributes["TEXCOORD_0"] = add_unorm(w, uv0, 2, quantize);
-    if (!src.uv1.empty()) out.attributes["TEXCOORD_1"] = add_unorm(w, share(order.apply(src.uv1, 2)), 2, quantize);
+    if (!uv0->empty()) out.attributes["TEXCOORD_0"] = add_unorm(w, uv0, 2, quantize, uv_grids[0]);
+    if (!src.uv1.empty()) out.attributes["TEXCOORD_1"] = add_unorm(w, share(order.apply(src.uv1, 2)), 2, quantize, uv_grids[1]);
     if (!src.colors.empty()) out.attributes["COLOR_0"] = add_colors(w, clamped01(order.apply(src.colors, 4)), quantize);
     if (!src.joints.empty()) {
         std::vector<float> weights = normalized_weights(order.apply(src.weights, 4));
@@ -505,7 +508,8 @@ std::vector<mesh_detail::PositionGrid> position_grids(const Scene& scene, const 
 }
 
 Status write_meshes(tinygltf::Model& m, const Scene& scene, const tinygltf::Model& src, const std::vector<bool>& material_needs_tangents,
-                    BinWriter& w, const SaveOptions& options, const std::vector<mesh_detail::PositionGrid>& grids) {
+                    BinWriter& w, const SaveOptions& options, const std::vector<mesh_detail::PositionGrid>& grids,
+                    const std::vector<std::array<mesh_detail::UvGrid, 2>>& uv_grids) {
     auto bad = [](const std::string& what) { return Status::error(StatusCode::invalid_argument, what); };
     std::vector<tinygltf::Mesh> meshes(scene.meshes.size());
     for (size_t mi = 0; mi < scene.meshes.size(); ++mi) {
@@ -531,7 +535,9 @@ Status write_meshes(tinygltf::Model& m, const Scene& scene, const tinygltf::Mode
                 op.extensions = src.meshes[mi].primitives[pi].extensions;
             }
             bool tangents = p.material >= 0 && material_needs_tangents[size_t(p.material)];
-            Status s = write_primitive(op, p, tangents, w, where, options, grids[mi]);
+            const std::array<mesh_detail::UvGrid, 2> floats{};
+            Status s = write_primitive(op, p, tangents, w, where, options, grids[mi],
+                                       p.material >= 0 && size_t(p.material) < uv_grids.size() ? uv_grids[size_t(p.material)] : floats);
             if (!s.ok()) return s;
             o.primitives.push_back(std::move(op));
         }
@@ -723,7 +729,9 @@ Status build_model(tinygltf::Model& m, BinParts& bin, const Scene& scene, const 
     std::vector<bool> material_needs_tangents;
     if (Status s = write_materials(m, scene, material_needs_tangents); !s.ok()) return s;
     const std::vector<mesh_detail::PositionGrid> grids = position_grids(scene, options);
-    if (Status s = write_meshes(m, scene, src, material_needs_tangents, w, options, grids); !s.ok()) return s;
+    std::vector<std::array<mesh_detail::UvGrid, 2>> uv_grids;
+    if (options.encoding != Encoding::plain) uv_grids = mesh_detail::texture_uv_grids(m, scene);
+    if (Status s = write_meshes(m, scene, src, material_needs_tangents, w, options, grids, uv_grids); !s.ok()) return s;
     write_nodes(m, scene, grids);
     if (Status s = write_textures(m, scene, w); !s.ok()) return s;
     if (Status s = write_skins(m, scene, w); !s.ok()) return s;

@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <fstream>
 #include <map>
 #include <set>
 
@@ -237,6 +238,121 @@ TEST(mesh_encoding, CompressedTilingUvsAndIndexCodecVersion) {
     EXPECT_LE(worst, tiles / 32768.0);
     EXPECT_GT(worst, 0.0) << "the filter is lossy: 16 bits, not 24";
     expect_same_floats(pa.uv0, pb.uv0, 0.5f / 65535, "uv0");
+}
+
+namespace {
+
+// The sphere with tiling strand coordinates (uv1 = tiles · uv0) drawn with a material that samples a
+// `texels`-wide texture at TEXCOORD_1, as the fur's shells are.
+Scene tiled_strand_scene(float tiles, int texels) {
+    Primitive p = textured_sphere();
+    p.uv1 = p.uv0;
+    for (float& u : p.uv1) u = u * tiles - 0.25f * tiles;
+    p.material = 0;
+    Scene s = make_scene(p, "strands");
+    std::vector<uint8_t> rgba(size_t(texels) * size_t(texels) * 4, 200);
+    Image im;
+    im.mime_type = "image/png";
+    im.encoded = encode_png_rgba8(rgba.data(), texels, texels);
+    s.images = {im};
+    s.textures = {Texture{0, -1}};
+    Material m;
+    m.base_color_texture = {0, 1};
+    s.materials = {m};
+    return s;
+}
+
+} // namespace
+
+// gltfpack's layout for coordinates outside [0, 1] that a texture samples: normalized uint16 on their
+// bounding box, dequantized by KHR_texture_transform on the material (texture_transform.cpp). The file is
+// valid, furrow reads back coordinates within half a step (the transform baked into them, the extension
+// gone), and the plain copy of that scene declares no transform.
+TEST(mesh_encoding, TiledTextureCoordinatesAreQuantizedWithATextureTransform) {
+    constexpr float tiles = 10.7f;
+    const Scene s = tiled_strand_scene(tiles, 64);
+    const auto dir = temp_dir();
+    for (Encoding e : {Encoding::quantize, Encoding::compress}) {
+        SCOPED_TRACE(int(e));
+        const auto out = dir / "strands.glb";
+        ASSERT_TRUE(save_scene(s, out.string(), with(e)).ok());
+        EXPECT_VALID_GLTF(out);
+        const nlohmann::json j = gltf_json(out);
+        const nlohmann::json& uv1 = j["accessors"][j["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_1"].get<size_t>()];
+        EXPECT_EQ(uv1["componentType"], 5123);
+        EXPECT_EQ(uv1["normalized"], true);
+        const nlohmann::json& t = j["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"]["extensions"]["KHR_texture_transform"];
+        EXPECT_NEAR(t["offset"][0].get<double>(), -0.25 * tiles, 1e-5);
+        EXPECT_NEAR(t["scale"][0].get<double>(), tiles, 1e-5);
+        EXPECT_TRUE(j["extensionsRequired"].dump().find("KHR_texture_transform") != std::string::npos);
+
+        const Scene back = load_as_stored(out);
+        const Primitive pa = optimized(s, e).meshes[0].primitives[0];
+        const Primitive& pb = back.meshes[0].primitives[0];
+        expect_same_floats(pa.uv1, pb.uv1, float(0.5 * tiles / 65535 + 1e-6), "uv1");
+        const auto plain = dir / "strands_plain.glb";
+        ASSERT_TRUE(save_scene(back, plain.string(), with(Encoding::plain)).ok());
+        EXPECT_VALID_GLTF(plain);
+        const nlohmann::json jp = gltf_json(plain);
+        EXPECT_FALSE(jp.contains("extensionsUsed")) << jp["extensionsUsed"].dump();
+        EXPECT_FALSE(jp["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"].contains("extensions"));
+    }
+}
+
+// The step must keep every coordinate within half a texel of the texture: 2000 tiles of a 64-texel texture
+// would not (2000 · 64 / 65535 texels a step), and a set that no texture samples has no material to carry
+// the transform. Both stay float.
+TEST(mesh_encoding, TextureCoordinatesStayFloatWhereATransformCannotKeepThem) {
+    for (bool sampled : {true, false}) {
+        Scene s = tiled_strand_scene(sampled ? 2000.0f : 10.7f, 64);
+        if (!sampled) s.materials[0].base_color_texture.texcoord = 0;
+        const auto out = temp_dir() / "floats.glb";
+        ASSERT_TRUE(save_scene(s, out.string(), with(Encoding::compress)).ok());
+        EXPECT_VALID_GLTF(out);
+        const nlohmann::json j = gltf_json(out);
+        EXPECT_EQ(j["accessors"][j["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_1"].get<size_t>()]["componentType"], 5126);
+        EXPECT_FALSE(j["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"].contains("extensions"));
+    }
+}
+
+// The loader applies a material's transform (offset, rotation, scale: uv' = T · R · S · uv) to the set its
+// textures sample, when every reference to that set agrees; references that disagree keep theirs.
+TEST(mesh_encoding, LoaderBakesAgreeingTextureTransforms) {
+    const Scene s = tiled_strand_scene(1.0f, 8);
+    const auto dir = temp_dir();
+    const auto out = dir / "transformed.gltf";
+    ASSERT_TRUE(save_scene(s, out.string(), with(Encoding::plain)).ok());
+    const Scene ref = load_as_stored(out); // in the written vertex order
+    nlohmann::json j = gltf_json(out);
+    const nlohmann::json t = {{"offset", {0.5, -2.0}}, {"rotation", 0.3}, {"scale", {3.0, 0.5}}};
+    j["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"]["extensions"]["KHR_texture_transform"] = t;
+    j["extensionsUsed"] = {"KHR_texture_transform"};
+    for (bool agree : {true, false}) {
+        SCOPED_TRACE(agree);
+        j["materials"][0]["emissiveTexture"] = {{"index", 0}, {"texCoord", 1}};
+        if (agree) j["materials"][0]["emissiveTexture"]["extensions"]["KHR_texture_transform"] = t;
+        std::ofstream(out) << j.dump();
+        const Scene back = load_as_stored(out);
+        const std::vector<float>& a = ref.meshes[0].primitives[0].uv1;
+        const std::vector<float>& b = back.meshes[0].primitives[0].uv1;
+        ASSERT_EQ(a.size(), b.size());
+        const double c = std::cos(0.3), sn = std::sin(0.3);
+        for (size_t i = 0; i < a.size(); i += 2) {
+            const double u = 3.0 * a[i], v = 0.5 * a[i + 1];
+            const double eu = agree ? 0.5 + c * u + sn * v : a[i], ev = agree ? -2.0 - sn * u + c * v : a[i + 1];
+            ASSERT_NEAR(b[i], eu, 1e-5) << i / 2;
+            ASSERT_NEAR(b[i + 1], ev, 1e-5) << i / 2;
+        }
+        const auto plain = dir / "again_plain.glb";
+        ASSERT_TRUE(save_scene(back, plain.string(), with(Encoding::plain)).ok());
+        EXPECT_VALID_GLTF(plain);
+        const nlohmann::json jp = gltf_json(plain);
+        EXPECT_EQ(jp["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"].contains("extensions"), !agree);
+        EXPECT_EQ(jp.contains("extensionsUsed"), !agree);
+        const auto again = dir / "again.glb";
+        ASSERT_TRUE(save_scene(back, again.string(), with(Encoding::compress)).ok());
+        EXPECT_VALID_GLTF(again);
+    }
 }
 
 TEST(mesh_encoding, SkinnedAndMorphedMeshesStayFloatAndValid) {

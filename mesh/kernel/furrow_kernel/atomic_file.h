@@ -25,8 +25,10 @@ inline std::string temp_path_beside(const std::string& path) {
     static std::atomic<unsigned> counter{0};
     namespace fs = std::filesystem;
     fs::path p(path);
-    std::string name = "." + p.filename().string() + ".furrow-tmp-" + std::to_string(getpid()) + "-" +
-                       std::to_string(counter.fetch_add(1));
+    // Appended piece by piece: GCC 12 warns (-Wrestrict, a false positive) on `"." + std::string&&`.
+    std::string name = ".";
+    name += p.filename().string();
+    name += ".furrow-tmp-" + std::to_string(getpid()) + "-" + std::to_string(counter.fetch_add(1));
     return (p.parent_path() / name).string();
 }
 
