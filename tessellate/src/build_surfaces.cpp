@@ -15,6 +15,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
 #include <atomic>
 #include <mutex>
 #include <string>
@@ -189,6 +190,39 @@ Status build_surfaces(PreparedMesh& m) {
     return Status::success();
 }
 
+namespace {
+
+// Where the limit surface is smooth across a shared point (a normal sector, or an edge that is no crease,
+// of smooth faces only), every face has the same normal there: one face evaluates it for all. The point's
+// owner serves its own sector (it evaluates the point anyway), the edge's owner its edge; another sector
+// of the point is served by its lowest corner. Sectors or edges touching a linear face keep one normal per
+// face, averaged (a linear face's normal is its polygon's, not the surface's), and so do sectors at an
+// interior valence-2 vertex (its faces fold there: their normals need not agree).
+void choose_normal_owners(PreparedMesh& m) {
+    const size_t S = m.sector_begin.size() - 1, E = m.edges.size();
+    m.sector_normal_owner.assign(S, none);
+    for (size_t s = 0; s < S; ++s) {
+        bool smooth = true;
+        uint32_t lowest = none, point_owner = none;
+        for (uint32_t i = m.sector_begin[s]; i < m.sector_begin[s + 1]; ++i) {
+            const uint32_t c = m.sector_corners[i];
+            smooth = smooth && m.smooth(m.corner_face[c]) && !m.face_uncached[m.corner_face[c]];
+            lowest = std::min(lowest, c);
+            if (m.point_owner[m.corner_point[c]] == c) point_owner = c;
+        }
+        if (smooth) m.sector_normal_owner[s] = point_owner != none ? point_owner : lowest;
+    }
+    m.edge_normal_shared.assign(E, 0);
+    for (size_t e = 0; e < E; ++e) {
+        if (m.edge_split[e] & 2) continue;
+        bool smooth = true;
+        for (uint32_t s = m.edge_side_begin[e]; s < m.edge_side_begin[e + 1]; ++s)
+            smooth = smooth && m.smooth(m.corner_face[m.side_corner[s]]);
+        m.edge_normal_shared[e] = smooth ? 1 : 0;
+    }
+}
+} // namespace
+
 void choose_owners(PreparedMesh& m) {
     const size_t C = m.corner_input.size();
     auto better = [&](uint32_t candidate, uint32_t current) { // smooth first, then lowest corner
@@ -218,6 +252,7 @@ void choose_owners(PreparedMesh& m) {
             if (best == none || better(m.side_corner[s], m.side_corner[best])) best = s;
         m.edge_owner[e] = best;
     }
+    choose_normal_owners(m);
     m.stats.linear_faces = 0;
     for (size_t f = 0; f < m.face_count(); ++f) m.stats.linear_faces += m.face_linear[f];
 }
