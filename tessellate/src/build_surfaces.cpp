@@ -85,6 +85,7 @@ Status build_surfaces(PreparedMesh& m) {
     });
     const size_t F = m.face_count();
     m.face_refiner.assign(F, -1);
+    m.face_regular.assign(F, 0);
     std::vector<int> verts_per_face, vert_indices, fvar_indices;
     std::vector<uint32_t> fvar_of_value(m.value_attrs.size() / std::max(1, m.K) + 1, none);
     std::vector<uint32_t> fvar_values;
@@ -177,6 +178,7 @@ Status build_surfaces(PreparedMesh& m) {
             bool ok = m.factory_of(f).InitVertexSurface(m.face_refiner[f], &vtx);
             if (ok && m.K > 0) ok = m.factory_of(f).InitFaceVaryingSurface(m.face_refiner[f], &fvar);
             if (!ok) failed[f] = 1;
+            m.face_regular[f] = ok && vtx.IsRegular() && !vtx.IsLinear();
         }
     });
     for (size_t f = 0; f < F; ++f)
@@ -192,12 +194,14 @@ Status build_surfaces(PreparedMesh& m) {
 
 namespace {
 
-// Where the limit surface is smooth across a shared point (a normal sector, or an edge that is no crease,
-// of smooth faces only), every face has the same normal there: one face evaluates it for all. The point's
-// owner serves its own sector (it evaluates the point anyway), the edge's owner its edge; another sector
-// of the point is served by its lowest corner. Sectors or edges touching a linear face keep one normal per
-// face, averaged (a linear face's normal is its polygon's, not the surface's), and so do sectors at an
-// interior valence-2 vertex (its faces fold there: their normals need not agree).
+// Where the limit surface is smooth across a shared point (a normal sector, or an edge that is no crease),
+// every face has the same normal there, and where the faces are regular B-spline patches their evaluations
+// agree to rounding (measured: 1.2e-7 rad): one face evaluates it for all. The point's owner serves its own
+// sector (it evaluates the point anyway), the edge's owner its edge; another sector of the point is served
+// by its lowest corner. Everything else keeps one normal per face, averaged: a face tessellated linearly
+// (its normal is its polygon's), a linear scheme (faceted), and irregular patches, around extraordinary
+// vertices, which Bfr approximates (SetApproxLevelSmooth): there the faces' normals differ by up to 7e-5 rad
+// (the cube sphere, rate 5), too much to pick one.
 void choose_normal_owners(PreparedMesh& m) {
     const size_t S = m.sector_begin.size() - 1, E = m.edges.size();
     m.sector_normal_owner.assign(S, none);
@@ -206,7 +210,7 @@ void choose_normal_owners(PreparedMesh& m) {
         uint32_t lowest = none, point_owner = none;
         for (uint32_t i = m.sector_begin[s]; i < m.sector_begin[s + 1]; ++i) {
             const uint32_t c = m.sector_corners[i];
-            smooth = smooth && m.smooth(m.corner_face[c]) && !m.face_uncached[m.corner_face[c]];
+            smooth = smooth && m.smooth(m.corner_face[c]) && m.face_regular[m.corner_face[c]];
             lowest = std::min(lowest, c);
             if (m.point_owner[m.corner_point[c]] == c) point_owner = c;
         }
@@ -217,7 +221,7 @@ void choose_normal_owners(PreparedMesh& m) {
         if (m.edge_split[e] & 2) continue;
         bool smooth = true;
         for (uint32_t s = m.edge_side_begin[e]; s < m.edge_side_begin[e + 1]; ++s)
-            smooth = smooth && m.smooth(m.corner_face[m.side_corner[s]]);
+            smooth = smooth && m.smooth(m.corner_face[m.side_corner[s]]) && m.face_regular[m.corner_face[m.side_corner[s]]];
         m.edge_normal_shared[e] = smooth ? 1 : 0;
     }
 }
