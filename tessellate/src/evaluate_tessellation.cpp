@@ -53,6 +53,18 @@ struct Scratch {
     std::vector<const float*> corner_data, control;
 };
 
+// A working array of floats left uninitialised (no zero-fill pass): only for arrays whose every element that
+// is read was written first.
+struct UninitialisedFloats {
+    kernel::HugeBytes bytes;
+    bool allocate(size_t n) {
+        bytes = kernel::allocate_huge_bytes(n * sizeof(float));
+        return bytes != nullptr;
+    }
+    float& operator[](size_t i) { return reinterpret_cast<float*>(bytes.get())[i]; }
+    const float& operator[](size_t i) const { return reinterpret_cast<const float*>(bytes.get())[i]; }
+};
+
 struct Layout {
     std::vector<uint32_t> face_interior, face_out, face_tri; // per face: interior count, first interior output, first triangle
     std::vector<uint32_t> edge_out;                          // unsplit edges: first output of their points
@@ -70,7 +82,9 @@ struct Evaluation {
     const int W, K;
     Layout L;
     std::vector<float> data, attrs;                // W and K floats per output vertex
-    std::vector<float> corner_normal, side_normal; // normals each face evaluates at its boundary points
+    // Normals each face evaluates at its boundary points: all of them where they are averaged, the owner's
+    // where they are shared (the only one read there).
+    UninitialisedFloats corner_normal, side_normal;
     // Shared normals whose owner fell back to its control polygon: every face evaluates them (second pass).
     std::vector<uint8_t> sector_fallback, edge_fallback;
 };
@@ -125,9 +139,9 @@ Status plan_layout(Layout& L, const PreparedMesh& m, const std::vector<int>& rat
     return Status::success();
 }
 
-// The output arrays and the working buffers at their sizes, zeroed; the large ones on huge pages (their
-// first-touch page faults were the largest fixed cost: furrow_kernel/huge_pages.h).
-void allocate(Evaluation& ev) {
+// The output arrays and the working buffers at their sizes, zeroed (but the normal slots); the large ones on
+// huge pages (their first-touch page faults were the largest fixed cost: furrow_kernel/huge_pages.h).
+[[nodiscard]] Status allocate(Evaluation& ev) {
     using kernel::assign_huge;
     const PreparedMesh& m = ev.m;
     TessellateOutput& out = ev.out;
@@ -147,10 +161,11 @@ void allocate(Evaluation& ev) {
         assign_huge(out.triangle_patches, tris);
         assign_huge(out.triangle_coords, tris * 6);
     }
-    assign_huge(ev.corner_normal, m.corner_input.size() * 3);
-    assign_huge(ev.side_normal, ev.L.slots * 3);
+    if (!ev.corner_normal.allocate(m.corner_input.size() * 3) || !ev.side_normal.allocate(ev.L.slots * 3))
+        return Status::error(StatusCode::out_of_memory, "cannot allocate the normal slots");
     ev.sector_fallback.assign(m.sector_normal_owner.size(), 0);
     ev.edge_fallback.assign(m.edges.size(), 0);
+    return Status::success();
 }
 
 // One face being evaluated: its tessellation, and what its points are evaluated from (the patch points of
@@ -457,7 +472,7 @@ void evaluate_faces(Evaluation& ev) {
 void average_group_normals(Evaluation& ev) {
     const PreparedMesh& m = ev.m;
     TessellateOutput& out = ev.out;
-    const std::vector<float>& corner_normal = ev.corner_normal;
+    const UninitialisedFloats& corner_normal = ev.corner_normal;
     float* N = out.normals.data();
     const size_t G = m.group_value.size();
     tbb::parallel_for(tbb::blocked_range<size_t>(0, G, 1024), [&](const tbb::blocked_range<size_t>& range) {
@@ -489,7 +504,7 @@ void average_edge_normals(Evaluation& ev) {
     const PreparedMesh& m = ev.m;
     const Layout& L = ev.L;
     const std::vector<int>& rates = ev.rates;
-    const std::vector<float>& side_normal = ev.side_normal;
+    const UninitialisedFloats& side_normal = ev.side_normal;
     float* N = ev.out.normals.data();
     const size_t E = m.edges.size();
     tbb::parallel_for(tbb::blocked_range<size_t>(0, E, 1024), [&](const tbb::blocked_range<size_t>& range) {
@@ -570,7 +585,7 @@ Status evaluate_tessellation(TessellateOutput& out, const PreparedMesh& m, const
                              bool keep_parameters) {
     Evaluation ev{m, rates, out, keep_parameters, m.W, m.K, {}, {}, {}, {}, {}, {}, {}};
     if (Status s = plan_layout(ev.L, m, rates); !s.ok()) return s;
-    allocate(ev);
+    if (Status s = allocate(ev); !s.ok()) return s;
     evaluate_faces(ev);
     evaluate_fallback_normals(ev);
 
