@@ -13,11 +13,11 @@
 // their corners, so a fallback face stays attached to its smooth neighbours.
 //
 // Normals at shared points: where the limit surface is smooth across the point (an edge that is no crease, a
-// normal sector, between smooth faces only: choose_normal_owners in build_surfaces.cpp), every face has the
-// same normal there, so the owner's evaluation serves all of them and the other faces skip it (at rate 4 a
-// third of all evaluations were such repeats). Elsewhere (creases, sector boundaries, faces tessellated
-// linearly) every face evaluates its own normal and they are averaged per normal sector, which gives split
-// normals across creases. Where the owner finds no tangent plane (vanishing derivatives: the control polygon's
+// normal sector, between regular B-spline patches only: choose_normal_owners in build_surfaces.cpp), every
+// face has the same normal there, so the owner's evaluation serves all of them and the other faces skip it
+// (at rate 4 about a third of all evaluations were such repeats). Elsewhere (creases, sector boundaries,
+// faces tessellated linearly, irregular patches) every face evaluates its own normal and they are averaged
+// per normal sector, which gives split normals across creases. Where the owner finds no tangent plane (vanishing derivatives: the control polygon's
 // normal is the fallback, and it differs per face), the point is marked and every face evaluates it in a
 // second, small pass, as at a crease.
 #include "tessellate_internal.h"
