@@ -11,6 +11,8 @@
 
 #include <furrow/shapes.h>
 
+#include <tbb/global_control.h>
+
 #include "obj_quad_sphere.h"
 
 
@@ -88,6 +90,27 @@ TEST(tessellate_bfr_oracle, SharedNormalsAreTheFacesAverageOpenGrid) {
 TEST(tessellate_bfr_oracle, SharedNormalsAreTheFacesAverageLoop) {
     const double worst = test::expect_normals_average_faces(shapes::icosphere(1.0f, 2), SubdivisionScheme::loop, 4);
     std::printf("icosphere (loop), rate 4: largest angle %.3g rad\n", worst);
+}
+
+// Shared normals (regular patches: the cube sphere) give the same bytes for 1 and 2 threads.
+TEST(tessellate_bfr_oracle, SharedNormalsSameBytesForAnyThreadCount) {
+    const Primitive p = load_quad_sphere(12);
+    TessellateOptions o;
+    o.rates.uniform = 4;
+    o.rates.max_rate = 4;
+    TessellateOutput a, b;
+    {
+        tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
+        a = test::run_tessellate(p, o);
+    }
+    {
+        tbb::global_control two(tbb::global_control::max_allowed_parallelism, 2);
+        b = test::run_tessellate(p, o);
+    }
+    ASSERT_EQ(a.stats.triangles, size_t(6 * 12 * 12 * 4 * 4 * 2));
+    EXPECT_EQ(a.positions, b.positions);
+    EXPECT_EQ(a.normals, b.normals);
+    EXPECT_EQ(a.indices, b.indices);
 }
 
 } // namespace
