@@ -10,9 +10,16 @@
 // first smooth face around it, see build_surfaces.cpp), the output index of every point is known from prefix
 // sums over the rates before anything is evaluated, and each face writes only what it owns. Smooth faces
 // run first; faces tessellated linearly run second, interpolating the (already evaluated) limit positions of
-// their corners, so a fallback face stays attached to its smooth neighbours. Normals are evaluated by every
-// face at its own boundary points and averaged per normal sector afterwards, which is exact where the limit
-// surface is smooth and gives split normals across creases.
+// their corners, so a fallback face stays attached to its smooth neighbours.
+//
+// Normals at shared points: where the limit surface is smooth across the point (an edge that is no crease, a
+// normal sector, between regular B-spline patches only: choose_normal_owners in build_surfaces.cpp), every
+// face has the same normal there, so the owner's evaluation serves all of them and the other faces skip it
+// (at rate 4 about a third of all evaluations were such repeats). Elsewhere (creases, sector boundaries,
+// faces tessellated linearly, irregular patches) every face evaluates its own normal and they are averaged
+// per normal sector, which gives split normals across creases. Where the owner finds no tangent plane (vanishing derivatives: the control polygon's
+// normal is the fallback, and it differs per face), the point is marked and every face evaluates it in a
+// second, small pass, as at a crease.
 #include "tessellate_internal.h"
 #include <furrow_kernel/huge_pages.h>
 
@@ -46,6 +53,18 @@ struct Scratch {
     std::vector<const float*> corner_data, control;
 };
 
+// A working array of floats left uninitialised (no zero-fill pass): only for arrays whose every element that
+// is read was written first.
+struct UninitialisedFloats {
+    kernel::HugeBytes bytes;
+    bool allocate(size_t n) {
+        bytes = kernel::allocate_huge_bytes(n * sizeof(float));
+        return bytes != nullptr;
+    }
+    float& operator[](size_t i) { return reinterpret_cast<float*>(bytes.get())[i]; }
+    const float& operator[](size_t i) const { return reinterpret_cast<const float*>(bytes.get())[i]; }
+};
+
 struct Layout {
     std::vector<uint32_t> face_interior, face_out, face_tri; // per face: interior count, first interior output, first triangle
     std::vector<uint32_t> edge_out;                          // unsplit edges: first output of their points
@@ -63,7 +82,11 @@ struct Evaluation {
     const int W, K;
     Layout L;
     std::vector<float> data, attrs;                // W and K floats per output vertex
-    std::vector<float> corner_normal, side_normal; // normals each face evaluates at its boundary points
+    // Normals each face evaluates at its boundary points: all of them where they are averaged, the owner's
+    // where they are shared (the only one read there).
+    UninitialisedFloats corner_normal, side_normal;
+    // Shared normals whose owner fell back to its control polygon: every face evaluates them (second pass).
+    std::vector<uint8_t> sector_fallback, edge_fallback;
 };
 
 // Output indices and normal slots of everything, from prefix sums over the rates.
@@ -116,9 +139,9 @@ Status plan_layout(Layout& L, const PreparedMesh& m, const std::vector<int>& rat
     return Status::success();
 }
 
-// The output arrays and the working buffers at their sizes, zeroed; the large ones on huge pages (their
-// first-touch page faults were the largest fixed cost: furrow_kernel/huge_pages.h).
-void allocate(Evaluation& ev) {
+// The output arrays and the working buffers at their sizes, zeroed (but the normal slots); the large ones on
+// huge pages (their first-touch page faults were the largest fixed cost: furrow_kernel/huge_pages.h).
+[[nodiscard]] Status allocate(Evaluation& ev) {
     using kernel::assign_huge;
     const PreparedMesh& m = ev.m;
     TessellateOutput& out = ev.out;
@@ -138,8 +161,11 @@ void allocate(Evaluation& ev) {
         assign_huge(out.triangle_patches, tris);
         assign_huge(out.triangle_coords, tris * 6);
     }
-    assign_huge(ev.corner_normal, m.corner_input.size() * 3);
-    assign_huge(ev.side_normal, ev.L.slots * 3);
+    if (!ev.corner_normal.allocate(m.corner_input.size() * 3) || !ev.side_normal.allocate(ev.L.slots * 3))
+        return Status::error(StatusCode::out_of_memory, "cannot allocate the normal slots");
+    ev.sector_fallback.assign(m.sector_normal_owner.size(), 0);
+    ev.edge_fallback.assign(m.edges.size(), 0);
+    return Status::success();
 }
 
 // One face being evaluated: its tessellation, and what its points are evaluated from (the patch points of
@@ -163,10 +189,11 @@ struct FaceEvaluation {
 
     FaceEvaluation(Evaluation& ev, size_t f, bool smooth, bool limit_corners, Surface& vtx, Surface& fvar, Scratch& x);
     void control_normal(float* nrm);
-    void eval_point(const float* uv, float* nrm);
+    bool eval_point(const float* uv, float* nrm);
     void eval_attrs(const float* uv, size_t o);
     void write_data(size_t o) { std::copy(x.P.begin(), x.P.end(), &ev.data[o * size_t(W)]); }
     void boundary();
+    void fallback_normals();
     void interior();
     void triangles();
 };
@@ -219,8 +246,8 @@ void FaceEvaluation::control_normal(float* nrm) {
     normalise(nrm);
 }
 
-// Position (+ vertex data) and unit normal at uv.
-void FaceEvaluation::eval_point(const float* uv, float* nrm) {
+// Position (+ vertex data) and unit normal at uv; true if the normal is the control polygon's (no tangent plane).
+bool FaceEvaluation::eval_point(const float* uv, float* nrm) {
     std::vector<float>&P = x.P, &Du = x.Du, &Dv = x.Dv, &w = x.w;
     if (smooth) {
         vtx.Evaluate(uv, x.patch_v.data(), W, P.data(), Du.data(), Dv.data());
@@ -228,7 +255,9 @@ void FaceEvaluation::eval_point(const float* uv, float* nrm) {
         nrm[1] = Du[2] * Dv[0] - Du[0] * Dv[2];
         nrm[2] = Du[0] * Dv[1] - Du[1] * Dv[0];
         normalise(nrm);
-        if (is_zero(nrm)) control_normal(nrm);
+        if (!is_zero(nrm)) return false;
+        control_normal(nrm);
+        return true;
     } else {
         linear_weights(param, uv, w.data());
         std::fill(P.begin(), P.end(), 0.0f);
@@ -236,6 +265,7 @@ void FaceEvaluation::eval_point(const float* uv, float* nrm) {
             for (int j = 0; j < W; ++j) P[size_t(j)] += w[size_t(k)] * x.corner_data[size_t(k)][j];
         std::copy(face_normal, face_normal + 3, nrm);
     }
+    return false;
 }
 
 void FaceEvaluation::eval_attrs(const float* uv, size_t o) {
@@ -264,8 +294,9 @@ void FaceEvaluation::eval_attrs(const float* uv, size_t o) {
     }
 }
 
-// The corners and the edge points: normals into the face's own slots; data and attributes written by their
-// owners; bidx, the output index of every boundary coordinate.
+// The corners and the edge points: data and attributes written by their owners; normals into the face's own
+// slots, where they are not shared or the face is the one that evaluates the shared normal; bidx, the output
+// index of every boundary coordinate.
 void FaceEvaluation::boundary() {
     const std::vector<float>& coords = x.coords;
     std::vector<int>& bidx = x.bidx;
@@ -274,7 +305,11 @@ void FaceEvaluation::boundary() {
     for (int k = 0; k < n; ++k) {
         const uint32_t c = c0 + uint32_t(k), g = m.corner_group[c], p = m.corner_point[c];
         const float* uv = &coords[size_t(b) * 2];
-        eval_point(uv, &ev.corner_normal[size_t(c) * 3]);
+        const uint32_t sector = m.group_sector[g], normal_owner = m.sector_normal_owner[sector];
+        if (m.point_owner[p] == c || normal_owner == none || normal_owner == c) {
+            const bool fallback = eval_point(uv, &ev.corner_normal[size_t(c) * 3]);
+            if (fallback && normal_owner == c) ev.sector_fallback[sector] = 1;
+        }
         if (m.point_owner[p] == c)
             for (uint32_t q = m.point_group_begin[p]; q < m.point_group_begin[p + 1]; ++q) write_data(q);
         if (m.group_attr_owner[g] == c && K > 0) {
@@ -289,11 +324,14 @@ void FaceEvaluation::boundary() {
         const int np = fr[k] - 1;
         if (np <= 0) continue;
         const bool forward = p == m.edges[e][0];
-        const bool split = m.edge_split[e] != 0, owner = m.edge_owner[e] == s;
+        const bool split = m.edge_split[e] != 0, owner = m.edge_owner[e] == s, shared = m.edge_normal_shared[e] != 0;
         for (int j = 0; j < np; ++j) {
             const float* puv = &coords[size_t(b + j) * 2];
             const uint32_t q = uint32_t(forward ? j : np - 1 - j);
-            eval_point(puv, &ev.side_normal[(size_t(L.side_slot[s]) + q) * 3]);
+            if (owner || !shared) {
+                const bool fallback = eval_point(puv, &ev.side_normal[(size_t(L.side_slot[s]) + q) * 3]);
+                if (fallback && shared) ev.edge_fallback[e] = 1;
+            }
             if (owner) {
                 if (split) {
                     for (uint32_t t = m.edge_side_begin[e]; t < m.edge_side_begin[e + 1]; ++t) write_data(L.side_out[t] + q);
@@ -304,6 +342,27 @@ void FaceEvaluation::boundary() {
             const uint32_t o = split ? L.side_out[s] + q : L.edge_out[e] + q;
             if (split || owner) eval_attrs(puv, o);
             bidx[size_t(b + j)] = int(o);
+        }
+        b += np;
+    }
+}
+
+// Second pass, for a face at a shared point whose owner fell back to the control polygon: this face's own
+// normal at each such corner and edge point, into its slots (to be averaged like a crease's).
+void FaceEvaluation::fallback_normals() {
+    const int* fr = x.rates.data();
+    int b = 0;
+    for (int k = 0; k < n; ++k) {
+        const uint32_t c = c0 + uint32_t(k), e = m.corner_edge[c], s = m.corner_side[c];
+        if (ev.sector_fallback[m.group_sector[m.corner_group[c]]])
+            eval_point(&x.coords[size_t(b) * 2], &ev.corner_normal[size_t(c) * 3]);
+        ++b;
+        const int np = fr[k] - 1;
+        if (np <= 0) continue;
+        const bool forward = m.corner_point[c] == m.edges[e][0];
+        for (int j = 0; ev.edge_fallback[e] && j < np; ++j) {
+            const uint32_t q = uint32_t(forward ? j : np - 1 - j);
+            eval_point(&x.coords[size_t(b + j) * 2], &ev.side_normal[(size_t(L.side_slot[s]) + q) * 3]);
         }
         b += np;
     }
@@ -356,6 +415,33 @@ void process(Evaluation& ev, size_t f, bool smooth, bool limit_corners, Surface&
     face.triangles();
 }
 
+// The faces around shared normals whose owner fell back to the control polygon (none on most meshes), in
+// face order; each evaluates its own normals there (all these faces are smooth: shared normals need it).
+void evaluate_fallback_normals(Evaluation& ev) {
+    const PreparedMesh& m = ev.m;
+    std::vector<uint32_t> faces;
+    for (size_t s = 0; s < ev.sector_fallback.size(); ++s)
+        if (ev.sector_fallback[s])
+            for (uint32_t i = m.sector_begin[s]; i < m.sector_begin[s + 1]; ++i) faces.push_back(m.corner_face[m.sector_corners[i]]);
+    for (size_t e = 0; e < ev.edge_fallback.size(); ++e)
+        if (ev.edge_fallback[e])
+            for (uint32_t s = m.edge_side_begin[e]; s < m.edge_side_begin[e + 1]; ++s) faces.push_back(m.corner_face[m.side_corner[s]]);
+    if (faces.empty()) return;
+    std::sort(faces.begin(), faces.end());
+    faces.erase(std::unique(faces.begin(), faces.end()), faces.end());
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, faces.size(), 16), [&](const tbb::blocked_range<size_t>& range) {
+        Surface vtx, fvar;
+        Scratch scratch;
+        for (size_t i = range.begin(); i != range.end(); ++i) {
+            const size_t f = faces[i];
+            bool ok = m.factory_of(f).InitVertexSurface(m.face_refiner[f], &vtx); // as in evaluate_faces
+            if (ok && ev.K > 0) ok = m.factory_of(f).InitFaceVaryingSurface(m.face_refiner[f], &fvar);
+            FaceEvaluation face(ev, f, ok, false, vtx, fvar, scratch);
+            face.fallback_normals();
+        }
+    });
+}
+
 // Smooth faces first, then the faces tessellated linearly.
 void evaluate_faces(Evaluation& ev) {
     const PreparedMesh& m = ev.m;
@@ -382,19 +468,22 @@ void evaluate_faces(Evaluation& ev) {
     }
 }
 
-// Per sector (groups), with the skin of each group's value.
+// Per sector (groups), with the skin of each group's value: the normal owner's, or the average of the corners'.
 void average_group_normals(Evaluation& ev) {
     const PreparedMesh& m = ev.m;
     TessellateOutput& out = ev.out;
-    const std::vector<float>& corner_normal = ev.corner_normal;
+    const UninitialisedFloats& corner_normal = ev.corner_normal;
     float* N = out.normals.data();
     const size_t G = m.group_value.size();
     tbb::parallel_for(tbb::blocked_range<size_t>(0, G, 1024), [&](const tbb::blocked_range<size_t>& range) {
         for (size_t g = range.begin(); g != range.end(); ++g) {
-            const uint32_t s = m.group_sector[g];
+            const uint32_t s = m.group_sector[g], owner = m.sector_normal_owner[s];
             float sum[3] = {0, 0, 0};
-            for (uint32_t i = m.sector_begin[s]; i < m.sector_begin[s + 1]; ++i)
-                for (int k = 0; k < 3; ++k) sum[k] += corner_normal[size_t(m.sector_corners[i]) * 3 + size_t(k)];
+            if (owner != none && !ev.sector_fallback[s])
+                std::copy_n(&corner_normal[size_t(owner) * 3], 3, sum);
+            else
+                for (uint32_t i = m.sector_begin[s]; i < m.sector_begin[s + 1]; ++i)
+                    for (int k = 0; k < 3; ++k) sum[k] += corner_normal[size_t(m.sector_corners[i]) * 3 + size_t(k)];
             normalise(sum);
             if (is_zero(sum)) std::copy_n(&corner_normal[size_t(m.sector_corners[m.sector_begin[s]]) * 3], 3, sum);
             if (is_zero(sum)) sum[2] = 1.0f;
@@ -409,12 +498,13 @@ void average_group_normals(Evaluation& ev) {
     });
 }
 
-// Across the edges that are no crease: the sides' normals averaged (the same for every side of a seam).
+// Across the edges that are no crease: the owner side's normals where they are shared, else the sides'
+// normals averaged (the same for every side of a seam).
 void average_edge_normals(Evaluation& ev) {
     const PreparedMesh& m = ev.m;
     const Layout& L = ev.L;
     const std::vector<int>& rates = ev.rates;
-    const std::vector<float>& side_normal = ev.side_normal;
+    const UninitialisedFloats& side_normal = ev.side_normal;
     float* N = ev.out.normals.data();
     const size_t E = m.edges.size();
     tbb::parallel_for(tbb::blocked_range<size_t>(0, E, 1024), [&](const tbb::blocked_range<size_t>& range) {
@@ -431,8 +521,11 @@ void average_edge_normals(Evaluation& ev) {
                     continue;
                 }
                 float sum[3] = {0, 0, 0};
-                for (uint32_t s = m.edge_side_begin[e]; s < m.edge_side_begin[e + 1]; ++s)
-                    for (int k = 0; k < 3; ++k) sum[k] += slot(s)[k];
+                if (m.edge_normal_shared[e] && !ev.edge_fallback[e])
+                    std::copy_n(slot(m.edge_owner[e]), 3, sum);
+                else
+                    for (uint32_t s = m.edge_side_begin[e]; s < m.edge_side_begin[e + 1]; ++s)
+                        for (int k = 0; k < 3; ++k) sum[k] += slot(s)[k];
                 normalise(sum);
                 if (is_zero(sum)) std::copy_n(slot(m.edge_side_begin[e]), 3, sum);
                 if (is_zero(sum)) sum[2] = 1.0f;
@@ -490,10 +583,11 @@ void deinterleave(Evaluation& ev) {
 
 Status evaluate_tessellation(TessellateOutput& out, const PreparedMesh& m, const std::vector<int>& rates,
                              bool keep_parameters) {
-    Evaluation ev{m, rates, out, keep_parameters, m.W, m.K, {}, {}, {}, {}, {}};
+    Evaluation ev{m, rates, out, keep_parameters, m.W, m.K, {}, {}, {}, {}, {}, {}, {}};
     if (Status s = plan_layout(ev.L, m, rates); !s.ok()) return s;
-    allocate(ev);
+    if (Status s = allocate(ev); !s.ok()) return s;
     evaluate_faces(ev);
+    evaluate_fallback_normals(ev);
 
     // ---- normals at shared points: averaged per sector (groups) and across non-crease edges
     average_group_normals(ev);

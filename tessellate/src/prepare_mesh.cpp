@@ -32,13 +32,36 @@ namespace {
 
 using kernel::DisjointSets;
 
-// Indices 0..n-1 ordered by key(i), ties by index: sorting (key, index) records in place is several times
-// faster than sorting indices through a comparator that recomputes keys.
+// The leading 32-bit word of a key (the keys below lead with a welded position or point index, < n).
+uint32_t leading_word(uint64_t k) { return uint32_t(k >> 32); }
+uint32_t leading_word(const std::array<uint32_t, 3>& k) { return k[0]; }
+
+// Indices 0..n-1 ordered by key(i), ties by index. The (key, index) records are first placed by a counting
+// sort on the key's leading word (a welded position or point index: a few corners each), then each run of
+// one leading word is sorted: the order of std::sort over all records, in linear time (the full sort was
+// 8 % of a rate-4 tessellation of the 32k-quad cube sphere, prepare included). Falls back to the full sort
+// when the leading words are not small indices.
 template <class Key, class KeyOf>
 std::vector<uint32_t> order_by(size_t n, KeyOf key_of) {
     std::vector<std::pair<Key, uint32_t>> records(n);
-    for (size_t i = 0; i < n; ++i) records[i] = {key_of(uint32_t(i)), uint32_t(i)};
-    std::sort(records.begin(), records.end());
+    uint32_t top = 0;
+    for (size_t i = 0; i < n; ++i) {
+        records[i] = {key_of(uint32_t(i)), uint32_t(i)};
+        top = std::max(top, leading_word(records[i].first));
+    }
+    if (size_t(top) > 2 * n + 1024) {
+        std::sort(records.begin(), records.end());
+    } else {
+        std::vector<uint32_t> start(size_t(top) + 2, 0);
+        for (const auto& r : records) ++start[size_t(leading_word(r.first)) + 1];
+        for (size_t b = 1; b < start.size(); ++b) start[b] += start[b - 1];
+        std::vector<std::pair<Key, uint32_t>> placed(n);
+        std::vector<uint32_t> next(start.begin(), start.end() - 1);
+        for (const auto& r : records) placed[next[leading_word(r.first)]++] = r; // index order kept per run
+        for (size_t b = 0; b + 1 < start.size(); ++b)
+            if (start[b + 1] - start[b] > 1) std::sort(placed.begin() + start[b], placed.begin() + start[b + 1]);
+        records.swap(placed);
+    }
     std::vector<uint32_t> order(n);
     for (size_t i = 0; i < n; ++i) order[i] = records[i].second;
     return order;

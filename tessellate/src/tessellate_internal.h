@@ -50,6 +50,7 @@ struct PreparedMesh {
     std::vector<uint32_t> face_source; // input face index
     std::vector<uint8_t> face_linear;  // 1: tessellated linearly (fallback)
     std::vector<uint8_t> face_uncached; // 1: at an interior valence-2 vertex: surfaces from factory_uncached
+    std::vector<uint8_t> face_regular;  // 1: its limit surface is one regular B-spline patch (Bfr IsRegular)
     std::vector<int> face_refiner;     // face index in the refiner, -1 for faces left out of it
     std::vector<uint32_t> corner_input, corner_welded, corner_point, corner_value, corner_group;
     std::vector<uint32_t> corner_edge, corner_side; // the edge that starts at the corner, and this face's side
@@ -68,6 +69,9 @@ struct PreparedMesh {
     std::vector<uint32_t> group_attr_end;   // groups [g, end) share (point, value): written together
     std::vector<uint32_t> sector_begin;     // corners of sector s: sector_corners[begin[s] .. begin[s+1])
     std::vector<uint32_t> sector_corners;
+    std::vector<uint32_t> sector_normal_owner; // a sector of regular smooth faces only: the one corner whose
+                                               // face's normal there serves the whole sector; none: every
+                                               // corner's normal, averaged
 
     // Edges between points (a < b), with their sides in face order.
     std::vector<std::array<uint32_t, 2>> edges;
@@ -77,6 +81,8 @@ struct PreparedMesh {
     std::vector<uint8_t> edge_split;       // bit 0: attributes differ per side (seam); bit 1: normals differ
                                            // per side (crease, non-manifold); any bit: one vertex set per side
     std::vector<uint8_t> edge_crease;      // dihedral angle above SurfaceOptions::crease_angle_degrees
+    std::vector<uint8_t> edge_normal_shared; // 1: regular smooth faces on both sides, no crease: the owner
+                                             // side's normals serve every side (the others skip the evaluation)
 
     // Attribute values: K floats each (uvs first, then the attribute arrays), skin in 4 + 4.
     int K = 0;

@@ -3,27 +3,26 @@
 // and shares factories, and must not change a bit by it); and the generated 32k-quad benchmark mesh
 // (models/obj_quad_sphere.h) is the closed quad mesh it says it is. (Keeping every face's surface and patch
 // points across tessellations was tried: 4 KB per face, 70 MB on the 16k-triangle creature, for 1-2 % of the
-// time; `furrow bench memory` ruled it out.)
+// time; `furrow bench memory` ruled it out.) The normals: at a point shared by several faces where the surface
+// is smooth, the output normal is the one face's that evaluates the point (the others skip the evaluation);
+// it must be, within 1e-6 rad, the average of every face's own normal there, as before that sharing.
+#include "bfr_oracle.h"
 #include "tess_test_util.h"
 
 #include <furrow/shapes.h>
 
+#include <tbb/global_control.h>
+
 #include "obj_quad_sphere.h"
 
-#include <opensubdiv/bfr/refinerSurfaceFactory.h>
-#include <opensubdiv/bfr/surface.h>
-#include <opensubdiv/far/topologyDescriptor.h>
-#include <opensubdiv/far/topologyRefinerFactory.h>
 
-#include <cstring>
-#include <filesystem>
+#include <cmath>
+#include <cstdio>
 #include <map>
-#include <memory>
+#include <filesystem>
 
 namespace furrow {
 namespace {
-
-namespace osd = OpenSubdiv;
 
 Primitive load_quad_sphere(int n) {
     const auto path = std::filesystem::temp_directory_path() / ("furrow_test_quad_sphere_" + std::to_string(n) + ".obj");
@@ -59,74 +58,59 @@ TEST(tessellate_bfr_oracle, QuadSphereIsAClosedQuadMesh) {
     EXPECT_EQ(extraordinary, 8); // the cube's corners, valence 3
 }
 
-// Every output vertex equals, bit for bit, one fresh evaluation (uncached factory, InitVertexSurface and
-// PreparePatchPoints for that face alone) at the (face, u, v) of a triangle corner that uses it: the owner's.
-void expect_fresh_surfaces_agree(const Primitive& p, SubdivisionScheme scheme, int rate) {
-    Tessellator t;
-    SurfaceOptions so;
-    so.scheme = scheme;
-    ASSERT_TRUE(t.prepare(test::input_of(p), so).ok());
-    RateOptions r;
-    r.uniform = rate;
-    r.max_rate = rate;
-    TessellateOutput out, again;
-    ASSERT_TRUE(t.tessellate(out, r, true).ok());
-    ASSERT_TRUE(t.tessellate(again, r, true).ok()); // the cached surfaces are reused: the same bytes
-    ASSERT_EQ(out.positions, again.positions);
-    ASSERT_EQ(out.normals, again.normals);
-    ASSERT_EQ(out.indices, again.indices);
-
-    std::vector<int> sizes;
-    std::vector<int> corners(p.indices.begin(), p.indices.end());
-    for (size_t f = 0; f < p.face_count(); ++f) sizes.push_back(p.face_sizes.empty() ? 3 : int(p.face_sizes[f]));
-    osd::Far::TopologyDescriptor desc;
-    desc.numVertices = int(p.vertex_count());
-    desc.numFaces = int(sizes.size());
-    desc.numVertsPerFace = sizes.data();
-    desc.vertIndicesPerFace = corners.data();
-    osd::Sdc::Options sdc;
-    sdc.SetVtxBoundaryInterpolation(osd::Sdc::Options::VTX_BOUNDARY_EDGE_AND_CORNER);
-    const auto type = scheme == SubdivisionScheme::loop ? osd::Sdc::SCHEME_LOOP : osd::Sdc::SCHEME_CATMARK;
-    using Factory = osd::Far::TopologyRefinerFactory<osd::Far::TopologyDescriptor>;
-    std::unique_ptr<osd::Far::TopologyRefiner> refiner(Factory::Create(desc, Factory::Options(type, sdc)));
-    ASSERT_TRUE(refiner);
-    osd::Bfr::RefinerSurfaceFactory<>::Options fo;
-    fo.SetApproxLevelSmooth(so.accuracy);
-    fo.SetApproxLevelSharp(std::max(6, so.accuracy));
-    fo.EnableCaching(false);
-    osd::Bfr::RefinerSurfaceFactory<> factory(*refiner, fo);
-
-    std::vector<uint8_t> matched(out.positions.size() / 3, 0);
-    std::vector<float> patch;
-    osd::Bfr::Surface<float> surface;
-    int current = -1;
-    for (size_t tri = 0; tri < out.triangle_patches.size(); ++tri) {
-        const int f = int(out.triangle_patches[tri]);
-        if (f != current) {
-            ASSERT_TRUE(factory.InitVertexSurface(f, &surface));
-            patch.resize(size_t(surface.GetNumPatchPoints()) * 3);
-            surface.PreparePatchPoints(p.positions.data(), 3, patch.data(), 3);
-            current = f;
-        }
-        for (int k = 0; k < 3; ++k) {
-            const float* uv = &out.triangle_coords[tri * 6 + size_t(k) * 2];
-            float P[3];
-            surface.Evaluate(uv, patch.data(), 3, P);
-            const uint32_t v = out.indices[tri * 3 + size_t(k)];
-            if (std::memcmp(P, &out.positions[size_t(v) * 3], sizeof P) == 0) matched[v] = 1;
-        }
-    }
-    size_t unmatched = 0;
-    for (uint8_t m : matched) unmatched += m == 0;
-    EXPECT_EQ(unmatched, 0u) << "of " << matched.size() << " vertices";
-}
-
 TEST(tessellate_bfr_oracle, VerticesEqualFreshBfrSurfacesBitForBitCatmark) {
-    expect_fresh_surfaces_agree(load_quad_sphere(6), SubdivisionScheme::catmark, 5);
+    test::expect_fresh_surfaces_agree(load_quad_sphere(6), SubdivisionScheme::catmark, 5);
 }
 
 TEST(tessellate_bfr_oracle, VerticesEqualFreshBfrSurfacesBitForBitLoop) {
-    expect_fresh_surfaces_agree(shapes::icosphere(1.0f, 2), SubdivisionScheme::loop, 4);
+    test::expect_fresh_surfaces_agree(shapes::icosphere(1.0f, 2), SubdivisionScheme::loop, 4);
+}
+
+TEST(tessellate_bfr_oracle, SharedNormalsAreTheFacesAverageCatmarkQuads) {
+    // The cube sphere has valence-3 (extraordinary) vertices, where Bfr's patches are approximations.
+    const double worst = test::expect_normals_average_faces(load_quad_sphere(6), SubdivisionScheme::catmark, 5);
+    std::printf("quad sphere, rate 5: largest angle %.3g rad\n", worst);
+}
+
+TEST(tessellate_bfr_oracle, SharedNormalsAreTheFacesAverageCatmarkTrianglesWithSeams) {
+    // Triangles (irregular in Catmark: every face keeps its own normal, averaged), valence-24 poles, UV seams.
+    const double worst = test::expect_normals_average_faces(shapes::uv_sphere(1, 24, 12), SubdivisionScheme::catmark, 4);
+    std::printf("uv sphere, rate 4: largest angle %.3g rad\n", worst);
+}
+
+TEST(tessellate_bfr_oracle, SharedNormalsAreTheFacesAverageOpenGrid) {
+    // Boundary points: sectors that end at the boundary, corners of one face; the grid is bent (not flat).
+    Primitive p = shapes::quad_grid(2, 1, 7, 4);
+    for (size_t v = 0; v < p.vertex_count(); ++v)
+        p.positions[v * 3 + 1] = 0.2f * std::sin(3.0f * p.positions[v * 3]) * std::cos(2.0f * p.positions[v * 3 + 2]);
+    const double worst = test::expect_normals_average_faces(p, SubdivisionScheme::catmark, 3);
+    std::printf("open grid, rate 3: largest angle %.3g rad\n", worst);
+}
+
+TEST(tessellate_bfr_oracle, SharedNormalsAreTheFacesAverageLoop) {
+    const double worst = test::expect_normals_average_faces(shapes::icosphere(1.0f, 2), SubdivisionScheme::loop, 4);
+    std::printf("icosphere (loop), rate 4: largest angle %.3g rad\n", worst);
+}
+
+// Shared normals (regular patches: the cube sphere) give the same bytes for 1 and 2 threads.
+TEST(tessellate_bfr_oracle, SharedNormalsSameBytesForAnyThreadCount) {
+    const Primitive p = load_quad_sphere(12);
+    TessellateOptions o;
+    o.rates.uniform = 4;
+    o.rates.max_rate = 4;
+    TessellateOutput a, b;
+    {
+        tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
+        a = test::run_tessellate(p, o);
+    }
+    {
+        tbb::global_control two(tbb::global_control::max_allowed_parallelism, 2);
+        b = test::run_tessellate(p, o);
+    }
+    ASSERT_EQ(a.stats.triangles, size_t(6 * 12 * 12 * 4 * 4 * 2));
+    EXPECT_EQ(a.positions, b.positions);
+    EXPECT_EQ(a.normals, b.normals);
+    EXPECT_EQ(a.indices, b.indices);
 }
 
 } // namespace
