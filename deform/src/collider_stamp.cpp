@@ -231,7 +231,9 @@ void rasterise(const StampTarget& T, double u0, double u1, double v0, double v1,
 // Separating axes: the grid's two and the normal of every pair of points (a superset of the hull's edges).
 // Most sweeps of a huge shape turning near a small field miss it, but each would still rasterise its whole
 // bounding box: a capsule 2.6e11 m long turning near a 2 x 6 m field took minutes (found by fuzz_stamp).
-bool hull_reaches_grid(const std::vector<std::array<double, 2>>& pts, double grow, double U, double V) {
+using UV = std::array<double, 2>;
+template <size_t N>
+bool hull_reaches_grid(const std::array<UV, N>& pts, double grow, double U, double V) {
     auto separated = [&](double nu, double nv) {
         const double l = std::hypot(nu, nv);
         if (!(l > 0) || !std::isfinite(l)) return false;
@@ -259,7 +261,7 @@ void sweep_fixed(const StampTarget& T, const Collider& c, const LocalPose& p0, c
     switch (c.shape) {
     case ColliderShape::sphere: {
         const double r = c.radius;
-        if (!hull_reaches_grid({{c0.x, c0.y}, {c1.x, c1.y}}, r + T.texel, U, V)) return;
+        if (!hull_reaches_grid(std::array<UV, 2>{UV{c0.x, c0.y}, UV{c1.x, c1.y}}, r + T.texel, U, V)) return;
         rasterise(T, u0, u1, v0, v1, decay, res, [&](double qu, double qv, double g) { return capsule_low(qu, qv, c0, c1, r) - g; });
         break;
     }
@@ -267,7 +269,7 @@ void sweep_fixed(const StampTarget& T, const Collider& c, const LocalPose& p0, c
         const double r = c.radius;
         const Vec3 h = capsule_half_axis(c, heading);
         const Vec3 a0 = c0 - h, b0 = c0 + h, a1 = c1 - h, b1 = c1 + h;
-        if (!hull_reaches_grid({{a0.x, a0.y}, {b0.x, b0.y}, {a1.x, a1.y}, {b1.x, b1.y}}, r + T.texel, U, V)) return;
+        if (!hull_reaches_grid(std::array<UV, 4>{UV{a0.x, a0.y}, UV{b0.x, b0.y}, UV{a1.x, a1.y}, UV{b1.x, b1.y}}, r + T.texel, U, V)) return;
         const SlabFace face = make_face(a0, b0 - a0, a1 - a0);
         const bool moving = dot(c1 - c0, c1 - c0) > 0;
         rasterise(T, u0, u1, v0, v1, decay, res, [&](double qu, double qv, double g) {
@@ -326,6 +328,13 @@ void stamp_image(const StampTarget& T, const Collider& c, const LocalPose& p, do
     const double sx = c.size[0], sz = c.size[1];
     const double R = shape_radius(c) + T.texel;
     const int W = im.width, H = im.height, C = im.channels;
+    // A stamp whose rectangle misses the grid writes nothing, but would still rasterise its bounding box: a
+    // brush 1e-39 m wide and 1e11 m long turning near the field took 1e6 full-field stamps (found by
+    // fuzz_stamp).
+    const double hx = 0.5 * sx, hz = 0.5 * sz;
+    auto corner = [&](double a, double b) { return UV{p.u + a * ax.ex_u + b * ax.ez_u, p.v + a * ax.ex_v + b * ax.ez_v}; };
+    const std::array<UV, 4> corners{corner(-hx, -hz), corner(hx, -hz), corner(hx, hz), corner(-hx, hz)};
+    if (!hull_reaches_grid(corners, T.texel, double(T.width - 1) * T.texel, double(T.height - 1) * T.texel)) return;
     auto px = [&](int i, int j) {
         i = std::clamp(i, 0, W - 1), j = std::clamp(j, 0, H - 1);
         return double(im.pixels[(size_t(j) * size_t(W) + size_t(i)) * size_t(C)]);
