@@ -11,6 +11,9 @@
 #include <sstream>
 
 #include <fcntl.h>
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
 #include <unistd.h>
 #include <spawn.h>
 #include <sys/resource.h>
@@ -114,6 +117,24 @@ double blender_peer_seconds(const std::string& script_text, const std::vector<st
     const std::vector<std::vector<double>> lines = blender_peer_values(script_text, args);
     if (lines.empty() || !(lines[0][0] > 0)) return std::numeric_limits<double>::quiet_NaN();
     return lines[0][0];
+}
+
+double median_of(std::vector<double> values) {
+    if (values.empty()) return 0.0;
+    std::sort(values.begin(), values.end());
+    return values[values.size() / 2];
+}
+
+double median_fresh_seconds(int repeat, const std::function<double(int run)>& run) {
+    std::vector<double> t;
+    for (int r = 0; r <= repeat; ++r) {
+#if defined(__GLIBC__)
+        malloc_trim(0);
+#endif
+        const double s = run(r);
+        if (r > 0) t.push_back(s);
+    }
+    return median_of(std::move(t));
 }
 
 double median_seconds(int repeat, const std::function<void()>& f) {

@@ -21,6 +21,14 @@ struct BenchArgs {
 
 // Median wall time in seconds of `repeat` calls of f (one untimed warm-up call first).
 double median_seconds(int repeat, const std::function<void()>& f);
+// The median of `values` (0 for none).
+double median_of(std::vector<double> values);
+// Runs run(0), the untimed warm-up, then run(1) .. run(repeat), each on a trimmed heap (glibc malloc_trim: the
+// memory the previous run freed goes back to the system, so every run pays the page faults a fresh process
+// pays, and a peak measured inside the run is not hidden by reused memory). run(r) times what it measures
+// itself (not its untimed set-up, such as a fresh copy of the input) and returns those seconds; the median of
+// runs 1 .. repeat is returned.
+double median_fresh_seconds(int repeat, const std::function<double(int run)>& run);
 
 // Runs a peer program (looked up on PATH), its output to /dev/null; returns its exit code, or -1 when it
 // could not be started. Peers (three.js, Blender, gltfpack) are optional: a bench prints "not installed".

@@ -20,9 +20,6 @@
 #include <filesystem>
 #include <memory>
 #include <sstream>
-#if defined(__GLIBC__)
-#include <malloc.h>
-#endif
 
 namespace furrow::cli {
 namespace fs = std::filesystem;
@@ -134,19 +131,15 @@ Row bench_one(const std::string& name, const Scene& base, const ImageF* mask, in
     o.shells.layers = layers;
     o.shells.length = a.relative_length * bbox_diagonal(base);
     if (mask) o.mask = *mask;
-    // Timed: add_fur_shells on a fresh copy of the loaded scene (the copy is not timed).
-    std::vector<double> times, setup, emit;
+    // Timed: add_fur_shells on a fresh copy of the loaded scene (the copy is not timed). Run 0 warms up (and
+    // fills the strand-texture cache); the last run's scene and report are kept.
+    std::vector<double> setup, emit;
     Scene result;
     FurReport rep;
     double peak = 0;
-    for (int r = 0; r <= a.base.repeat; ++r) {
+    row.seconds = median_fresh_seconds(a.base.repeat, [&](int r) {
         Scene s = base;
         FurReport rr;
-#if defined(__GLIBC__)
-        // Memory freed by the previous run goes back to the system first: otherwise the allocator reuses it,
-        // the peak above the resident size reads 0, and the run skips the page faults a fresh process pays.
-        malloc_trim(0);
-#endif
         PeakMemory pm;
         auto t0 = std::chrono::steady_clock::now();
         Status st = add_fur_shells(s, o, &rr);
@@ -154,17 +147,13 @@ Row bench_one(const std::string& name, const Scene& base, const ImageF* mask, in
         peak = std::max(peak, pm.peak_mib());
         require_ok(st, file);
         const double seconds = std::chrono::duration<double>(t1 - t0).count();
-        if (r == 0) row.first_seconds = seconds; // run 0 warms up (and fills the strand-texture cache)
-        else times.push_back(seconds), setup.push_back(rr.setup_seconds), emit.push_back(rr.emit_seconds);
+        if (r == 0) row.first_seconds = seconds;
+        else setup.push_back(rr.setup_seconds), emit.push_back(rr.emit_seconds);
         if (r == a.base.repeat) result = std::move(s), rep = std::move(rr);
-    }
-    auto median = [](std::vector<double>& v) {
-        std::sort(v.begin(), v.end());
-        return v[v.size() / 2];
-    };
-    row.seconds = median(times);
-    row.setup_seconds = median(setup);
-    row.emit_seconds = median(emit);
+        return seconds;
+    });
+    row.setup_seconds = median_of(setup);
+    row.emit_seconds = median_of(emit);
     row.peak_mib = peak;
     row.base_triangles = rep.base_triangles;
     row.out_triangles = rep.shell_triangles;
@@ -176,19 +165,13 @@ Row bench_one(const std::string& name, const Scene& base, const ImageF* mask, in
     });
     // The same copy into memory just allocated, as the shells are written: the kernel maps and zeroes every
     // page on first touch, which the warm baseline above never pays and no producer of new output avoids.
-    std::vector<double> fresh;
-    for (int r = 0; r < std::max(a.base.repeat, 5); ++r) {
-#if defined(__GLIBC__)
-        malloc_trim(0);
-#endif
+    row.fresh_seconds = median_fresh_seconds(std::max(a.base.repeat, 5), [&](int) {
         auto t0 = std::chrono::steady_clock::now();
         std::unique_ptr<char[]> buffer(new char[std::max<size_t>(src.size(), 1)]);
         std::memcpy(buffer.get(), src.data(), src.size());
         do_not_optimize(buffer.get());
-        auto t1 = std::chrono::steady_clock::now();
-        fresh.push_back(std::chrono::duration<double>(t1 - t0).count());
-    }
-    row.fresh_seconds = median(fresh);
+        return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    });
     // Accuracy from one more run that keeps the frames (not timed).
     Scene s = base;
     FurOptions keep = o;
@@ -283,7 +266,8 @@ nlohmann::json run_bench_shells(const ShellsArgs& a, const GlobalFlags& g, bool 
                     a.base.repeat, int(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism)), a.relative_length);
         t.print();
     }
-    // LOD by simplification on the first model (bench_shells_lod.cpp), at the largest N, 3 levels.
+    // LOD by simplification on the first model (bench_shells_lod.cpp), at the largest N, 3 levels. The model is
+    // loaded again rather than kept from the loop above: holding it would add its size to every later row's peak.
     nlohmann::json lod = nlohmann::json::array();
     Scene first;
     ImageF first_mask;

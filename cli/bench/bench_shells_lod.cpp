@@ -11,9 +11,6 @@
 #include <algorithm>
 #include <chrono>
 #include <filesystem>
-#if defined(__GLIBC__)
-#include <malloc.h>
-#endif
 #include <unistd.h>
 
 namespace furrow::cli {
@@ -36,22 +33,15 @@ LodRow lod_row(const Scene& base, const FurOptions& options, double error, int r
     FurOptions o = options;
     o.lod_simplify_error = error;
     Scene result;
-    std::vector<double> times;
-    for (int r = 0; r <= repeat; ++r) {
-        result = Scene{};
-#if defined(__GLIBC__)
-        malloc_trim(0);
-#endif
+    row.seconds = median_fresh_seconds(repeat, [&](int r) {
         Scene s = base;
         FurReport rep;
         const auto t0 = std::chrono::steady_clock::now();
         require_ok(add_fur_shells(s, o, &rep), "bench shells --lod-simplify");
-        if (r > 0) times.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
-        result = std::move(s);
-        row.report = std::move(rep);
-    }
-    std::sort(times.begin(), times.end());
-    row.seconds = times[times.size() / 2];
+        const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        if (r == repeat) result = std::move(s), row.report = std::move(rep);
+        return seconds;
+    });
     row.shell_triangles = row.report.shell_triangles;
     require_ok(save_scene(result, tmp.string()), tmp.string());
     row.file_bytes = size_t(fs::file_size(tmp));
