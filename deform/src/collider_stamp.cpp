@@ -375,6 +375,46 @@ double collider_top_offset(const Collider& c) {
 
 namespace {
 
+// How many stamps an image brush needs from p0 to p1 (turning by `turn` rad, its far texel R_turn from the
+// centre).
+//   Stamps every half texel of travel (of the centre or the far corner). Vertical travel only has to give a
+//   pressing foot its second stamp; counted up to the grid's size, a print dropped from 1e30 m no longer takes
+//   1e6 stamps (found by fuzz_stamp), and nothing smaller changes.
+//   Sliding: along each brush axis a step may move the brush by half a texel or by half a brush pixel,
+//   whichever is larger. Every texel the rectangle passes over is still covered by a stamp (a step is shorter
+//   than the brush), and each texel's sample moves by at most half a brush pixel between stamps. A brush pixel
+//   1e24 m wide no longer asks for a stamp every texel; nor does a 1e35 m brush that slides along itself while
+//   it turns 3e-12 rad (found by fuzz_stamp). With pixels finer than texels this is the half-texel count.
+//   Turning: while the grid stays inside the brush's rectangle, no texel crosses its outline, and a step only
+//   has to move each texel's sample by half a brush pixel (or half a texel, whichever is larger). The grid's
+//   bounding circle is inside the rectangle at every stamp when the centre's farthest distance from it, at an
+//   end of the straight path, plus its radius is within the brush's half width. A brush of 3 pixels 1e25 m
+//   wide turning 2 rad near a 2 m field took 1e6 full-field stamps (found by fuzz_stamp). Any other brush
+//   still stamps every half texel of travel of its far corner.
+double image_stamps_wanted(const StampTarget& T, const Collider& c, const LocalPose& p0, const LocalPose& p1, double turn,
+                           double R_turn) {
+    const double t = T.texel;
+    const double U = double(T.width - 1) * t, V = double(T.height - 1) * t;
+    const double vertical = std::min(std::abs(p1.w - p0.w), U + V);
+    const double dist = std::hypot(p1.u - p0.u, p1.v - p0.v);
+    if (!c.brush || c.brush->width <= 0 || c.brush->height <= 0) return std::max(dist + vertical, turn * R_turn) / (0.5 * t);
+    // Sliding, per brush axis.
+    const Axes ax = axes(p0.heading);
+    const double du = p1.u - p0.u, dv = p1.v - p0.v;
+    const double along_x = std::abs(du * ax.ex_u + dv * ax.ex_v), along_z = std::abs(du * ax.ez_u + dv * ax.ez_v);
+    const double step_x = 0.5 * std::max(t, c.size[0] / c.brush->width), step_z = 0.5 * std::max(t, c.size[1] / c.brush->height);
+    const double slide = std::hypot(along_x * (0.5 * t / step_x), along_z * (0.5 * t / step_z));
+    if (p1.heading == p0.heading) return (slide + vertical) / (0.5 * t);
+    // Turning.
+    double scale = 1;
+    const double grid_r = 0.5 * std::hypot(U, V) + t;
+    const double reach = std::max(std::hypot(p0.u - 0.5 * U, p0.v - 0.5 * V), std::hypot(p1.u - 0.5 * U, p1.v - 0.5 * V));
+    const double pixel = std::min(c.size[0] / c.brush->width, c.size[1] / c.brush->height);
+    if (reach + grid_r <= 0.5 * std::min(c.size[0], c.size[1])) scale = t / std::max(t, pixel);
+    const bool coarse = step_x > 0.5 * t || step_z > 0.5 * t;
+    return std::max((coarse ? slide : dist * scale) + vertical, turn * R_turn * scale) / (0.5 * t);
+}
+
 StampResult stamp_sweep_sharp(const StampTarget& T, const Collider& c, const LocalPose& from, const LocalPose& to, double decay,
                               double share) {
     StampResult res;
@@ -399,12 +439,21 @@ StampResult stamp_sweep_sharp(const StampTarget& T, const Collider& c, const Loc
     // the grid's bounding circle overlaps the rectangle, which for a long thin brush is a much shorter part of
     // the path than the bounding circle of the brush gives (a 1e25 x 1e11 m brush slid 1e6 times across a 10 m
     // field, found by fuzz_stamp).
+    // A brush that turns by θ over the segment stays within its start heading's slabs grown by D·θ, D the
+    // centre's farthest distance from the grid's centre (at an end of the path): a texel's offset from the
+    // centre turns by at most θ against the brush's axes. A 1e35 m thin brush turning 3e-12 rad on a path
+    // from 1.7e11 m away took 1e6 stamps that missed the field (found by fuzz_stamp). Without a turn this is
+    // exactly the sliding brush's rectangle.
     const bool fixed_heading = to.heading == from.heading;
-    if (c.shape == ColliderShape::image && fixed_heading) {
+    if (c.shape == ColliderShape::image) {
         const Axes ax = axes(from.heading);
         const double grid_r = 0.5 * std::hypot(U, V) + t;
-        slabs[slab_count++] = {ax.ex_u, ax.ex_v, 0.5 * U, 0.5 * V, 0.5 * c.size[0] + grid_r};
-        slabs[slab_count++] = {ax.ez_u, ax.ez_v, 0.5 * U, 0.5 * V, 0.5 * c.size[1] + grid_r};
+        const double D = std::max(std::hypot(from.u - 0.5 * U, from.v - 0.5 * V), std::hypot(to.u - 0.5 * U, to.v - 0.5 * V));
+        const double slack = fixed_heading ? 0.0 : D * std::abs(to.heading - from.heading);
+        if (std::isfinite(slack)) {
+            slabs[slab_count++] = {ax.ex_u, ax.ex_v, 0.5 * U, 0.5 * V, 0.5 * c.size[0] + grid_r + slack};
+            slabs[slab_count++] = {ax.ez_u, ax.ez_v, 0.5 * U, 0.5 * V, 0.5 * c.size[1] + grid_r + slack};
+        }
     }
     auto clip = [&](const LocalPose& a, const LocalPose& b, double& lo, double& hi) { // a + (b − a)·x, x in [lo, hi]
         lo = 0, hi = 1;
@@ -445,36 +494,7 @@ StampResult stamp_sweep_sharp(const StampTarget& T, const Collider& c, const Loc
     };
     const double R_turn = std::min(R, std::max(farthest_texel(p0), farthest_texel(p1)));
     if (c.shape == ColliderShape::image) {
-        // Stamps every half texel of travel (of the centre or the far corner). Vertical travel only has to
-        // give a pressing foot its second stamp; counted up to the grid's size, a print dropped from 1e30 m
-        // no longer takes 1e6 stamps (found by fuzz_stamp), and nothing smaller changes.
-        const double vertical = std::min(std::abs(p1.w - p0.w), U + V);
-        // While the grid stays inside the brush's rectangle, no texel crosses its outline, and a step only has
-        // to move each texel's sample in the brush by half a brush pixel (or half a texel, whichever is
-        // larger). The grid's bounding circle is inside the rectangle at every stamp when the centre's farthest
-        // distance from it, at an end of the straight path, plus its radius is within the brush's half width.
-        // A brush of 3 pixels 1e25 m wide turning 2 rad near a 2 m field took 1e6 full-field stamps (found by
-        // fuzz_stamp). Any other brush still stamps every half texel of travel of its far corner.
-        double scale = 1;
-        if (c.brush && c.brush->width > 0 && c.brush->height > 0) {
-            const double grid_r = 0.5 * std::hypot(U, V) + t;
-            const double reach = std::max(std::hypot(p0.u - 0.5 * U, p0.v - 0.5 * V), std::hypot(p1.u - 0.5 * U, p1.v - 0.5 * V));
-            const double pixel = std::min(c.size[0] / c.brush->width, c.size[1] / c.brush->height);
-            if (reach + grid_r <= 0.5 * std::min(c.size[0], c.size[1])) scale = t / std::max(t, pixel);
-        }
-        double n_wanted = std::max(dist * scale + vertical, turn * R_turn * scale) / (0.5 * t);
-        if (fixed_heading && c.brush && c.brush->width > 0 && c.brush->height > 0) {
-            // Sliding without turning: along each brush axis a step may move the brush by half a texel or by
-            // half a brush pixel, whichever is larger. Every texel the rectangle passes over is still covered by
-            // a stamp (a step is shorter than the brush), and each texel's sample moves by at most half a
-            // brush pixel between stamps. A brush pixel 1e24 m wide no longer asks for a stamp every texel.
-            const Axes ax = axes(p0.heading);
-            const double du = p1.u - p0.u, dv = p1.v - p0.v;
-            const double along_x = std::abs(du * ax.ex_u + dv * ax.ex_v), along_z = std::abs(du * ax.ez_u + dv * ax.ez_v);
-            const double step_x = 0.5 * std::max(t, c.size[0] / c.brush->width), step_z = 0.5 * std::max(t, c.size[1] / c.brush->height);
-            // (With pixels finer than texels this is the half-texel count above.)
-            n_wanted = (std::hypot(along_x * (0.5 * t / step_x), along_z * (0.5 * t / step_z)) + vertical) / (0.5 * t);
-        }
+        const double n_wanted = image_stamps_wanted(T, c, p0, p1, turn, R_turn);
         const int n = n_wanted > 0 ? steps(n_wanted) : 0;
         for (int k = 0; k <= n; ++k) stamp_image(T, c, n ? lerp(p0, p1, double(k) / n) : p0, decay, res);
         return res;
