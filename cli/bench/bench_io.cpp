@@ -482,12 +482,14 @@ nlohmann::json run_bench_io(const BenchArgs& args, const GlobalFlags& g, bool ta
         rows.push_back(bench_one(grid, tmp, std::min(args.repeat, 2), gltfpack));
         rows.back().name = "generated " + rows.back().name;
         fs::remove(grid);
-        // The same grid as OFF, ASCII PLY and ASCII STL, a fifth of the size: the MB/s of each text reader.
-        for (const std::string format : {"off", "ply", "stl"}) {
+        // The same grid as OFF, ASCII PLY, ASCII STL and binary PLY, a fifth of the size: the MB/s of each reader.
+        for (const std::string format : {"off", "ply", "stl", "ply binary"}) {
+            const bool binary = format == "ply binary";
             const int side = models::text_grid_side_for_bytes(format, generated_mb * 1e6 / 5);
-            const fs::path text = tmp / ("grid_" + std::to_string(side) + "." + format);
+            const fs::path text = tmp / ("grid_" + std::to_string(side) + (binary ? "_binary.ply" : "." + format));
             info(g, "bench io: generating " + text.string());
-            if (!models::write_text_grid(text.string(), side, format)) throw InputError(text.string(), "cannot be written");
+            const bool written = binary ? models::write_binary_ply_grid(text.string(), side) : models::write_text_grid(text.string(), side, format);
+            if (!written) throw InputError(text.string(), "cannot be written");
             rows.push_back(bench_one(text, tmp, std::min(args.repeat, 2), gltfpack));
             rows.back().name = "generated " + rows.back().name;
             fs::remove(text);

@@ -31,7 +31,7 @@ Status dispatch(Scene& out, const uint8_t* data, size_t size, const std::string&
     if (ext == ".stl") return load_stl_bytes(out, reinterpret_cast<const char*>(data), size, options);
     if (ext == ".obj") return load_obj_bytes(out, reinterpret_cast<const char*>(data), size, options);
     if (ext == ".off") return load_off_bytes(out, reinterpret_cast<const char*>(data), size, options);
-    if (ext == ".ply") return load_openmesh_bytes(out, std::string(reinterpret_cast<const char*>(data), size), ext, options);
+    if (ext == ".ply") return load_ply_bytes(out, reinterpret_cast<const char*>(data), size, options);
     return Status::error(StatusCode::unsupported,
                          "unsupported file type '" + ext + "' (expected .gltf, .glb, .obj, .ply, .off or .stl)");
 }

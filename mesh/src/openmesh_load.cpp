@@ -1,5 +1,6 @@
-// PLY loading through OpenMesh's reader (OBJ: obj_load.cpp, OFF: off_load.cpp; the OFF path here is the former
-// OFF reader, kept as the oracle its replacement is tested against). The readers feed a recording importer instead of
+// Binary PLY loading through OpenMesh's reader (OBJ: obj_load.cpp, OFF: off_load.cpp, ASCII PLY: ply_load.cpp;
+// the OFF and ASCII PLY paths here are the former readers, kept as the oracles their replacements are tested
+// against). The readers feed a recording importer instead of
 // a halfedge mesh: a halfedge structure would silently drop or split the non-manifold and degenerate faces
 // that `furrow check` must see. Polygons stay polygons (Catmull-Clark wants the quads).
 #include "document.h"

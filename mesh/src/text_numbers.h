@@ -1,4 +1,4 @@
-// Internal: the numbers of the text mesh readers (obj_load.cpp, off_load.cpp), read straight from the file's
+// Internal: the numbers of the text mesh readers (obj_load.cpp, off_load.cpp, ply_load.cpp), read straight from the file's
 // bytes with std::from_chars the way a C++ stream (`in >> value`, what OpenMesh's readers used) reads them, so
 // that a file means what it meant before: the same spans are numbers, the same ones fail.
 #pragma once
@@ -15,11 +15,10 @@ namespace furrow::mesh_detail {
 inline bool is_space(char c) { return c == ' ' || c == '\t' || c == '\n' || c == '\v' || c == '\f' || c == '\r'; }
 inline bool is_digit(char c) { return c >= '0' && c <= '9'; }
 
-// A number as `stream >> value` reads it: the span num_get takes, which must convert whole. Leading
-// whitespace is skipped. Returns the end of the number, nullptr if there is none.
-template <class T> const char* read_number(const char* p, const char* end, T& value) {
-    while (p < end && is_space(*p)) ++p;
-    const char* b = p;
+// The end of the span num_get takes for a floating-point `stream >> value` from p (no whitespace skipped):
+// [sign] digits [. digits] [e [sign] digits], the exponent only after a mantissa digit. The span is taken
+// even when it then fails to convert (and a stream that reached `end` while taking it is at eof).
+inline const char* float_span_end(const char* p, const char* end) {
     if (p < end && (*p == '+' || *p == '-')) ++p;
     bool digits = false;
     while (p < end && is_digit(*p)) ++p, digits = true;
@@ -30,6 +29,22 @@ template <class T> const char* read_number(const char* p, const char* end, T& va
         if (p < end && (*p == '+' || *p == '-')) ++p;
         while (p < end && is_digit(*p)) ++p;
     }
+    return p;
+}
+
+// The end of the span num_get takes for an integer `stream >> value` from p: [sign] digits.
+inline const char* integer_span_end(const char* p, const char* end) {
+    if (p < end && (*p == '+' || *p == '-')) ++p;
+    while (p < end && is_digit(*p)) ++p;
+    return p;
+}
+
+// A number as `stream >> value` reads it: the span num_get takes, which must convert whole. Leading
+// whitespace is skipped. Returns the end of the number, nullptr if there is none.
+template <class T> const char* read_number(const char* p, const char* end, T& value) {
+    while (p < end && is_space(*p)) ++p;
+    const char* b = p;
+    p = float_span_end(p, end);
     const char* s = b < p && *b == '+' ? b + 1 : b;
     const auto r = std::from_chars(s, p, value);
     if (r.ptr != p || s == p) return nullptr;

@@ -137,7 +137,7 @@ TEST(bench_cli, ShellsAndRenderPlotPoints) {
 
 // bench io: the format and load MB/s per row, gltfpack as a peer (or "peer not installed" without it), and
 // the generated OBJ grid row (1 MB here through --generated-mb; `furrow bench io` makes it ~100 MB) and the
-// OFF, ASCII PLY and ASCII STL rows of the same grid.
+// OFF, ASCII PLY, ASCII STL and binary PLY rows of the same grid.
 TEST(bench_cli, IoFormatThroughputPeerAndGeneratedObj) {
     const auto dir = temp_dir();
     write_text(dir / "tri.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
@@ -145,18 +145,20 @@ TEST(bench_cli, IoFormatThroughputPeerAndGeneratedObj) {
     ASSERT_EQ(r.exit_code, 0) << r.err;
     nlohmann::json j = nlohmann::json::parse(r.out, nullptr, false);
     ASSERT_FALSE(j.is_discarded()) << r.out.substr(0, 500);
-    ASSERT_EQ(j["rows"].size(), 5u);
+    ASSERT_EQ(j["rows"].size(), 6u);
     const int n = models::obj_grid_side_for_bytes(1e6);
     EXPECT_EQ(j["rows"][0]["model"], "tri.obj");
     EXPECT_EQ(j["rows"][1]["model"], "generated grid_" + std::to_string(n) + ".obj");
     EXPECT_EQ(j["rows"][0]["triangles"], 1);
     EXPECT_EQ(j["rows"][1]["triangles"], 2 * (n - 1) * (n - 1));
-    // The same grid as OFF, ASCII PLY and ASCII STL at a fifth of the size: one row each, all its triangles.
-    const char* formats[3][2] = {{"off", "off"}, {"ply", "ply ascii"}, {"stl", "stl ascii"}};
-    for (size_t f = 0; f < 3; ++f) {
+    // The same grid as OFF, ASCII PLY, ASCII STL and binary PLY at a fifth of the size: one row each, all its
+    // triangles.
+    const char* formats[4][3] = {{"off", "off", ".off"}, {"ply", "ply ascii", ".ply"}, {"stl", "stl ascii", ".stl"},
+                                 {"ply binary", "ply binary", "_binary.ply"}};
+    for (size_t f = 0; f < 4; ++f) {
         const int side = models::text_grid_side_for_bytes(formats[f][0], 1e6 / 5);
         const auto& row = j["rows"][2 + f];
-        EXPECT_EQ(row["model"], "generated grid_" + std::to_string(side) + "." + formats[f][0]);
+        EXPECT_EQ(row["model"], "generated grid_" + std::to_string(side) + formats[f][2]);
         EXPECT_EQ(row["format"], formats[f][1]);
         EXPECT_EQ(row["triangles"], 2 * (side - 1) * (side - 1)) << row["model"];
     }

@@ -1,0 +1,478 @@
+// ASCII PLY in one pass over the bytes, std::from_chars on the buffer (text_numbers.h, shared with the OBJ and
+// OFF readers). PLY is Greg Turk's polygon file format (1994: a header of `element <name> <count>` lines, each
+// followed by its `property <type> <name>` / `property list <count type> <entry type> <name>` lines, then the
+// elements' records in header order). http://paulbourke.net/dataformats/ply/
+// The former path (openmesh_load.cpp, kept as the oracle of tests/mesh/test_ply_load.cpp) walked the file twice
+// with string streams, a validation pass and then OpenMesh's PLYReader (10 MB/s on the generated grid of
+// `furrow bench io`). This reads the same numbers the same way in one pass, gives the same scene for every file
+// that path accepted, and refuses what it refused, now naming the line. Binary PLY keeps the former path.
+// Stages, each as that path did it:
+//  - header: `ply`, `format ascii|binary_* <version>`, then keywords read as stream words up to `end_header`:
+//    comment lines skipped, unknown words ignored, `element` and `property` lines as OpenMesh 9.0 understands
+//    them (the type may come before or after the name; x y z, nx ny nz, u/s v/t, red green blue alpha (diffuse_
+//    too) on the vertex; the vertex_index(es) list and colours on the face; everything else, a texcoord list
+//    and texnumber included, is one word). A vertex_indices list drops the face properties declared before it,
+//    as OpenMesh did. Refused: no end_header, a property before any element, a list count type OpenMesh does
+//    not know, two vertex or two face elements, an element count above the bytes left, fewer or more than
+//    three coordinates.
+//  - body, as OpenMesh's read_ascii read it with `stream >> value` (PlyStream below emulates that stream: its
+//    fail and eof bits, a failed read leaving the value as num_get does, later reads doing nothing): elements
+//    in header order until the face element; positions, normals and uvs as float; colours as int (or float x
+//    255), cast to a byte; a list that is not a face's indices, and any unknown property, is one word. Each
+//    read is also held to the validation pass's rule for its token (a number; a plain unsigned count; the file
+//    not ending), so that what it refused is refused here at the token's line.
+//  - when a read takes part of a token the validation pass accepted (an int colour written "0.5"), or a face's
+//    texcoord list holds numbers (the validation pass read them, OpenMesh did not), the two passes stop reading
+//    the same tokens: the stream is followed on, and the validation pass is then run on its own over the body
+//    (validate_tokens) to decide, as before. Only such files pay for a second pass. Where OpenMesh then went on
+//    with a variable it had never written (undefined behaviour: its result changed from run to run), the file
+//    is refused.
+#include "document.h"
+#include "text_numbers.h"
+#include <furrow_kernel/huge_pages.h>
+
+#include <algorithm>
+#include <cfloat>
+#include <cstring>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace furrow::mesh_detail {
+namespace {
+
+// The validation pass's rule for the token a read takes.
+enum class Rule : uint8_t { none, number, count };
+// What OpenMesh does with a property.
+enum class Role : uint8_t { x, y, z, nx, ny, nz, u, v, red, green, blue, alpha, indices, texcoord, word };
+
+struct PlyProperty {
+    Role role = Role::word;
+    Rule rule = Rule::none;    // the validation pass's rule for its (non-list) token
+    bool float_colour = false; // a colour typed float/float32: read as float, times 255
+};
+struct PlyElement {
+    std::string name;
+    uint32_t count = 0;
+    std::vector<PlyProperty> properties;
+};
+struct PlyHeader {
+    bool ascii = false;
+    std::vector<PlyElement> elements;
+    int dimension = 0; // x, y and z properties of the vertex element (OpenMesh wants exactly 3)
+    bool normal = false, uv = false, colour = false;
+};
+
+// A token the validation pass accepts as a number: digits written plainly, a finite float.
+bool plain_number(const char* b, const char* e) {
+    if (b == e || !(is_digit(*b) || *b == '-' || *b == '.')) return false;
+    double v = 0;
+    const auto r = std::from_chars(b, e, v);
+    return r.ec == std::errc() && r.ptr == e && std::abs(v) <= 3.4e38;
+}
+// A token the validation pass accepts as a list count or index: an unsigned 32-bit number, no sign.
+bool plain_count(const char* b, const char* e) {
+    unsigned long long v = 0;
+    const auto r = std::from_chars(b, e, v);
+    return r.ec == std::errc() && r.ptr == e && v <= 0xFFFFFFFFull;
+}
+bool follows(Rule rule, const char* b, const char* e) {
+    return rule == Rule::none || (rule == Rule::number ? plain_number(b, e) : plain_count(b, e));
+}
+
+// The bytes as the std::istringstream OpenMesh read: fail and eof bits, and every read after a failure leaves
+// its value alone. `sync`: every read so far took exactly one whole token, so they are the validation pass's
+// tokens one for one and its rules apply inline; `bad` is the first token (or the end) it refused.
+struct PlyStream {
+    PlyStream(const char* begin, const char* from, const char* stop) : text(begin), at(from), end(stop) {}
+    const char* text;
+    const char* at;
+    const char* end;
+    bool fail = false, eof = false, sync = true;
+    const char* bad = nullptr;
+    const char* failed_at = nullptr; // the token whose conversion failed the stream
+    Rule bad_rule = Rule::none;
+    std::string why; // set when a refusal is not a token's rule
+
+    void refuse(const char* where, std::string what) {
+        if (!bad) bad = where, why = std::move(what);
+    }
+
+    const char* begin_read() { // the sentry: skip whitespace; at the end, fail and eof
+        if (fail) return nullptr;
+        while (at < end && is_space(*at)) ++at;
+        if (at < end) return at;
+        fail = eof = true;
+        if (sync && !bad) bad = end; // the validation pass wanted another token
+        sync = false;
+        return nullptr;
+    }
+    // A read took [b, p) (converted or not). A whole token is held to the rule; part of a token, or a failed
+    // conversion, is checked against the rule on the whole token: refused there, or the passes part ways.
+    void end_read(const char* b, const char* p, bool ok, Rule rule, bool checked = false) {
+        at = p;
+        eof = p == end;
+        if (!ok && !fail) fail = true, failed_at = b;
+        if (!sync || bad) return;
+        const bool whole = ok && (p == end || is_space(*p));
+        const char* e = p;
+        while (e < end && !is_space(*e)) ++e;
+        if (!(whole && checked) && !follows(rule, b, e)) bad = b, bad_rule = rule;
+        else if (!whole) sync = false;
+    }
+    void word(Rule rule) {
+        if (const char* b = begin_read()) {
+            const char* p = b;
+            while (p < end && !is_space(*p)) ++p;
+            end_read(b, p, true, rule);
+        }
+    }
+    void word(std::string& s) {
+        if (const char* b = begin_read()) {
+            const char* p = b;
+            while (p < end && !is_space(*p)) ++p;
+            s.assign(b, p);
+            end_read(b, p, true, Rule::none);
+        }
+    }
+    // The number reads return whether they wrote the value (not when the stream had failed or was at its end).
+    bool f32(float& v, Rule rule) {
+        const char* b = begin_read();
+        if (!b) return false;
+        if (const char* p = read_number(b, end, v)) {
+            // A float that converted is a plain double too, unless it is 0 (maybe a double underflow), out of
+            // the validation pass's range, or signed '+'.
+            const bool checked = v != 0 && std::abs(v) < 3.39e38f && *b != '+';
+            end_read(b, p, true, rule, checked);
+            return true;
+        }
+        const char* p = float_span_end(b, end);
+        const std::string span(b, p);
+        char* stop = nullptr;
+        const float f = std::strtof(span.c_str(), &stop); // num_get: out of range gives +-FLT_MAX, else 0
+        v = stop == span.c_str() + span.size() && std::isinf(f) ? std::copysign(FLT_MAX, f) : 0.0f;
+        end_read(b, p, false, rule);
+        return true;
+    }
+    bool i32(int& v, Rule rule) {
+        const char* b = begin_read();
+        if (!b) return false;
+        const IntRead r = read_int(b, end); // clamped on overflow, 0 without digits: as num_get
+        v = r.value;
+        end_read(b, integer_span_end(b, end), r.ok, rule);
+        return true;
+    }
+    bool u32(uint32_t& v, Rule rule) {
+        const char* b = begin_read();
+        if (!b) return false;
+        const char* p = integer_span_end(b, end);
+        const bool ok = read_unsigned(b, end, v) != nullptr;
+        if (!ok) v = p > b && is_digit(p[-1]) ? UINT32_MAX : 0; // overflow, or no digits
+        end_read(b, p, ok, rule);
+        return true;
+    }
+    void line_rest() { // std::getline
+        if (fail) return;
+        if (at == end) { fail = eof = true; return; }
+        const char* nl = static_cast<const char*>(std::memchr(at, '\n', size_t(end - at)));
+        at = nl ? nl + 1 : end;
+        eof = !nl;
+    }
+    Status refusal() const {
+        if (!why.empty()) return error(bad, why);
+        if (bad == end) return error(bad, "the file ends before its last element");
+        const char* e = bad;
+        while (e < end && !is_space(*e) && e - bad < 24) ++e;
+        std::string what(1, '\'');
+        what.append(bad, e).append(bad_rule == Rule::count ? "' is not a list count or index" : "' is not a number");
+        return error(bad, what);
+    }
+    Status error(const char* where, const std::string& what) const {
+        return Status::error(StatusCode::invalid_input, "PLY line " + std::to_string(line_of(text, where)) + ": " + what);
+    }
+};
+
+bool is_type(const std::string& t) {
+    static const char* const types[] = {"char",  "uchar",  "int8",  "uint8", "short", "ushort", "int16",   "uint16",
+                                        "int",   "uint",   "int32", "uint32", "float", "float32", "double", "float64"};
+    return std::any_of(std::begin(types), std::end(types), [&](const char* n) { return t == n; });
+}
+
+// One `property` line (after the keyword) as OpenMesh's can_u_read took it.
+Status read_property(PlyStream& s, PlyHeader& h) {
+    const char* line = s.at;
+    if (h.elements.empty()) return s.error(line, "a property before any element");
+    PlyElement& e = h.elements.back();
+    const bool vertex = e.name == "vertex", face = e.name == "face";
+    PlyProperty p;
+    std::string a, b, c;
+    s.word(a);
+    if (a == "list") {
+        s.word(a), s.word(b), s.word(c); // count type, entry type, name
+        if (!s.fail && a != "uint8" && a != "uint16" && a != "uchar" && a != "int")
+            return s.error(line, "unsupported list count type '" + a.substr(0, 16) + "'");
+        if (face && (c == "vertex_index" || c == "vertex_indices")) {
+            e.properties.clear(); // OpenMesh drops the face properties declared before the indices
+            p.role = Role::indices;
+        } else if (face && c == "texcoord") {
+            p.role = Role::texcoord;
+        }
+        e.properties.push_back(p);
+        return Status::success();
+    }
+    s.word(b);
+    const bool typed = is_type(a) || is_type(b);
+    const std::string name = is_type(a) ? b : a;
+    // OpenMesh's type: the first of float32, float64, float, double, ... that either word is.
+    const bool float_type = a == "float32" || b == "float32" || (a != "float64" && b != "float64" && (a == "float" || b == "float"));
+    p.rule = typed ? Rule::number : Rule::none;
+    p.float_colour = float_type;
+    struct Named { bool vertex; const char* name; Role role; };
+    static const Named named[] = {{true, "x", Role::x},          {true, "y", Role::y},         {true, "z", Role::z},
+                                  {true, "nx", Role::nx},        {true, "ny", Role::ny},       {true, "nz", Role::nz},
+                                  {true, "u", Role::u},          {true, "s", Role::u},         {true, "v", Role::v},
+                                  {true, "t", Role::v},          {true, "red", Role::red},     {true, "green", Role::green},
+                                  {true, "blue", Role::blue},    {true, "diffuse_red", Role::red},
+                                  {true, "diffuse_green", Role::green}, {true, "diffuse_blue", Role::blue},
+                                  {true, "alpha", Role::alpha},  {false, "red", Role::red},    {false, "green", Role::green},
+                                  {false, "blue", Role::blue},   {false, "alpha", Role::alpha}};
+    for (const Named& n : named)
+        if (typed && (n.vertex ? vertex : face) && name == n.name) p.role = n.role;
+    if (vertex) {
+        h.dimension += p.role == Role::x || p.role == Role::y || p.role == Role::z;
+        h.normal |= p.role == Role::nx || p.role == Role::ny || p.role == Role::nz;
+        h.uv |= p.role == Role::u || p.role == Role::v;
+        h.colour |= p.role >= Role::red && p.role <= Role::alpha;
+    }
+    e.properties.push_back(p);
+    return Status::success();
+}
+
+// The header up to end_header; `s` is left after it.
+Status read_header(PlyStream& s, PlyHeader& h) {
+    const char* nl = static_cast<const char*>(std::memchr(s.at, '\n', size_t(s.end - s.at)));
+    std::string_view first(s.at, size_t((nl ? nl : s.end) - s.at));
+    while (!first.empty() && is_space(first.back())) first.remove_suffix(1);
+    if (first != "ply" && first != "PLY") return s.error(s.at, "the file does not start with 'ply'");
+    s.line_rest();
+    std::string keyword, format;
+    float version = 0;
+    const char* format_line = s.at;
+    s.word(keyword), s.word(format), s.f32(version, Rule::none);
+    if (s.fail || keyword != "format") return s.error(format_line, "no valid format line");
+    if (format != "ascii" && format != "binary_little_endian" && format != "binary_big_endian")
+        return s.error(format_line, "unknown format '" + format.substr(0, 24) + "'");
+    h.ascii = format == "ascii";
+    for (;;) {
+        s.word(keyword);
+        if (s.fail) return s.error(s.at, "the header has no end_header");
+        const char* line = s.at;
+        if (keyword == "end_header") break;
+        if (keyword == "comment") {
+            s.line_rest();
+        } else if (keyword == "element") {
+            PlyElement e;
+            s.word(e.name), s.u32(e.count, Rule::none);
+            h.elements.push_back(std::move(e));
+        } else if (keyword == "property") {
+            if (Status st = read_property(s, h); !st.ok()) return st;
+        }
+        if (s.fail) return s.error(line, "malformed " + keyword.substr(0, 16) + " line");
+    }
+    size_t vertex_elements = 0, face_elements = 0;
+    for (const PlyElement& e : h.elements) vertex_elements += e.name == "vertex", face_elements += e.name == "face";
+    if (vertex_elements > 1 || face_elements > 1) return s.error(s.at, "more than one vertex or face element");
+    for (const PlyElement& e : h.elements) // each element takes at least a byte of the body
+        if (e.count > size_t(s.end - s.at))
+            return s.error(s.at, "an element count of " + std::to_string(e.count) + " is more than the file holds");
+    return Status::success();
+}
+
+// The validation pass on its own, over the body's tokens (only after the passes parted ways, see above).
+Status validate_tokens(const char* text, const char* body, const char* end, const PlyHeader& h) {
+    PlyStream s(text, body, end);
+    size_t left = 0; // tokens not yet taken
+    for (const char* p = body; p < end; ++p) left += !is_space(*p) && (p == body || is_space(p[-1]));
+    auto take = [&](Rule rule) {
+        s.sync = true;
+        s.word(rule);
+        --left;
+        return !s.bad;
+    };
+    for (const PlyElement& e : h.elements) {
+        const bool face = e.name == "face";
+        for (uint32_t i = 0; i < e.count; ++i) {
+            uint32_t corners = 0;
+            for (const PlyProperty& p : e.properties) {
+                if (p.role == Role::indices || p.role == Role::texcoord) {
+                    const char* b = s.begin_read();
+                    uint32_t n = 0;
+                    if (!b || !take(Rule::count)) return s.error(b ? b : end, "a face list count is not valid");
+                    std::from_chars(b, s.at, n);
+                    if (n > left) return s.error(b, "a face list count is not valid");
+                    if (p.role == Role::texcoord && corners == 0) return s.error(b, "face texture coordinates without corners");
+                    for (uint32_t k = 0; k < n; ++k)
+                        if (!take(p.role == Role::texcoord ? Rule::number : Rule::count)) return s.error(s.bad, "a face holds something other than numbers");
+                    if (p.role == Role::indices) corners = n;
+                } else if (left == 0) {
+                    return s.error(end, "the file ends before its last element");
+                } else if (!take(p.rule)) {
+                    return s.error(s.bad, "a value is not a number");
+                }
+            }
+        }
+        if (face) break;
+    }
+    return Status::success();
+}
+
+// What OpenMesh's read_ascii kept between records: declared once, outside its loops, so that a read that
+// does nothing (the stream failed) leaves the last value read; `known` once a value was ever written (before
+// that, OpenMesh used an uninitialised variable).
+struct Kept {
+    uint32_t value = 0;
+    bool known = false;
+};
+struct ReadState {
+    float tmp = 0;
+    bool tmp_known = false;
+    Kept nV, j, k, l, idx;
+    std::vector<uint32_t> vh;
+    size_t body = 0; // bytes after end_header: no list is longer (below it, the stream ends first)
+};
+
+// After a read into a kept variable: refused if OpenMesh went on with a value it never had.
+void kept(PlyStream& s, bool wrote, bool& known) {
+    if (wrote) known = true;
+    else if (!known) s.refuse(s.failed_at ? s.failed_at : s.end, "not read as its property's type; the former reader went on with values it never read");
+}
+void read_kept(PlyStream& s, Kept& v, Rule rule) { kept(s, s.u32(v.value, rule), v.known); }
+
+// static_cast<int>(x) as x86 does it: out of range gives INT_MIN.
+int to_int(float x) { return x >= -2147483648.0f && x < 2147483648.0f ? int(x) : INT_MIN; }
+
+void read_colour(PlyStream& s, const PlyProperty& p, int& c, ReadState& st) {
+    if (!p.float_colour) return void(s.i32(c, p.rule));
+    kept(s, s.f32(st.tmp, p.rule), st.tmp_known);
+    c = to_int(st.tmp * 255.0f);
+}
+
+void read_vertices(PlyStream& s, const PlyElement& e, const PlyHeader& h, ReadState& st, ReaderMesh& m) {
+    const size_t cap = std::min<size_t>(e.count, st.body / 6 + 1); // a vertex is at least "0 0 0\n"
+    kernel::reserve_huge(m.points, cap * 3);
+    if (h.normal) kernel::reserve_huge(m.normals, cap * 3);
+    if (h.uv) kernel::reserve_huge(m.vertex_uv, cap * 2);
+    if (h.colour) kernel::reserve_huge(m.colors, cap * 4);
+    uint32_t i = 0;
+    for (; i < e.count && !s.eof && !s.bad; ++i) {
+        float v[3] = {0, 0, 0}, n[3] = {0, 0, 0}, t[2] = {0, 0};
+        int c[4] = {0, 0, 0, 255};
+        for (const PlyProperty& p : e.properties) {
+            const int r = int(p.role);
+            if (p.role <= Role::z) s.f32(v[r - int(Role::x)], p.rule);
+            else if (p.role <= Role::nz) s.f32(n[r - int(Role::nx)], p.rule);
+            else if (p.role <= Role::v) s.f32(t[r - int(Role::u)], p.rule);
+            else if (p.role <= Role::alpha) read_colour(s, p, c[r - int(Role::red)], st);
+            else s.word(p.rule);
+        }
+        m.points.insert(m.points.end(), {double(v[0]), double(v[1]), double(v[2])});
+        if (h.normal) m.normals.insert(m.normals.end(), {n[0], n[1], n[2]});
+        if (h.uv) m.vertex_uv.insert(m.vertex_uv.end(), {t[0], t[1]});
+        if (h.colour)
+            for (int k = 0; k < 4; ++k) m.colors.push_back(float(uint8_t(c[k])) / 255.f);
+    }
+    m.any_normal |= h.normal && i > 0, m.any_vertex_uv |= h.uv && i > 0, m.any_color |= h.colour && i > 0;
+    if (i < e.count && !e.properties.empty() && s.sync) s.refuse(s.end, "the file ends before its last element");
+}
+
+// A face's corners: a count, then that many indices (three read as j, k, l, as OpenMesh did).
+void read_indices(PlyStream& s, ReadState& st, ReaderMesh& m) {
+    read_kept(s, st.nV, Rule::count);
+    if (st.nV.value == 3) {
+        read_kept(s, st.j, Rule::count), read_kept(s, st.k, Rule::count), read_kept(s, st.l, Rule::count);
+        st.vh.assign({st.j.value, st.k.value, st.l.value});
+    } else {
+        // Longer than the file: the validation pass refused it (or, out of step, OpenMesh looped on it).
+        if (st.nV.value > st.body)
+            return s.refuse(s.at, "a face list count of " + std::to_string(st.nV.value) + " is more than the file holds");
+        st.vh.clear();
+        for (st.j = {0, true}; st.j.value < st.nV.value && !s.bad; ++st.j.value) {
+            read_kept(s, st.idx, Rule::count);
+            st.vh.push_back(st.idx.value);
+        }
+    }
+    m.face_start.push_back(uint32_t(m.corners.size()));
+    m.corners.insert(m.corners.end(), st.vh.begin(), st.vh.end());
+}
+
+// OpenMesh 9.0's read_ascii has no case for a face's texcoord list: it reads one word. The validation pass
+// read the list (a count, then that many numbers), so after a list of one or more the two read different tokens.
+void read_texcoord(PlyStream& s, const ReadState& st) {
+    const bool was_sync = s.sync && !s.bad;
+    const char* b = s.begin_read();
+    s.word(Rule::count);
+    if (!was_sync || !b || s.bad) return;
+    if (st.vh.empty()) return s.refuse(b, "face texture coordinates without corners");
+    if (s.at - b != 1 || *b != '0') s.sync = false;
+}
+
+void read_faces(PlyStream& s, const PlyElement& e, ReadState& st, ReaderMesh& m) {
+    const size_t cap = std::min<size_t>(e.count, st.body / 8 + 1); // a triangle is at least "3 0 1 2\n"
+    kernel::reserve_huge(m.face_start, cap);
+    kernel::reserve_huge(m.corners, cap * 3);
+    uint32_t i = 0;
+    for (; i < e.count && !s.eof && !s.bad; ++i) {
+        int c[4] = {0, 0, 0, 255}; // face colours are read and dropped
+        for (const PlyProperty& p : e.properties) {
+            if (p.role == Role::indices) read_indices(s, st, m);
+            else if (p.role == Role::texcoord) read_texcoord(s, st);
+            else if (p.role >= Role::red && p.role <= Role::alpha) read_colour(s, p, c[int(p.role) - int(Role::red)], st);
+            else s.word(p.rule);
+        }
+    }
+    if (i < e.count && !e.properties.empty() && s.sync) s.refuse(s.end, "the file ends before its last element");
+}
+
+void read_other(PlyStream& s, const PlyElement& e) {
+    uint32_t i = 0;
+    for (; i < e.count && !s.eof && !s.bad; ++i)
+        for (const PlyProperty& p : e.properties) s.word(p.rule);
+    if (i < e.count && !e.properties.empty() && s.sync) s.refuse(s.end, "the file ends before its last element");
+}
+
+// The elements in header order, up to and including the faces (OpenMesh stopped there).
+Status read_body(PlyStream& s, const PlyHeader& h, ReaderMesh& m) {
+    if (h.dimension != 3)
+        return s.error(s.at, "the vertex element has " + std::to_string(h.dimension) + " of the x, y, z properties (3 are needed)");
+    const char* body = s.at;
+    ReadState st;
+    st.body = size_t(s.end - s.at);
+    for (const PlyElement& e : h.elements) {
+        if (s.eof) return s.error(s.end, "the file ends before element '" + e.name.substr(0, 16) + "'");
+        if (e.name == "vertex") read_vertices(s, e, h, st, m);
+        else if (e.name == "face") read_faces(s, e, st, m);
+        else read_other(s, e);
+        if (s.bad) return s.refusal();
+        if (e.name == "face") break;
+    }
+    if (!s.sync) return validate_tokens(s.text, body, s.end, h);
+    return Status::success();
+}
+
+} // namespace
+} // namespace furrow::mesh_detail
+
+namespace furrow {
+
+Status load_ply_bytes(Scene& out, const char* text, size_t size, const LoadOptions& options) {
+    mesh_detail::PlyStream s(text, text, text + size);
+    mesh_detail::PlyHeader h;
+    if (Status st = mesh_detail::read_header(s, h); !st.ok()) return st;
+    if (!h.ascii) return load_openmesh_bytes(out, std::string(text, size), ".ply", options);
+    s.sync = true, s.bad = nullptr; // the header's reads are not the body's tokens
+    mesh_detail::ReaderMesh mesh;
+    if (Status st = mesh_detail::read_body(s, h, mesh); !st.ok()) return st;
+    return mesh_detail::reader_mesh_to_scene(out, mesh, options);
+}
+
+} // namespace furrow
