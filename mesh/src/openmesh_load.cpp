@@ -253,7 +253,11 @@ Status check_ply_ascii_body(std::istringstream& in, const std::vector<PlyElement
                 } else if (at >= tokens.size()) {
                     return bad("the file ends before its last element");
                 } else if (!p.list && ply_type_size(p.type) > 0) {
-                    if (!number_token()) return bad("'" + tokens[at - 1].substr(0, 16) + "' is not a number");
+                    if (!number_token()) {
+                        std::string what(1, '\''); // appended: GCC 12 warns (-Wrestrict, a false positive) on "'" + std::string&&
+                        what += tokens[at - 1].substr(0, 16);
+                        return bad(what + "' is not a number");
+                    }
                 } else {
                     ++at; // read as a word and dropped
                 }
