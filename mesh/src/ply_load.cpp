@@ -1,32 +1,47 @@
-// ASCII PLY in one pass over the bytes, std::from_chars on the buffer (text_numbers.h, shared with the OBJ and
-// OFF readers). PLY is Greg Turk's polygon file format (1994: a header of `element <name> <count>` lines, each
-// followed by its `property <type> <name>` / `property list <count type> <entry type> <name>` lines, then the
-// elements' records in header order). http://paulbourke.net/dataformats/ply/
-// The former path (openmesh_load.cpp, kept as the oracle of tests/mesh/test_ply_load.cpp) walked the file twice
-// with string streams, a validation pass and then OpenMesh's PLYReader (10 MB/s on the generated grid of
-// `furrow bench io`). This reads the same numbers the same way in one pass, gives the same scene for every file
-// that path accepted, and refuses what it refused, now naming the line. Binary PLY keeps the former path.
+// PLY, ASCII and binary, in one pass over the bytes: ASCII with std::from_chars on the buffer (text_numbers.h,
+// shared with the OBJ and OFF readers), binary with memcpy and a byte swap for big endian. PLY is Greg Turk's
+// polygon file format (1994: a header of `element <name> <count>` lines, each followed by its `property <type>
+// <name>` / `property list <count type> <entry type> <name>` lines, then the elements' records in header order,
+// as text or as each value's bytes). http://paulbourke.net/dataformats/ply/
+// The former path (openmesh_load.cpp, kept as the oracle of tests/mesh/test_ply_load.cpp) walked the file twice,
+// a validation pass and then OpenMesh's PLYReader (ASCII with string streams: 10 MB/s on the generated grid of
+// `furrow bench io`; binary from a copy of the file in a std::istringstream: 50 MB/s). This reads the same
+// values the same way in one pass, gives the same scene for every file that path accepted, and refuses what
+// it refused, now naming the line (ASCII) or the byte and the element row (binary).
 // Stages, each as that path did it:
-//  - header: `ply`, `format ascii|binary_* <version>`, then keywords read as stream words up to `end_header`:
-//    comment lines skipped, unknown words ignored, `element` and `property` lines as OpenMesh 9.0 understands
-//    them (the type may come before or after the name; x y z, nx ny nz, u/s v/t, red green blue alpha (diffuse_
-//    too) on the vertex; the vertex_index(es) list and colours on the face; everything else, a texcoord list
-//    and texnumber included, is one word). A vertex_indices list drops the face properties declared before it,
-//    as OpenMesh did. Refused: no end_header, a property before any element, a list count type OpenMesh does
-//    not know, two vertex or two face elements, an element count above the bytes left, fewer or more than
-//    three coordinates.
-//  - body, as OpenMesh's read_ascii read it with `stream >> value` (PlyStream below emulates that stream: its
-//    fail and eof bits, a failed read leaving the value as num_get does, later reads doing nothing): elements
-//    in header order until the face element; positions, normals and uvs as float; colours as int (or float x
-//    255), cast to a byte; a list that is not a face's indices, and any unknown property, is one word. Each
-//    read is also held to the validation pass's rule for its token (a number; a plain unsigned count; the file
-//    not ending), so that what it refused is refused here at the token's line.
+//  - header: `ply`, `format ascii|binary_little_endian|binary_big_endian <version>`, then keywords read as
+//    stream words up to `end_header`: comment lines skipped, unknown words ignored, `element` and `property`
+//    lines as OpenMesh 9.0 understands them (the type may come before or after the name; x y z, nx ny nz, u/s
+//    v/t, red green blue alpha (diffuse_ too) on the vertex; the vertex_index(es) list and colours on the face;
+//    everything else, a texcoord list and texnumber included, is one word, or in binary one value of its
+//    type). A vertex_indices list drops the face properties declared before it, as OpenMesh did. Refused: no
+//    end_header, a property before any element, a list count type OpenMesh does not know (uchar, uint8,
+//    uint16 and int are), two vertex or two face elements, an element count above the bytes left, and (ASCII
+//    only) fewer or more than three coordinates.
+//  - ASCII body, as OpenMesh's read_ascii read it with `stream >> value` (PlyStream below emulates that
+//    stream: its fail and eof bits, a failed read leaving the value as num_get does, later reads doing
+//    nothing): elements in header order until the face element; positions, normals and uvs as float; colours
+//    as int (or float x 255), cast to a byte; a list that is not a face's indices, and any unknown property,
+//    is one word. Each read is also held to the validation pass's rule for its token (a number; a plain
+//    unsigned count; the file not ending), so that what it refused is refused here at the token's line.
 //  - when a read takes part of a token the validation pass accepted (an int colour written "0.5"), or a face's
 //    texcoord list holds numbers (the validation pass read them, OpenMesh did not), the two passes stop reading
 //    the same tokens: the stream is followed on, and the validation pass is then run on its own over the body
 //    (validate_tokens) to decide, as before. Only such files pay for a second pass. Where OpenMesh then went on
 //    with a variable it had never written (undefined behaviour: its result changed from run to run), the file
 //    is refused.
+//  - binary body, as OpenMesh's read_binary read it (its PLYReader.cc; the type cases of readValue and
+//    readInteger as disassembled from Debian's libOpenMeshCore 9.0, and held to it by the tests): from 12 bytes past where its read of end_header began (14 after "\r\n"); the
+//    elements in header order until the faces, each value std::istream::read into a variable of its type.
+//    Its readValue into a float takes float and double only (a double is cast to float), its readInteger the
+//    integer types only (signed ones sign-extended); for any other type (an int x, a double colour, float
+//    indices) the value is 0 and no byte is taken. A float colour is x 255, cast to int, then a byte. A list
+//    that is not the face's indices (a face's texcoord list too) is skipped as one value of its entry type.
+//    No dimension check (three coordinates read, a missing one is 0). The validation pass before it skipped each
+//    value by the size of its first type word and a face's texcoord list as a list: where the two take the
+//    same bytes for every property (binary_in_step: nearly every file), the reads here hold the validation
+//    pass's checks (the file not ending inside a row; a list within the file); otherwise it runs on its own
+//    first (validate_binary, a walk over the face counts). A read past the end was OpenMesh's failure.
 #include "document.h"
 #include "text_numbers.h"
 #include <furrow_kernel/huge_pages.h>
