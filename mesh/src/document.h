@@ -79,15 +79,15 @@ Status reader_mesh_to_scene(Scene& out, ReaderMesh& mesh, const LoadOptions& opt
 
 namespace furrow {
 // Format loaders behind load_scene (gltf_load.cpp, obj_load.cpp, off_load.cpp, ply_load.cpp, stl_load.cpp,
-// openmesh_load.cpp). `resolver` reads external resources; empty = none are resolved. load_openmesh_bytes reads
-// binary PLY; given an ASCII PLY or ".off" it is the former reader of that format (a validation pass, then
-// OpenMesh's), kept as the oracle of tests/mesh/test_ply_load.cpp and tests/mesh/test_off_load.cpp.
+// openmesh_load.cpp). `resolver` reads external resources; empty = none are resolved. load_openmesh_bytes is
+// the former reader of ".ply" (ASCII and binary) and ".off" (a validation pass, then OpenMesh's), called by
+// no loader: kept as the oracle of tests/mesh/test_ply_load.cpp and tests/mesh/test_off_load.cpp.
 Status load_gltf_bytes(Scene& out, const uint8_t* data, size_t size, const ResourceResolver& resolver,
                        const LoadOptions& options);
 Status load_stl_bytes(Scene& out, const char* data, size_t size, const LoadOptions& options);
 Status load_openmesh_bytes(Scene& out, const std::string& bytes, const std::string& ext, const LoadOptions& options);
 Status load_obj_bytes(Scene& out, const char* text, size_t size, const LoadOptions& options);
 Status load_off_bytes(Scene& out, const char* text, size_t size, const LoadOptions& options);
-// ASCII PLY in one pass (ply_load.cpp); binary PLY goes on to load_openmesh_bytes.
+// PLY, ASCII and binary (little and big endian), in one pass (ply_load.cpp).
 Status load_ply_bytes(Scene& out, const char* text, size_t size, const LoadOptions& options);
 } // namespace furrow

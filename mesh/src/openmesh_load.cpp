@@ -1,6 +1,6 @@
-// Binary PLY loading through OpenMesh's reader (OBJ: obj_load.cpp, OFF: off_load.cpp, ASCII PLY: ply_load.cpp;
-// the OFF and ASCII PLY paths here are the former readers, kept as the oracles their replacements are tested
-// against). The readers feed a recording importer instead of
+// The former PLY and OFF readers through OpenMesh's (now: ply_load.cpp for ASCII and binary PLY, off_load.cpp,
+// obj_load.cpp), reachable from tests only, kept as the oracles their replacements are tested against
+// (tests/mesh/test_ply_load.cpp, test_off_load.cpp). The readers feed a recording importer instead of
 // a halfedge mesh: a halfedge structure would silently drop or split the non-manifold and degenerate faces
 // that `furrow check` must see. Polygons stay polygons (Catmull-Clark wants the quads).
 #include "document.h"

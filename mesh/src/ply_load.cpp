@@ -1,32 +1,47 @@
-// ASCII PLY in one pass over the bytes, std::from_chars on the buffer (text_numbers.h, shared with the OBJ and
-// OFF readers). PLY is Greg Turk's polygon file format (1994: a header of `element <name> <count>` lines, each
-// followed by its `property <type> <name>` / `property list <count type> <entry type> <name>` lines, then the
-// elements' records in header order). http://paulbourke.net/dataformats/ply/
-// The former path (openmesh_load.cpp, kept as the oracle of tests/mesh/test_ply_load.cpp) walked the file twice
-// with string streams, a validation pass and then OpenMesh's PLYReader (10 MB/s on the generated grid of
-// `furrow bench io`). This reads the same numbers the same way in one pass, gives the same scene for every file
-// that path accepted, and refuses what it refused, now naming the line. Binary PLY keeps the former path.
+// PLY, ASCII and binary, in one pass over the bytes: ASCII with std::from_chars on the buffer (text_numbers.h,
+// shared with the OBJ and OFF readers), binary with memcpy and a byte swap for big endian. PLY is Greg Turk's
+// polygon file format (1994: a header of `element <name> <count>` lines, each followed by its `property <type>
+// <name>` / `property list <count type> <entry type> <name>` lines, then the elements' records in header order,
+// as text or as each value's bytes). http://paulbourke.net/dataformats/ply/
+// The former path (openmesh_load.cpp, kept as the oracle of tests/mesh/test_ply_load.cpp) walked the file twice,
+// a validation pass and then OpenMesh's PLYReader (ASCII with string streams: 10 MB/s on the generated grid of
+// `furrow bench io`; binary from a copy of the file in a std::istringstream: 50 MB/s). This reads the same
+// values the same way in one pass, gives the same scene for every file that path accepted, and refuses what
+// it refused, now naming the line (ASCII) or the byte and the element row (binary).
 // Stages, each as that path did it:
-//  - header: `ply`, `format ascii|binary_* <version>`, then keywords read as stream words up to `end_header`:
-//    comment lines skipped, unknown words ignored, `element` and `property` lines as OpenMesh 9.0 understands
-//    them (the type may come before or after the name; x y z, nx ny nz, u/s v/t, red green blue alpha (diffuse_
-//    too) on the vertex; the vertex_index(es) list and colours on the face; everything else, a texcoord list
-//    and texnumber included, is one word). A vertex_indices list drops the face properties declared before it,
-//    as OpenMesh did. Refused: no end_header, a property before any element, a list count type OpenMesh does
-//    not know, two vertex or two face elements, an element count above the bytes left, fewer or more than
-//    three coordinates.
-//  - body, as OpenMesh's read_ascii read it with `stream >> value` (PlyStream below emulates that stream: its
-//    fail and eof bits, a failed read leaving the value as num_get does, later reads doing nothing): elements
-//    in header order until the face element; positions, normals and uvs as float; colours as int (or float x
-//    255), cast to a byte; a list that is not a face's indices, and any unknown property, is one word. Each
-//    read is also held to the validation pass's rule for its token (a number; a plain unsigned count; the file
-//    not ending), so that what it refused is refused here at the token's line.
+//  - header: `ply`, `format ascii|binary_little_endian|binary_big_endian <version>`, then keywords read as
+//    stream words up to `end_header`: comment lines skipped, unknown words ignored, `element` and `property`
+//    lines as OpenMesh 9.0 understands them (the type may come before or after the name; x y z, nx ny nz, u/s
+//    v/t, red green blue alpha (diffuse_ too) on the vertex; the vertex_index(es) list and colours on the face;
+//    everything else, a texcoord list and texnumber included, is one word, or in binary one value of its
+//    type). A vertex_indices list drops the face properties declared before it, as OpenMesh did. Refused: no
+//    end_header, a property before any element, a list count type OpenMesh does not know (uchar, uint8,
+//    uint16 and int are), two vertex or two face elements, an element count above the bytes left, and (ASCII
+//    only) fewer or more than three coordinates.
+//  - ASCII body, as OpenMesh's read_ascii read it with `stream >> value` (PlyStream below emulates that
+//    stream: its fail and eof bits, a failed read leaving the value as num_get does, later reads doing
+//    nothing): elements in header order until the face element; positions, normals and uvs as float; colours
+//    as int (or float x 255), cast to a byte; a list that is not a face's indices, and any unknown property,
+//    is one word. Each read is also held to the validation pass's rule for its token (a number; a plain
+//    unsigned count; the file not ending), so that what it refused is refused here at the token's line.
 //  - when a read takes part of a token the validation pass accepted (an int colour written "0.5"), or a face's
 //    texcoord list holds numbers (the validation pass read them, OpenMesh did not), the two passes stop reading
 //    the same tokens: the stream is followed on, and the validation pass is then run on its own over the body
 //    (validate_tokens) to decide, as before. Only such files pay for a second pass. Where OpenMesh then went on
 //    with a variable it had never written (undefined behaviour: its result changed from run to run), the file
 //    is refused.
+//  - binary body, as OpenMesh's read_binary read it (its PLYReader.cc; the type cases of readValue and
+//    readInteger as disassembled from Debian's libOpenMeshCore 9.0, and held to it by the tests): from 12 bytes past where its read of end_header began (14 after "\r\n"); the
+//    elements in header order until the faces, each value std::istream::read into a variable of its type.
+//    Its readValue into a float takes float and double only (a double is cast to float), its readInteger the
+//    integer types only (signed ones sign-extended); for any other type (an int x, a double colour, float
+//    indices) the value is 0 and no byte is taken. A float colour is x 255, cast to int, then a byte. A list
+//    that is not the face's indices (a face's texcoord list too) is skipped as one value of its entry type.
+//    No dimension check (three coordinates read, a missing one is 0). The validation pass before it skipped each
+//    value by the size of its first type word and a face's texcoord list as a list: where the two take the
+//    same bytes for every property (binary_in_step: nearly every file), the reads here hold the validation
+//    pass's checks (the file not ending inside a row; a list within the file); otherwise it runs on its own
+//    first (validate_binary, a walk over the face counts). A read past the end was OpenMesh's failure.
 #include "document.h"
 #include "text_numbers.h"
 #include <furrow_kernel/huge_pages.h>
@@ -36,6 +51,7 @@
 #include <cstring>
 #include <string>
 #include <string_view>
+#include <type_traits>
 #include <vector>
 
 namespace furrow::mesh_detail {
@@ -46,10 +62,17 @@ enum class Rule : uint8_t { none, number, count };
 // What OpenMesh does with a property.
 enum class Role : uint8_t { x, y, z, nx, ny, nz, u, v, red, green, blue, alpha, indices, texcoord, word };
 
+// A PLY scalar type as OpenMesh's get_property_type named it (none: no type word).
+enum class Scalar : uint8_t { none, i8, u8, i16, u16, i32, u32, f32, f64 };
+
 struct PlyProperty {
     Role role = Role::word;
     Rule rule = Rule::none;    // the validation pass's rule for its (non-list) token
     bool float_colour = false; // a colour typed float/float32: read as float, times 255
+    Scalar type = Scalar::none;  // OpenMesh's type of the value (a list's entries)
+    Scalar count = Scalar::none; // a list's count type (none: not a list)
+    uint8_t read_size = 0;  // binary: the bytes OpenMesh's read of the value (a list entry) takes
+    uint8_t check_size = 0; // binary: the bytes the validation pass skips for it (the first type word's size)
 };
 struct PlyElement {
     std::string name;
@@ -58,6 +81,8 @@ struct PlyElement {
 };
 struct PlyHeader {
     bool ascii = false;
+    bool msb = false;                 // binary_big_endian
+    const char* before_end = nullptr; // where the read of the end_header keyword began (OpenMesh's seek)
     std::vector<PlyElement> elements;
     int dimension = 0; // x, y and z properties of the vertex element (OpenMesh wants exactly 3)
     bool normal = false, uv = false, colour = false;
@@ -192,10 +217,33 @@ struct PlyStream {
     }
 };
 
-bool is_type(const std::string& t) {
-    static const char* const types[] = {"char",  "uchar",  "int8",  "uint8", "short", "ushort", "int16",   "uint16",
-                                        "int",   "uint",   "int32", "uint32", "float", "float32", "double", "float64"};
-    return std::any_of(std::begin(types), std::end(types), [&](const char* n) { return t == n; });
+// OpenMesh's get_property_type: the first of these names that either word is ("double float" is a float).
+Scalar scalar_of(const std::string& a, const std::string& b) {
+    static const std::pair<const char*, Scalar> order[] = {
+        {"float32", Scalar::f32}, {"float64", Scalar::f64}, {"float", Scalar::f32}, {"double", Scalar::f64},
+        {"int8", Scalar::i8},     {"uint8", Scalar::u8},    {"char", Scalar::i8},   {"uchar", Scalar::u8},
+        {"int32", Scalar::i32},   {"uint32", Scalar::u32},  {"int", Scalar::i32},   {"uint", Scalar::u32},
+        {"int16", Scalar::i16},   {"uint16", Scalar::u16},  {"short", Scalar::i16}, {"ushort", Scalar::u16}};
+    for (const auto& [name, type] : order)
+        if (a == name || b == name) return type;
+    return Scalar::none;
+}
+bool is_type(const std::string& t) { return scalar_of(t, t) != Scalar::none; }
+uint8_t size_of(Scalar t) {
+    static constexpr uint8_t sizes[] = {0, 1, 1, 2, 2, 4, 4, 4, 8};
+    return sizes[int(t)];
+}
+
+// The bytes OpenMesh's read_binary takes for a property: its readValue into a float (coordinates, normals,
+// uvs, a float colour) has cases for float and double only, its readInteger (an integer colour, the indices)
+// for the integer types only; any other type reads nothing and gives 0. Every other property (a list too) is
+// skipped as one value of its type.
+uint8_t read_size_of(const PlyProperty& p) {
+    const bool is_float = p.type == Scalar::f32 || p.type == Scalar::f64;
+    if (p.role <= Role::v) return is_float ? size_of(p.type) : 0;                        // readValue
+    if (p.role <= Role::alpha) return p.float_colour ? 4 : is_float ? 0 : size_of(p.type); // either
+    if (p.role == Role::indices) return is_float ? 0 : size_of(p.type);                    // readInteger
+    return size_of(p.type);
 }
 
 // One `property` line (after the keyword) as OpenMesh's can_u_read took it.
@@ -211,22 +259,27 @@ Status read_property(PlyStream& s, PlyHeader& h) {
         s.word(a), s.word(b), s.word(c); // count type, entry type, name
         if (!s.fail && a != "uint8" && a != "uint16" && a != "uchar" && a != "int")
             return s.error(line, "unsupported list count type '" + a.substr(0, 16) + "'");
+        p.count = scalar_of(a, a);
+        p.type = scalar_of(b, b);
+        p.check_size = size_of(p.type);
         if (face && (c == "vertex_index" || c == "vertex_indices")) {
             e.properties.clear(); // OpenMesh drops the face properties declared before the indices
             p.role = Role::indices;
         } else if (face && c == "texcoord") {
             p.role = Role::texcoord;
         }
+        p.read_size = read_size_of(p);
         e.properties.push_back(p);
         return Status::success();
     }
     s.word(b);
     const bool typed = is_type(a) || is_type(b);
     const std::string name = is_type(a) ? b : a;
-    // OpenMesh's type: the first of float32, float64, float, double, ... that either word is.
-    const bool float_type = a == "float32" || b == "float32" || (a != "float64" && b != "float64" && (a == "float" || b == "float"));
+    p.type = scalar_of(a, b);
     p.rule = typed ? Rule::number : Rule::none;
-    p.float_colour = float_type;
+    p.float_colour = p.type == Scalar::f32;
+    const std::string& first_type = is_type(a) ? a : b; // the validation pass's type word
+    p.check_size = size_of(scalar_of(first_type, first_type));
     struct Named { bool vertex; const char* name; Role role; };
     static const Named named[] = {{true, "x", Role::x},          {true, "y", Role::y},         {true, "z", Role::z},
                                   {true, "nx", Role::nx},        {true, "ny", Role::ny},       {true, "nz", Role::nz},
@@ -244,6 +297,7 @@ Status read_property(PlyStream& s, PlyHeader& h) {
         h.uv |= p.role == Role::u || p.role == Role::v;
         h.colour |= p.role >= Role::red && p.role <= Role::alpha;
     }
+    p.read_size = read_size_of(p);
     e.properties.push_back(p);
     return Status::success();
 }
@@ -263,7 +317,9 @@ Status read_header(PlyStream& s, PlyHeader& h) {
     if (format != "ascii" && format != "binary_little_endian" && format != "binary_big_endian")
         return s.error(format_line, "unknown format '" + format.substr(0, 24) + "'");
     h.ascii = format == "ascii";
+    h.msb = format == "binary_big_endian";
     for (;;) {
+        h.before_end = s.at; // std::istream::tellg before the keyword, as OpenMesh took it
         s.word(keyword);
         if (s.fail) return s.error(s.at, "the header has no end_header");
         const char* line = s.at;
@@ -357,31 +413,42 @@ void read_colour(PlyStream& s, const PlyProperty& p, int& c, ReadState& st) {
     c = to_int(st.tmp * 255.0f);
 }
 
-void read_vertices(PlyStream& s, const PlyElement& e, const PlyHeader& h, ReadState& st, ReaderMesh& m) {
-    const size_t cap = std::min<size_t>(e.count, st.body / 6 + 1); // a vertex is at least "0 0 0\n"
+// One vertex as OpenMesh's readers held it: reset for each record, then given to the importer whole.
+struct VertexValues {
+    float v[3] = {0, 0, 0}, n[3] = {0, 0, 0}, t[2] = {0, 0};
+    int c[4] = {0, 0, 0, 255};
+};
+void reserve_vertices(ReaderMesh& m, const PlyHeader& h, size_t cap) {
     kernel::reserve_huge(m.points, cap * 3);
     if (h.normal) kernel::reserve_huge(m.normals, cap * 3);
     if (h.uv) kernel::reserve_huge(m.vertex_uv, cap * 2);
     if (h.colour) kernel::reserve_huge(m.colors, cap * 4);
+}
+// set_point, and set_normal / set_texcoord / set_color (a colour cast to bytes) where the header declared them.
+void add_vertex(ReaderMesh& m, const PlyHeader& h, const VertexValues& x) {
+    m.points.insert(m.points.end(), {double(x.v[0]), double(x.v[1]), double(x.v[2])});
+    if (h.normal) m.normals.insert(m.normals.end(), {x.n[0], x.n[1], x.n[2]});
+    if (h.uv) m.vertex_uv.insert(m.vertex_uv.end(), {x.t[0], x.t[1]});
+    if (h.colour)
+        for (int k = 0; k < 4; ++k) m.colors.push_back(float(uint8_t(x.c[k])) / 255.f);
+    m.any_normal |= h.normal, m.any_vertex_uv |= h.uv, m.any_color |= h.colour;
+}
+
+void read_vertices(PlyStream& s, const PlyElement& e, const PlyHeader& h, ReadState& st, ReaderMesh& m) {
+    reserve_vertices(m, h, std::min<size_t>(e.count, st.body / 6 + 1)); // a vertex is at least "0 0 0\n"
     uint32_t i = 0;
     for (; i < e.count && !s.eof && !s.bad; ++i) {
-        float v[3] = {0, 0, 0}, n[3] = {0, 0, 0}, t[2] = {0, 0};
-        int c[4] = {0, 0, 0, 255};
+        VertexValues x;
         for (const PlyProperty& p : e.properties) {
             const int r = int(p.role);
-            if (p.role <= Role::z) s.f32(v[r - int(Role::x)], p.rule);
-            else if (p.role <= Role::nz) s.f32(n[r - int(Role::nx)], p.rule);
-            else if (p.role <= Role::v) s.f32(t[r - int(Role::u)], p.rule);
-            else if (p.role <= Role::alpha) read_colour(s, p, c[r - int(Role::red)], st);
+            if (p.role <= Role::z) s.f32(x.v[r - int(Role::x)], p.rule);
+            else if (p.role <= Role::nz) s.f32(x.n[r - int(Role::nx)], p.rule);
+            else if (p.role <= Role::v) s.f32(x.t[r - int(Role::u)], p.rule);
+            else if (p.role <= Role::alpha) read_colour(s, p, x.c[r - int(Role::red)], st);
             else s.word(p.rule);
         }
-        m.points.insert(m.points.end(), {double(v[0]), double(v[1]), double(v[2])});
-        if (h.normal) m.normals.insert(m.normals.end(), {n[0], n[1], n[2]});
-        if (h.uv) m.vertex_uv.insert(m.vertex_uv.end(), {t[0], t[1]});
-        if (h.colour)
-            for (int k = 0; k < 4; ++k) m.colors.push_back(float(uint8_t(c[k])) / 255.f);
+        add_vertex(m, h, x);
     }
-    m.any_normal |= h.normal && i > 0, m.any_vertex_uv |= h.uv && i > 0, m.any_color |= h.colour && i > 0;
     if (i < e.count && !e.properties.empty() && s.sync) s.refuse(s.end, "the file ends before its last element");
 }
 
@@ -459,6 +526,188 @@ Status read_body(PlyStream& s, const PlyHeader& h, ReaderMesh& m) {
     return Status::success();
 }
 
+// ---- Binary bodies ----
+
+// A scalar as std::istream::read put it into OpenMesh's variable: the file's bytes, reversed for big endian.
+template <class T> T load(const char* p, bool msb) {
+    using Bits = std::conditional_t<sizeof(T) == 1, uint8_t, std::conditional_t<sizeof(T) == 2, uint16_t,
+                                    std::conditional_t<sizeof(T) == 4, uint32_t, uint64_t>>>;
+    Bits bits;
+    std::memcpy(&bits, p, sizeof bits);
+    if constexpr (sizeof(T) == 2) bits = msb ? __builtin_bswap16(bits) : bits;
+    if constexpr (sizeof(T) == 4) bits = msb ? __builtin_bswap32(bits) : bits;
+    if constexpr (sizeof(T) == 8) bits = msb ? __builtin_bswap64(bits) : bits;
+    T v;
+    std::memcpy(&v, &bits, sizeof v);
+    return v;
+}
+// OpenMesh's readValue into a float: a float, or a double cast to float; any other type gives 0.
+float as_float(Scalar t, const char* p, bool msb) {
+    return t == Scalar::f32 ? load<float>(p, msb) : t == Scalar::f64 ? float(load<double>(p, msb)) : 0.0f;
+}
+// OpenMesh's readInteger into an unsigned (or int) variable: signed types sign-extended; a float type gives 0.
+uint32_t as_uint(Scalar t, const char* p, bool msb) {
+    switch (t) {
+    case Scalar::i8: return uint32_t(int32_t(load<int8_t>(p, msb)));
+    case Scalar::u8: return load<uint8_t>(p, msb);
+    case Scalar::i16: return uint32_t(int32_t(load<int16_t>(p, msb)));
+    case Scalar::u16: return load<uint16_t>(p, msb);
+    case Scalar::i32:
+    case Scalar::u32: return load<uint32_t>(p, msb);
+    default: return 0;
+    }
+}
+
+// The body as OpenMesh read it: `at` is its stream position (an offset: it may start past the end), and a
+// read that would pass the end is where it failed (its stream at eof: read_binary returned false).
+struct BinaryBody {
+    const char* text;
+    size_t size, at;
+    bool msb;
+    bool in_step; // the validation pass reads the same bytes as OpenMesh (else it ran on its own first)
+    bool risky;   // out of step, a face's int count may be bytes it never read: the former reader could loop on it
+
+    size_t left() const { return at < size ? size - at : 0; }
+    Status error(size_t where, const std::string& what) const {
+        return Status::error(StatusCode::invalid_input, "PLY byte " + std::to_string(where) + ", " + what);
+    }
+    Status past_end(size_t where, const PlyElement& e, size_t row) const {
+        return error(where, e.name.substr(0, 16) + " " + std::to_string(row) + ": the file ends inside it" +
+                                (risky ? "; the former reader went on with values it never read" : ""));
+    }
+};
+
+// OpenMesh seeks to 12 bytes past where its read of end_header began (14 when "\r\n" is there): right after
+// "\nend_header\n", but a byte later after a comment line or earlier after trailing spaces, as it did.
+size_t binary_body_start(const char* text, size_t size, const PlyHeader& h) {
+    const size_t before = size_t(h.before_end - text);
+    return before + (size - before >= 2 && h.before_end[0] == '\r' && h.before_end[1] == '\n' ? 14 : 12);
+}
+
+// Whether the validation pass and OpenMesh take the same bytes for every property up to the faces; a face's
+// texcoord list is never so (the validation pass reads the list, OpenMesh one value).
+bool binary_in_step(const PlyHeader& h) {
+    for (const PlyElement& e : h.elements) {
+        for (const PlyProperty& p : e.properties)
+            if (p.read_size != p.check_size || p.role == Role::texcoord) return false;
+        if (e.name == "face") break;
+    }
+    return true;
+}
+
+// The validation pass on its own (only when it and OpenMesh part ways, see binary_in_step): each element
+// within the file, each face's lists within it, a texcoord list after corners.
+Status validate_binary(const BinaryBody& b, const PlyHeader& h, size_t at) {
+    for (const PlyElement& e : h.elements) {
+        if (e.name != "face") {
+            size_t record = 0;
+            for (const PlyProperty& p : e.properties) record += p.check_size;
+            if (record && e.count > (b.size - std::min(b.size, at)) / record)
+                return b.error(at, "element '" + e.name.substr(0, 16) + "': its rows are longer than the file");
+            at += size_t(e.count) * record;
+            continue;
+        }
+        for (uint32_t i = 0; i < e.count; ++i) {
+            uint32_t corners = 0;
+            for (const PlyProperty& p : e.properties) {
+                const size_t where = at;
+                const std::string row = "face " + std::to_string(i) + ": ";
+                if (p.role == Role::indices || p.role == Role::texcoord) {
+                    if (size_of(p.count) > b.size - std::min(b.size, at)) return b.error(where, row + "the file ends inside it");
+                    const uint32_t n = as_uint(p.count, b.text + at, b.msb);
+                    at += size_of(p.count);
+                    if (p.role == Role::texcoord && corners == 0) return b.error(where, row + "face texture coordinates without corners");
+                    if (p.check_size ? n > (b.size - at) / p.check_size : n > b.size)
+                        return b.error(where, row + "a list of " + std::to_string(n) + " is longer than the file");
+                    at += size_t(n) * p.check_size;
+                    if (p.role == Role::indices) corners = n;
+                } else {
+                    at += p.check_size;
+                }
+                if (at > b.size) return b.error(where, row + "the file ends inside it");
+            }
+        }
+        break;
+    }
+    return Status::success();
+}
+
+// Records of fixed size (OpenMesh's read sizes): the vertices, read, or another element, skipped.
+Status read_binary_rows(BinaryBody& b, const PlyElement& e, const PlyHeader& h, ReaderMesh& m) {
+    size_t record = 0;
+    for (const PlyProperty& p : e.properties) record += p.read_size;
+    const size_t rows = record ? std::min<size_t>(e.count, b.left() / record) : e.count;
+    if (e.name != "vertex") {
+        b.at += rows * record;
+        return rows < e.count ? b.past_end(b.at, e, rows) : Status::success();
+    }
+    reserve_vertices(m, h, rows);
+    for (size_t i = 0; i < rows; ++i) {
+        VertexValues x;
+        const char* p = b.text + std::min(b.at, b.size); // past the end only when no property reads
+        for (const PlyProperty& q : e.properties) {
+            const int r = int(q.role);
+            if (q.role <= Role::z) x.v[r - int(Role::x)] = as_float(q.type, p, b.msb);
+            else if (q.role <= Role::nz) x.n[r - int(Role::nx)] = as_float(q.type, p, b.msb);
+            else if (q.role <= Role::v) x.t[r - int(Role::u)] = as_float(q.type, p, b.msb);
+            else if (q.role <= Role::alpha)
+                x.c[r - int(Role::red)] = q.float_colour ? to_int(as_float(q.type, p, b.msb) * 255.0f) : int(as_uint(q.type, p, b.msb));
+            p += q.read_size;
+        }
+        add_vertex(m, h, x);
+        b.at += record;
+    }
+    return rows < e.count ? b.past_end(b.at, e, rows) : Status::success();
+}
+
+// The faces: a count and that many indices for the vertex_indices list; every other property skipped (face
+// colours are dropped, a texcoord list is one value to OpenMesh).
+Status read_binary_faces(BinaryBody& b, const PlyElement& e, ReaderMesh& m) {
+    const size_t cap = std::min<size_t>(e.count, b.left() / 4 + 1); // a triangle takes at least 4 bytes
+    kernel::reserve_huge(m.face_start, cap);
+    kernel::reserve_huge(m.corners, cap * 3);
+    for (uint32_t i = 0; i < e.count; ++i) {
+        for (const PlyProperty& p : e.properties) {
+            const size_t where = b.at;
+            if (p.role != Role::indices) {
+                if (p.read_size > b.left()) return b.past_end(where, e, i);
+                b.at += p.read_size;
+                continue;
+            }
+            if (size_of(p.count) > b.left()) return b.past_end(where, e, i);
+            const uint32_t n = as_uint(p.count, b.text + b.at, b.msb);
+            b.at += size_of(p.count);
+            // Longer than the file: refused by the validation pass (in step), or a loop of OpenMesh's on
+            // values it may never have read (an int count out of step).
+            if (p.read_size ? n > b.left() / p.read_size : n > b.size && (b.in_step || b.risky))
+                return b.error(where, "face " + std::to_string(i) + ": a list of " + std::to_string(n) + " corners is longer than the file" +
+                                          (b.risky ? "; the former reader went on with values it never read" : ""));
+            m.face_start.push_back(uint32_t(m.corners.size()));
+            const char* q = b.text + b.at;
+            for (uint32_t k = 0; k < n; ++k, q += p.read_size) m.corners.push_back(as_uint(p.type, q, b.msb));
+            b.at += size_t(n) * p.read_size;
+        }
+    }
+    return Status::success();
+}
+
+// The elements in header order up to and including the faces, as OpenMesh's read_binary read them, after
+// the validation pass where the two read different bytes.
+Status read_binary_body(const char* text, size_t size, const PlyHeader& h, ReaderMesh& m) {
+    BinaryBody b{text, size, binary_body_start(text, size, h), h.msb, binary_in_step(h), false};
+    for (const PlyElement& e : h.elements)
+        if (e.name == "face")
+            for (const PlyProperty& p : e.properties) b.risky |= !b.in_step && p.role == Role::indices && p.count == Scalar::i32;
+    if (!b.in_step)
+        if (Status st = validate_binary(b, h, b.at); !st.ok()) return st;
+    for (const PlyElement& e : h.elements) {
+        Status st = e.name == "face" ? read_binary_faces(b, e, m) : read_binary_rows(b, e, h, m);
+        if (!st.ok()) return st;
+        if (e.name == "face") break;
+    }
+    return Status::success();
+}
+
 } // namespace
 } // namespace furrow::mesh_detail
 
@@ -468,10 +717,10 @@ Status load_ply_bytes(Scene& out, const char* text, size_t size, const LoadOptio
     mesh_detail::PlyStream s(text, text, text + size);
     mesh_detail::PlyHeader h;
     if (Status st = mesh_detail::read_header(s, h); !st.ok()) return st;
-    if (!h.ascii) return load_openmesh_bytes(out, std::string(text, size), ".ply", options);
-    s.sync = true, s.bad = nullptr; // the header's reads are not the body's tokens
     mesh_detail::ReaderMesh mesh;
-    if (Status st = mesh_detail::read_body(s, h, mesh); !st.ok()) return st;
+    s.sync = true, s.bad = nullptr; // the header's reads are not the body's tokens
+    if (Status st = h.ascii ? mesh_detail::read_body(s, h, mesh) : mesh_detail::read_binary_body(text, size, h, mesh); !st.ok())
+        return st;
     return mesh_detail::reader_mesh_to_scene(out, mesh, options);
 }
 

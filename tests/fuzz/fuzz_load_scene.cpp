@@ -1,5 +1,5 @@
 // Fuzz target: every mesh loader behind load_scene_from_memory (glTF JSON and GLB through tinygltf and our
-// accessor decoding; PLY through OpenMesh's reader; OBJ, OFF and STL our own), then the checks and the writer on
+// accessor decoding; PLY (ASCII and binary), OBJ, OFF and STL our own), then the checks and the writer on
 // whatever loaded.
 //
 // Input: byte 0 picks the format (value mod 6: .glb .gltf .obj .ply .off .stl); its bit 3 sets
