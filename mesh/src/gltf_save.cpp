@@ -338,9 +338,10 @@ VertexOrder vertex_order(const Primitive& src, const SaveOptions& options) {
     return o;
 }
 
+// keep_uv: the texture-coordinate sets written (SaveOptions::drop_unused_uvs leaves the others out).
 Status write_primitive(tinygltf::Primitive& out, const Primitive& src, bool needs_tangents, BinWriter& w,
                        const std::string& where, const SaveOptions& options, const mesh_detail::PositionGrid& grid,
-                       const std::array<mesh_detail::UvGrid, 2>& uv_grids) {
+                       const std::array<mesh_detail::UvGrid, 2>& uv_grids, std::array<bool, 2> keep_uv) {
     const bool quantize = options.encoding != Encoding::plain;
     const size_t n = src.vertex_count();
     if (n == 0 || src.positions.size() != n * 3)
@@ -394,8 +395,9 @@ Status write_primitive(tinygltf::Primitive& out, const Primitive& src, bool need
     else if (needs_tangents && !uv0->empty() && !normals->empty())
         out.attributes["TANGENT"] = add_unit_vectors(w, share(generate_tangents(*positions, *normals, *uv0, order.indices)),
                                                      4, quantize_vectors, oct);
-    if (!uv0->empty()) out.attributes["TEXCOORD_0"] = add_unorm(w, uv0, 2, quantize, uv_grids[0]);
-    if (!src.uv1.empty()) out.attributes["TEXCOORD_1"] = add_unorm(w, share(order.apply(src.uv1, 2)), 2, quantize, uv_grids[1]);
+    if (!uv0->empty() && keep_uv[0]) out.attributes["TEXCOORD_0"] = add_unorm(w, uv0, 2, quantize, uv_grids[0]);
+    if (!src.uv1.empty() && keep_uv[1])
+        out.attributes["TEXCOORD_1"] = add_unorm(w, share(order.apply(src.uv1, 2)), 2, quantize, uv_grids[1]);
     if (!src.colors.empty()) out.attributes["COLOR_0"] = add_colors(w, clamped01(order.apply(src.colors, 4)), quantize);
     if (!src.joints.empty()) {
         std::vector<float> weights = normalized_weights(order.apply(src.weights, 4));
@@ -536,8 +538,14 @@ Status write_meshes(tinygltf::Model& m, const Scene& scene, const tinygltf::Mode
             }
             bool tangents = p.material >= 0 && material_needs_tangents[size_t(p.material)];
             const std::array<mesh_detail::UvGrid, 2> floats{};
+            std::array<bool, 2> keep_uv{true, true};
+            const bool vendor_data = o.extras.Type() != tinygltf::NULL_TYPE || !o.extensions.empty() || !mesh.extras_json.empty() ||
+                                     op.extras.Type() != tinygltf::NULL_TYPE || !op.extensions.empty();
+            if (options.drop_unused_uvs && !vendor_data)
+                keep_uv = p.material >= 0 ? mesh_detail::sampled_uv_sets(m.materials[size_t(p.material)]) : std::array<bool, 2>{false, false};
             Status s = write_primitive(op, p, tangents, w, where, options, grids[mi],
-                                       p.material >= 0 && size_t(p.material) < uv_grids.size() ? uv_grids[size_t(p.material)] : floats);
+                                       p.material >= 0 && size_t(p.material) < uv_grids.size() ? uv_grids[size_t(p.material)] : floats,
+                                       keep_uv);
             if (!s.ok()) return s;
             o.primitives.push_back(std::move(op));
         }

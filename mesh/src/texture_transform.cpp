@@ -180,6 +180,15 @@ void bake_texture_transforms(Scene& scene, tinygltf::Model& model) {
     if (baked && !any_reference_transformed(model)) drop_declaration(model);
 }
 
+std::array<bool, 2> sampled_uv_sets(const tinygltf::Material& material) {
+    if (extensions_sample_textures(material)) return {true, true};
+    std::array<bool, 2> out{false, false};
+    tinygltf::Material copy = material; // core_texture_slots hands out writable references
+    for (const TextureSlot& s : core_texture_slots(copy))
+        if (*s.index >= 0 && (*s.texcoord == 0 || *s.texcoord == 1)) out[size_t(*s.texcoord)] = true;
+    return out;
+}
+
 std::vector<std::array<UvGrid, 2>> texture_uv_grids(tinygltf::Model& m, const Scene& scene) {
     std::vector<std::array<UvGrid, 2>> grids(m.materials.size());
     bool any = false;
