@@ -275,7 +275,8 @@ struct SaveOptions {
     // Leave out the texture-coordinate sets that no texture of the primitive's material samples, as gltfpack
     // does by default. A primitive of a mesh with extras or extensions keeps all of them (a reader of that data,
     // such as the instanced shell layout's FURROW_shells, may read them), and so does one whose material's own
-    // extensions sample textures. Off by default: an engine's own material may read sets the file's does not.
+    // extensions sample textures. Set 0 stays when set 1 does (glTF numbers the sets without gaps). Off by
+    // default: an engine's own material may read sets the file's does not.
     bool drop_unused_uvs = false;
 };
 // The bits position_bits = 0 stands for.
