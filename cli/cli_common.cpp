@@ -91,6 +91,9 @@ void add_save_flags(CLI::App& cmd, SaveOptions& o) {
     cmd.add_flag_callback("--compress", [&o] { o.encoding = Encoding::compress; },
                           "--quantize, then EXT_meshopt_compression (required: three.js needs its MeshoptDecoder, "
                           "Blender 3.4 cannot read the file)");
+    cmd.add_flag_callback("--drop-unused-uvs", [&o] { o.drop_unused_uvs = true; },
+                          "Leave out texture coordinates that no texture of the material samples, as gltfpack does "
+                          "(kept where the mesh has extras or extensions, e.g. --layout instanced)");
     cmd.add_option("--position-bits", o.position_bits,
                    "Bits per quantized position axis: step = the mesh's largest extent / (2^N - 1), error <= step/2 "
                    "(default " + std::to_string(default_position_bits) + ", as gltfpack -vp)")

@@ -348,10 +348,12 @@ Scene load_quiet(const fs::path& f) {
 // One furrow setting: encode (save_scene) and decode (load_scene) times, the file's bytes, the errors
 // against the scene in the vertex order this encoding writes.
 SizeRow furrow_setting(const Scene& scene, const UvTransforms& source_uv, const std::string& model,
-                       const std::string& name, Encoding e, const fs::path& tmp, int repeat, double diag) {
+                       const std::string& name, Encoding e, const fs::path& tmp, int repeat, double diag,
+                       bool drop_unused_uvs = false) {
     SizeRow r{model, name};
     SaveOptions o;
     o.encoding = e;
+    o.drop_unused_uvs = drop_unused_uvs;
     const fs::path out = tmp / (name + ".glb");
     r.encode_s = median_seconds(repeat, [&] { require_ok(save_scene(scene, out.string(), o), out.string()); });
     r.bytes = size_t(fs::file_size(out));
@@ -400,6 +402,8 @@ std::vector<SizeRow> size_rows(const fs::path& file, const fs::path& tmp, int re
     rows.push_back(furrow_setting(scene, source_uv, model, "plain", Encoding::plain, tmp, repeat, diag));
     rows.push_back(furrow_setting(scene, source_uv, model, "--quantize", Encoding::quantize, tmp, repeat, diag));
     rows.push_back(furrow_setting(scene, source_uv, model, "--compress", Encoding::compress, tmp, repeat, diag));
+    // gltfpack's default: no texture coordinates that no texture samples.
+    rows.push_back(furrow_setting(scene, source_uv, model, "--compress --drop-unused-uvs", Encoding::compress, tmp, repeat, diag, true));
     // gltfpack reads glTF only; an OBJ/PLY input goes through furrow's plain GLB first (not timed as its).
     fs::path input = file;
     const std::string ext = lower_extension(file.string());

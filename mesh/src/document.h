@@ -27,6 +27,9 @@ Status read_accessor_uints(std::vector<uint32_t>& out, const tinygltf::Model& mo
 // (already written) and set 0/1, the grid of a set outside [0, 1] that a texture samples, and the transform
 // that dequantizes it on those references (declared used and required).
 void bake_texture_transforms(Scene& scene, tinygltf::Model& model);
+// Which texture-coordinate sets (0, 1) the textures of a material sample; both when its own extensions sample
+// textures (their references are not inspected).
+std::array<bool, 2> sampled_uv_sets(const tinygltf::Material& material);
 std::vector<std::array<UvGrid, 2>> texture_uv_grids(tinygltf::Model& m, const Scene& scene);
 
 } // namespace furrow::mesh_detail

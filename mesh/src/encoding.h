@@ -16,13 +16,17 @@ namespace furrow::mesh_detail {
 
 // mesh_quantize.cpp: the integer grid of one mesh's positions (KHR_mesh_quantization): position =
 // offset + scale × q, q an integer in [0, 2^bits − 1] per axis. offset = the mesh's bounding-box minimum
-// (double, so a far-from-origin mesh keeps its precision), scale = its largest extent / (2^bits − 1).
+// (double, so a far-from-origin mesh keeps its precision), scale = its largest extent / (2^bits − 1), as the
+// shortest decimal of that float (what a reader reads).
 struct PositionGrid {
     bool quantized = false; // false: positions stay float (skinned or morphed meshes, empty meshes)
     std::array<double, 3> offset{0, 0, 0};
     double scale = 1.0;
 };
 PositionGrid position_grid(const Mesh& mesh, int bits);
+// A float as the double of its shortest decimal (0.9f as 0.9, not 0.8999999761581421): the JSON is shorter
+// and a reader's float is the same float.
+double decimal(float f);
 // Integer positions on `grid`, 4 uint16 per vertex (the 4th is 0: vertex attributes are 4-byte aligned).
 std::vector<uint16_t> quantize_positions(const std::vector<float>& positions, const PositionGrid& grid);
 // Unit vectors (3 or 4 components in `stride`) as normalized int8, 4 bytes per vertex (w = the tangent's sign

@@ -338,9 +338,10 @@ VertexOrder vertex_order(const Primitive& src, const SaveOptions& options) {
     return o;
 }
 
+// keep_uv: the texture-coordinate sets written (SaveOptions::drop_unused_uvs leaves the others out).
 Status write_primitive(tinygltf::Primitive& out, const Primitive& src, bool needs_tangents, BinWriter& w,
                        const std::string& where, const SaveOptions& options, const mesh_detail::PositionGrid& grid,
-                       const std::array<mesh_detail::UvGrid, 2>& uv_grids) {
+                       const std::array<mesh_detail::UvGrid, 2>& uv_grids, std::array<bool, 2> keep_uv) {
     const bool quantize = options.encoding != Encoding::plain;
     const size_t n = src.vertex_count();
     if (n == 0 || src.positions.size() != n * 3)
@@ -394,8 +395,9 @@ Status write_primitive(tinygltf::Primitive& out, const Primitive& src, bool need
     else if (needs_tangents && !uv0->empty() && !normals->empty())
         out.attributes["TANGENT"] = add_unit_vectors(w, share(generate_tangents(*positions, *normals, *uv0, order.indices)),
                                                      4, quantize_vectors, oct);
-    if (!uv0->empty()) out.attributes["TEXCOORD_0"] = add_unorm(w, uv0, 2, quantize, uv_grids[0]);
-    if (!src.uv1.empty()) out.attributes["TEXCOORD_1"] = add_unorm(w, share(order.apply(src.uv1, 2)), 2, quantize, uv_grids[1]);
+    if (!uv0->empty() && keep_uv[0]) out.attributes["TEXCOORD_0"] = add_unorm(w, uv0, 2, quantize, uv_grids[0]);
+    if (!src.uv1.empty() && keep_uv[1])
+        out.attributes["TEXCOORD_1"] = add_unorm(w, share(order.apply(src.uv1, 2)), 2, quantize, uv_grids[1]);
     if (!src.colors.empty()) out.attributes["COLOR_0"] = add_colors(w, clamped01(order.apply(src.colors, 4)), quantize);
     if (!src.joints.empty()) {
         std::vector<float> weights = normalized_weights(order.apply(src.weights, 4));
@@ -441,6 +443,13 @@ Status write_primitive(tinygltf::Primitive& out, const Primitive& src, bool need
 
 std::vector<double> vec(const double* p, size_t n) { return std::vector<double>(p, p + n); }
 
+using mesh_detail::decimal;
+std::vector<double> decimals(const float* p, size_t n) {
+    std::vector<double> out(n);
+    for (size_t i = 0; i < n; ++i) out[i] = decimal(p[i]);
+    return out;
+}
+
 // Reference checks: never write a dangling index.
 Status check_references(const Scene& scene, const tinygltf::Model& src) {
     auto bad = [](const std::string& what) { return Status::error(StatusCode::invalid_argument, what); };
@@ -474,14 +483,14 @@ Status write_materials(tinygltf::Model& m, const Scene& scene, std::vector<bool>
         const Material& a = scene.materials[i];
         tinygltf::Material& o = m.materials[i];
         o.name = a.name;
-        o.pbrMetallicRoughness.baseColorFactor.assign(a.base_color.begin(), a.base_color.end());
+        o.pbrMetallicRoughness.baseColorFactor = decimals(a.base_color.data(), a.base_color.size());
         o.pbrMetallicRoughness.baseColorTexture.index = a.base_color_texture.texture;
         o.pbrMetallicRoughness.baseColorTexture.texCoord = a.base_color_texture.texcoord;
-        o.pbrMetallicRoughness.metallicFactor = a.metallic;
-        o.pbrMetallicRoughness.roughnessFactor = a.roughness;
-        o.emissiveFactor.assign(a.emissive.begin(), a.emissive.end());
+        o.pbrMetallicRoughness.metallicFactor = decimal(a.metallic);
+        o.pbrMetallicRoughness.roughnessFactor = decimal(a.roughness);
+        o.emissiveFactor = decimals(a.emissive.data(), a.emissive.size());
         o.alphaMode = a.alpha_mode == AlphaMode::mask ? "MASK" : a.alpha_mode == AlphaMode::blend ? "BLEND" : "OPAQUE";
-        o.alphaCutoff = a.alpha_cutoff;
+        o.alphaCutoff = decimal(a.alpha_cutoff);
         o.doubleSided = a.double_sided;
         material_needs_tangents[i] = o.normalTexture.index >= 0;
         for (int t : {o.normalTexture.index, o.occlusionTexture.index, o.emissiveTexture.index,
@@ -536,8 +545,16 @@ Status write_meshes(tinygltf::Model& m, const Scene& scene, const tinygltf::Mode
             }
             bool tangents = p.material >= 0 && material_needs_tangents[size_t(p.material)];
             const std::array<mesh_detail::UvGrid, 2> floats{};
+            std::array<bool, 2> keep_uv{true, true};
+            const bool vendor_data = o.extras.Type() != tinygltf::NULL_TYPE || !o.extensions.empty() || !mesh.extras_json.empty() ||
+                                     op.extras.Type() != tinygltf::NULL_TYPE || !op.extensions.empty();
+            if (options.drop_unused_uvs && !vendor_data) {
+                keep_uv = p.material >= 0 ? mesh_detail::sampled_uv_sets(m.materials[size_t(p.material)]) : std::array<bool, 2>{false, false};
+                keep_uv[0] = keep_uv[0] || keep_uv[1]; // TEXCOORD_n must be numbered without gaps
+            }
             Status s = write_primitive(op, p, tangents, w, where, options, grids[mi],
-                                       p.material >= 0 && size_t(p.material) < uv_grids.size() ? uv_grids[size_t(p.material)] : floats);
+                                       p.material >= 0 && size_t(p.material) < uv_grids.size() ? uv_grids[size_t(p.material)] : floats,
+                                       keep_uv);
             if (!s.ok()) return s;
             o.primitives.push_back(std::move(op));
         }
@@ -551,15 +568,36 @@ Status write_meshes(tinygltf::Model& m, const Scene& scene, const tinygltf::Mode
     return Status::success();
 }
 
-// KHR_mesh_quantization's dequantization is a node transform: a node drawing a quantized mesh hands the mesh
-// to a new child (appended after the scene's nodes, so every existing index stays valid) whose translation
-// and uniform scale are the mesh's grid. The node's own transform, children, camera and animation channels
-// are untouched, so the world positions are the grid's.
+// Whether node i's own transform is identity and nothing but its mesh reads it: no children, camera, node
+// extension (a light), skin joint or animation channel.
+bool transform_reads_only_its_mesh(const tinygltf::Model& m, const Scene& scene, size_t i) {
+    const tinygltf::Node& n = m.nodes[i];
+    if (!n.matrix.empty() || !n.translation.empty() || !n.rotation.empty() || !n.scale.empty() || !n.children.empty() ||
+        n.camera >= 0 || !n.extensions.empty())
+        return false;
+    for (const Skin& skin : scene.skins)
+        if (std::find(skin.joints.begin(), skin.joints.end(), int(i)) != skin.joints.end()) return false;
+    for (const tinygltf::Animation& a : m.animations)
+        for (const tinygltf::AnimationChannel& c : a.channels)
+            if (c.target_node == int(i)) return false;
+    return true;
+}
+
+// KHR_mesh_quantization's dequantization is a node transform: the mesh's grid (translation and uniform
+// scale). A node whose own transform only its mesh reads takes the grid itself, as gltfpack does; any other
+// hands the mesh to a new child (appended after the scene's nodes, so every existing index stays valid)
+// that takes it. The node's own transform, children, camera and animation channels are untouched, so the
+// world positions are the grid's.
 void add_dequantizing_nodes(tinygltf::Model& m, const Scene& scene, const std::vector<mesh_detail::PositionGrid>& grids) {
     for (size_t i = 0; i < scene.nodes.size(); ++i) {
         const int mesh = scene.nodes[i].mesh;
         if (mesh < 0 || size_t(mesh) >= grids.size() || !grids[size_t(mesh)].quantized) continue;
         const mesh_detail::PositionGrid& g = grids[size_t(mesh)];
+        if (transform_reads_only_its_mesh(m, scene, i)) {
+            m.nodes[i].translation = vec(g.offset.data(), 3);
+            m.nodes[i].scale = {g.scale, g.scale, g.scale};
+            continue;
+        }
         tinygltf::Node child;
         child.mesh = mesh;
         child.translation = vec(g.offset.data(), 3);
@@ -773,6 +811,12 @@ Status serialise_document(nlohmann::json& j, tinygltf::Model& m) {
         if (value.is_array())
             for (auto& e : value)
                 if (e.is_null()) e = nlohmann::json::object();
+    // It also writes every primitive's mode: TRIANGLES (4) is the default, left out (as gltfpack does).
+    if (j.contains("meshes"))
+        for (auto& mesh : j["meshes"])
+            if (mesh.is_object() && mesh.contains("primitives"))
+                for (auto& p : mesh["primitives"])
+                    if (p.is_object() && p.contains("mode") && p["mode"] == 4) p.erase("mode");
     return Status::success();
 }
 

@@ -17,6 +17,7 @@
 #include <meshoptimizer.h>
 
 #include <algorithm>
+#include <charconv>
 #include <cstring>
 #include <cmath>
 #include <limits>
@@ -42,8 +43,21 @@ PositionGrid position_grid(const Mesh& mesh, int bits) {
     g.offset = lo;
     // A flat point cloud of one position still needs a non-zero scale (validator: NODE_SCALE_ZERO... and a
     // singular transform); 1 keeps every q at 0.
-    g.scale = extent > 0 ? extent / double((1u << bits) - 1u) : 1.0;
+    // The step a reader uses is a float (the node's scale): the grid uses that float's shortest decimal, so
+    // the file carries 9 digits instead of 17 and positions are quantized on the very grid read back.
+    // (A step no float holds, below FLT_TRUE_MIN, stays the double.)
+    const double step = extent / double((1u << bits) - 1u), short_step = decimal(float(step));
+    g.scale = extent > 0 ? (short_step > 0 && std::isfinite(short_step) ? short_step : step) : 1.0;
     return g;
+}
+
+double decimal(float f) {
+    if (!std::isfinite(f)) return double(f);
+    char text[32];
+    const auto end = std::to_chars(text, text + sizeof text, f).ptr;
+    double d = double(f);
+    std::from_chars(text, end, d);
+    return d;
 }
 
 std::vector<uint16_t> quantize_positions(const std::vector<float>& positions, const PositionGrid& grid) {
@@ -71,7 +85,7 @@ std::vector<int8_t> quantize_unit_vectors(const std::vector<float>& v, size_t st
     if (octahedral) {
         // Rounded on the octahedral grid first, instead of int8 x, y, z rounded again by the filter: the demo
         // fur's largest normal error falls from 1.20 to 1.14 degrees (bench io; gltfpack -cc: 0.98). The
-        // filter's re-encoding of these int8 vectors still moves about 0.6 % of them by one step.
+        // filter (meshopt_codec.cpp octahedral()) then writes the code each of these was decoded from.
         std::vector<uint8_t> code(n * 4);
         meshopt_encodeFilterOct(code.data(), n, 4, 8, xyzw.data());
         meshopt_decodeFilterOct(code.data(), n, 4);

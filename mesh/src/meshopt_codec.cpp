@@ -13,7 +13,7 @@
 //      the fallback, a loader without the decoder cannot read the file: the extension is required (the
 //      extension's specification; Blender 3.4 refuses such a file, hence plain output stays the default).
 //   Normals and tangents (normalized int8) go through the OCTAHEDRAL filter first (gltfpack -cc does the
-//   same): decoded, each is the nearest 8-bit octahedral unit vector to what was written. Texture
+//   same): decoded, each is exactly what --quantize's octahedral rounding wrote (octahedral()). Texture
 //   coordinates that stayed float (outside [0, 1], such as the fur's tiling strand UVs) go through the
 //   EXPONENTIAL filter with 16-bit mantissas (k_uv_mantissa_bits). Every other view decodes to exactly the
 //   bytes --quantize writes. Both encoders and the filter
@@ -31,7 +31,9 @@
 #include <meshoptimizer.h>
 
 #include <algorithm>
+#include <cstdlib>
 #include <map>
+#include <utility>
 #include <cstring>
 
 namespace furrow::mesh_detail {
@@ -121,11 +123,33 @@ std::map<size_t, ViewUse> view_uses(const json& j) {
 // Step 1 for one view: the encoded bytes and the extension's mode, or false to copy it as it is.
 // The OCTAHEDRAL filter (meshopt_encodeFilterOct, 8 bits): a unit vector as its octahedral x, y and a scale,
 // which the vertex codec packs tighter than x, y, z; the decoder gives normalized int8 x, y, z back (w kept).
+// --compress writes vectors that are already decoded codes (mesh_quantize.cpp), but encoding such a vector
+// again gives a neighbouring code for about 0.6 % of them (the decode rounds), which would move them by one
+// more step and code worse. So each vector whose new code does not decode to it exactly takes the code
+// within two steps that does, when there is one: the file then holds the very codes gltfpack -cc writes for
+// the same float vectors.
+constexpr std::pair<int, int> k_nearest_codes_first[] = {
+    {1, 0},   {-1, 0}, {0, 1},  {0, -1}, {1, 1},  {-1, 1}, {1, -1}, {-1, -1}, {2, 0},  {-2, 0},  {0, 2},  {0, -2},
+    {2, 1},   {-2, 1}, {2, -1}, {-2, -1}, {1, 2}, {-1, 2}, {1, -2}, {-1, -2}, {2, 2}, {-2, 2}, {2, -2}, {-2, -2}};
 std::vector<uint8_t> octahedral(const uint8_t* data, size_t count) {
     std::vector<float> v(count * 4);
     for (size_t i = 0; i < count * 4; ++i) v[i] = std::max(float(int8_t(data[i])) / 127.0f, -1.0f);
     std::vector<uint8_t> out(count * 4);
     meshopt_encodeFilterOct(out.data(), count, 4, 8, v.data());
+    std::vector<uint8_t> decoded = out;
+    meshopt_decodeFilterOct(decoded.data(), count, 4);
+    for (size_t i = 0; i < count; ++i) {
+        if (std::memcmp(&decoded[i * 4], data + i * 4, 3) == 0) continue;
+        const int x = int8_t(out[i * 4]), y = int8_t(out[i * 4 + 1]);
+        for (const auto& [dx, dy] : k_nearest_codes_first) {
+            if (std::abs(x + dx) > 127 || std::abs(y + dy) > 127) continue;
+            uint8_t code[4] = {uint8_t(int8_t(x + dx)), uint8_t(int8_t(y + dy)), out[i * 4 + 2], out[i * 4 + 3]};
+            meshopt_decodeFilterOct(code, 1, 4);
+            if (std::memcmp(code, data + i * 4, 3) != 0) continue;
+            out[i * 4] = uint8_t(int8_t(x + dx)), out[i * 4 + 1] = uint8_t(int8_t(y + dy));
+            break;
+        }
+    }
     return out;
 }
 

@@ -19,6 +19,10 @@
 // It is used only when the step keeps every coordinate within half a texel of the largest texture sampled at
 // that set; otherwise, or when the set is sampled by no texture (no material could carry the transform), the
 // coordinates stay float as before.
+//
+// Writer (sampled_uv_sets). SaveOptions::drop_unused_uvs (gltfpack's default) leaves out the sets no texture
+// of a material samples; a material whose extensions sample textures, or whose transform redirects a
+// reference to another set, keeps both.
 #include "document.h"
 #include "encoding.h"
 
@@ -64,6 +68,14 @@ bool extensions_sample_textures(const tinygltf::Material& m) {
     for (const auto& [name, value] : m.extensions)
         if (samples_textures(value)) return true;
     return false;
+}
+
+// The core references of a material to one texture-coordinate set (those that sample a texture).
+std::vector<TextureSlot> references_to(tinygltf::Material& m, int set) {
+    std::vector<TextureSlot> refs;
+    for (const TextureSlot& s : core_texture_slots(m))
+        if (*s.index >= 0 && *s.texcoord == set) refs.push_back(s);
+    return refs;
 }
 
 // uv' = offset + R(rotation) · diag(scale) · uv, the specification's matrix.
@@ -145,9 +157,7 @@ void bake_texture_transforms(Scene& scene, tinygltf::Model& model) {
         if (extensions_sample_textures(mat)) continue;
         for (int set : {0, 1}) {
             // 1. The set's references: all with the same bakeable transform, or none transformed.
-            std::vector<TextureSlot> refs;
-            for (const TextureSlot& s : core_texture_slots(mat))
-                if (*s.index >= 0 && *s.texcoord == set) refs.push_back(s);
+            const std::vector<TextureSlot> refs = references_to(mat, set);
             Transform t;
             size_t transformed = 0;
             bool consistent = true;
@@ -180,6 +190,20 @@ void bake_texture_transforms(Scene& scene, tinygltf::Model& model) {
     if (baked && !any_reference_transformed(model)) drop_declaration(model);
 }
 
+std::array<bool, 2> sampled_uv_sets(const tinygltf::Material& material) {
+    if (extensions_sample_textures(material)) return {true, true};
+    tinygltf::Material copy = material; // core_texture_slots hands out writable references
+    std::array<bool, 2> out{false, false};
+    for (int set : {0, 1})
+        for (const TextureSlot& s : references_to(copy, set)) {
+            out[size_t(set)] = true;
+            // A transform that redirects the reference (its texCoord) may read the other set: keep both.
+            auto it = s.extensions->find(kExtension);
+            if (it != s.extensions->end() && (!it->second.IsObject() || it->second.Has("texCoord"))) return {true, true};
+        }
+    return out;
+}
+
 std::vector<std::array<UvGrid, 2>> texture_uv_grids(tinygltf::Model& m, const Scene& scene) {
     std::vector<std::array<UvGrid, 2>> grids(m.materials.size());
     bool any = false;
@@ -188,13 +212,11 @@ std::vector<std::array<UvGrid, 2>> texture_uv_grids(tinygltf::Model& m, const Sc
         if (extensions_sample_textures(mat)) continue;
         for (int set : {0, 1}) {
             // 1. The references to the set; the largest texture they sample (in texels).
-            std::vector<TextureSlot> refs;
+            const std::vector<TextureSlot> refs = references_to(mat, set);
             int texels = 0;
             bool known = true;
-            for (const TextureSlot& s : core_texture_slots(mat)) {
-                if (*s.index < 0 || *s.texcoord != set) continue;
+            for (const TextureSlot& s : refs) {
                 if (s.extensions->count(kExtension)) known = false; // a carried transform: not composed
-                refs.push_back(s);
                 const int image = size_t(*s.index) < scene.textures.size() ? scene.textures[size_t(*s.index)].image : -1;
                 int w = 0, h = 0;
                 if (image < 0 || size_t(image) >= scene.images.size() || scene.images[size_t(image)].encoded.empty() ||

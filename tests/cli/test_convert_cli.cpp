@@ -50,6 +50,21 @@ TEST(convert_cli, NgonTriangulationCreatesNoNonManifoldEdge) {
     EXPECT_EQ(c.triangles, 4u);
 }
 
+// --drop-unused-uvs (gltfpack's default): an OBJ's texture coordinates with no material to sample them are
+// left out; without the flag they are kept.
+TEST(convert_cli, DropUnusedUvsLeavesOutUnsampledCoordinates) {
+    const auto dir = temp_dir();
+    write_text(dir / "quad.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nf 1/1 2/2 3/3 4/4\n");
+    for (bool drop : {false, true}) {
+        std::vector<std::string> args{"convert", (dir / "quad.obj").string(), "-o", (dir / "quad.glb").string(), "--compress"};
+        if (drop) args.push_back("--drop-unused-uvs");
+        RunResult r = run_furrow(args);
+        ASSERT_EQ(r.exit_code, 0) << r.err;
+        EXPECT_VALID_GLTF(dir / "quad.glb");
+        EXPECT_EQ(gltf_json(dir / "quad.glb")["meshes"][0]["primitives"][0]["attributes"].contains("TEXCOORD_0"), !drop);
+    }
+}
+
 TEST(convert_cli, MissingFile) {
     const auto dir = temp_dir();
     const std::string in = (dir / "nope.glb").string();

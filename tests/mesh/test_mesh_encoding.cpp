@@ -13,6 +13,7 @@
 #include <fstream>
 #include <map>
 #include <set>
+#include <utility>
 
 using namespace furrow;
 using namespace furrow::test;
@@ -313,6 +314,33 @@ TEST(mesh_encoding, TextureCoordinatesStayFloatWhereATransformCannotKeepThem) {
         EXPECT_EQ(j["accessors"][j["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_1"].get<size_t>()]["componentType"], 5126);
         EXPECT_FALSE(j["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"].contains("extensions"));
     }
+}
+
+// SaveOptions::drop_unused_uvs leaves out the sets no texture of the material samples (gltfpack's default),
+// keeps the sampled ones, and keeps everything of a mesh with extras (vendor data, such as FURROW_shells, may
+// read them). Off by default.
+TEST(mesh_encoding, DropUnusedUvsKeepsWhatATextureOrVendorDataReads) {
+    const auto dir = temp_dir();
+    auto sets = [&](const Scene& s, bool drop, const std::string& name) {
+        SaveOptions o = with(Encoding::compress);
+        o.drop_unused_uvs = drop;
+        const auto out = dir / name;
+        EXPECT_TRUE(save_scene(s, out.string(), o).ok());
+        EXPECT_VALID_GLTF(out);
+        const nlohmann::json a = gltf_json(out)["meshes"][0]["primitives"][0]["attributes"];
+        return std::make_pair(a.contains("TEXCOORD_0"), a.contains("TEXCOORD_1"));
+    };
+    Scene s = tiled_strand_scene(10.7f, 64); // the material samples set 1 only: set 0 stays (no gap in TEXCOORD_n)
+    EXPECT_EQ(sets(s, false, "kept.glb"), std::make_pair(true, true));
+    EXPECT_EQ(sets(s, true, "set1.glb"), std::make_pair(true, true));
+    s.materials[0].base_color_texture.texcoord = 0; // samples set 0 only: set 1 goes
+    EXPECT_EQ(sets(s, true, "dropped.glb"), std::make_pair(true, false));
+    s.materials[0].base_color_texture.texcoord = 1;
+    s.meshes[0].extras_json = R"({"vendor":1})";
+    EXPECT_EQ(sets(s, true, "vendor.glb"), std::make_pair(true, true));
+    s.meshes[0].extras_json.clear();
+    s.meshes[0].primitives[0].material = -1;
+    EXPECT_EQ(sets(s, true, "untextured.glb"), std::make_pair(false, false));
 }
 
 // The loader applies a material's transform (offset, rotation, scale: uv' = T · R · S · uv) to the set its

@@ -272,6 +272,12 @@ struct SaveOptions {
     // 0.0031 % of the largest extent). Skinned and morphed meshes keep float positions. 0 = 14, gltfpack's
     // -vp default; 1..16 otherwise.
     int position_bits = 0;
+    // Leave out the texture-coordinate sets that no texture of the primitive's material samples, as gltfpack
+    // does by default. A primitive of a mesh with extras or extensions keeps all of them (a reader of that data,
+    // such as the instanced shell layout's FURROW_shells, may read them), and so does one whose material's own
+    // extensions sample textures. Set 0 stays when set 1 does (glTF numbers the sets without gaps). Off by
+    // default: an engine's own material may read sets the file's does not.
+    bool drop_unused_uvs = false;
 };
 // The bits position_bits = 0 stands for.
 inline constexpr int default_position_bits = 14;
