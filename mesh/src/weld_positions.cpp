@@ -11,6 +11,11 @@
 // makes the result deterministic even though "within tolerance" is not transitive. A cell of side t holds
 // only a bounded number of representatives that are pairwise farther apart than t, so each lookup is O(1)
 // after the O(n log n) sort that numbers the cells.
+//
+// meshoptimizer's meshopt_generateVertexRemap, considered in this one's place, welds by hashing each
+// vertex's bytes: it has no tolerance mode and keeps -0 and +0 apart, so it serves neither mode here. furrow
+// uses meshoptimizer where its result is the one wanted: vertex cache and fetch order, simplification, the
+// codec.
 #include <furrow/mesh.h>
 
 #include <algorithm>

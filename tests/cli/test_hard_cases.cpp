@@ -639,23 +639,22 @@ TEST_P(HardCases, EveryCommand) {
 INSTANTIATE_TEST_SUITE_P(Meshes, HardCases, ::testing::ValuesIn(hard_cases()),
                          [](const ::testing::TestParamInfo<HardCase>& info) { return info.param.name; });
 
-// 5.2 million triangles (2.6 million vertices, a 126 MB GLB) through every command: memory and time, not only
-// correctness. The suite name ends in _large: CTest gives it the label `large` (tests/CMakeLists.txt), so the
-// sanitizer run can leave it out. Each command takes well under a minute in Release on 2 cores; the bound below
-// only catches a pathological slowdown. (An icosphere, not a UV sphere: a UV sphere of 5M triangles has poles
-// of valence 2500, and OpenSubdiv's irregular patches make `tessellate` take minutes there, see
-// HighValencePoles.)
+// 5.2 million triangles (2.6 million vertices, a 126 MB GLB) through every command: each completes with a
+// valid result at this size. The suite name ends in _large: CTest gives it the label `large`
+// (tests/CMakeLists.txt), so the sanitizer run can leave it out. Each command takes well under a minute in
+// Release on 2 cores; the time is printed, not asserted (speed is `furrow bench`'s, memory `furrow bench
+// memory`'s). (An icosphere, not a UV sphere: a UV sphere of 5M triangles has poles of valence 2500, and
+// OpenSubdiv's irregular patches make `tessellate` take minutes there, see HighValencePoles.)
 TEST(hard_cases_large, FiveMillionTriangles) {
     const fs::path dir = test::temp_dir();
     const Primitive sphere = shapes::icosphere(1.0f, 9);
     ASSERT_EQ(sphere.triangle_count(), 5242880u);
     const fs::path in = save(dir, "big", sphere);
-    auto timed = [](const std::vector<std::string>& args) {
+    auto timed = [](const std::vector<std::string>& args) { // prints the wall time
         const auto t0 = std::chrono::steady_clock::now();
         auto r = run_furrow(args);
         const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         std::printf("    furrow %s: %.1f s\n", args[0].c_str(), s);
-        EXPECT_LT(s, 180.0) << args[0] << " is far slower than expected";
         return r;
     };
     {

@@ -156,7 +156,22 @@ window.instancedJob = async function (job) {
   straight.frustumCulled = false;
   scene.add(straight);
   const c = draw(scene, job);
-  return { png: a.png, enginePng: b.png, straightPng: c.png, ms: a.ms, report };
+
+  // Coverage (the viewer layout's measure, renderJob's 'coverage' mode): the body as OPAQUE grey 0 and the
+  // shells drawn by the README's fragment rule, discard below cutoffs[i-1], writing that cutoff as a raw grey;
+  // the control draws every shell with the material's own (placeholder) cutoff instead.
+  const coverage = (perShell) => {
+    const s = new THREE.Scene();
+    const body = inst.scene.clone(true);
+    body.traverse((o) => { if (o.isMesh) { o.frustumCulled = false; o.material = unlit(o.material, true); } });
+    s.add(body);
+    const shells = instancedShells(base, level.heights, job.glsl, false, perShell ? level.cutoffs : null);
+    shells.frustumCulled = false;
+    s.add(shells);
+    return draw(s, job).png;
+  };
+  return { png: a.png, enginePng: b.png, straightPng: c.png, cutoffsPng: coverage(true), placeholderPng: coverage(false),
+           ms: a.ms, report };
 };
 
 // The README's formula in JavaScript; f32 rounds every step to float32 (Math.fround) as GLSL highp would.
@@ -288,17 +303,27 @@ function rebuildGap(baseGeo, engineGeo, heights, rebuilt) {
 
 // The shell base as one InstancedMesh of `heights.length` instances, its material as loaded (the MASK shell
 // material) extruding each vertex by the README's shell_position at the instance's height fraction;
-// straight: with zero lean and sag (the control).
-function instancedShells(base, heights, glsl, straight) {
+// straight: with zero lean and sag (the control). With `cutoffs` (coverage): unlit, each instance discards
+// alpha below its own cutoff and writes that cutoff as a raw grey (cutoffs null: the material's own).
+function instancedShells(base, heights, glsl, straight, cutoffs) {
   const geo = base.geometry.clone();
   geo.setAttribute('fur_s', new THREE.InstancedBufferAttribute(new Float32Array(heights), 1));
-  const mat = base.material.clone();
+  const coverage = cutoffs !== undefined;
+  const own = base.material.alphaTest;
+  if (coverage) geo.setAttribute('fur_cutoff', new THREE.InstancedBufferAttribute(new Float32Array(cutoffs || heights.map(() => own)), 1));
+  const mat = coverage ? unlit(base.material, false) : base.material.clone();
   mat.onBeforeCompile = (sh) => {
-    sh.vertexShader = 'attribute vec3 _fur_direction, _fur_lean, _fur_sag;\nattribute float _fur_length, fur_s;\n' + glsl + '\n' +
+    sh.vertexShader = 'attribute vec3 _fur_direction, _fur_lean, _fur_sag;\nattribute float _fur_length, fur_s;\n' +
+      (coverage ? 'attribute float fur_cutoff;\nvarying float v_fur_cutoff;\n' : '') + glsl + '\n' +
       sh.vertexShader.replace('#include <begin_vertex>',
-        `vec3 transformed = shell_position(position, _fur_direction, _fur_length, ${straight ? 'vec3(0.0), vec3(0.0)' : '_fur_lean, _fur_sag'}, fur_s);`);
+        `vec3 transformed = shell_position(position, _fur_direction, _fur_length, ${straight ? 'vec3(0.0), vec3(0.0)' : '_fur_lean, _fur_sag'}, fur_s);` +
+        (coverage ? '\n  v_fur_cutoff = fur_cutoff;' : ''));
+    if (!coverage) return;
+    sh.fragmentShader = 'varying float v_fur_cutoff;\n' +
+      sh.fragmentShader.replace('#include <alphatest_fragment>', 'if (diffuseColor.a < v_fur_cutoff) discard;')
+        .replace('#include <dithering_fragment>', '#include <dithering_fragment>\n  gl_FragColor.rgb = vec3(max(v_fur_cutoff, 1.0 / 255.0));');
   };
-  mat.customProgramCacheKey = () => `furrow-instanced-shells-${straight}`;
+  mat.customProgramCacheKey = () => `furrow-instanced-shells-${straight}-${coverage}`;
   const mesh = new THREE.InstancedMesh(geo, mat, heights.length);
   for (let i = 0; i < heights.length; ++i) mesh.setMatrixAt(i, new THREE.Matrix4());
   mesh.matrix.copy(base.matrix);

@@ -11,8 +11,9 @@
 // A job with "task": "instanced" checks the instanced shell layout instead (page.js instancedJob): "model" is
 // the `--layout instanced` file, "engine" the `--layout engine` file of the same fur; it writes "out" (the
 // instanced layout drawn by the README's vertex shader), "engine_out" (the engine layout as loaded) and
-// "straight_out" (the control: the same shader with lean = sag = 0) and "report" (JSON: the largest gaps
-// between the shells rebuilt in JavaScript and the engine layout's).
+// "straight_out" (the control: the same shader with lean = sag = 0), "report" (JSON: the largest gaps
+// between the shells rebuilt in JavaScript and the engine layout's), and out + ".cutoffs.png" /
+// out + ".placeholder.png" (coverage with each shell's own cutoff, and with the material's one cutoff).
 // The shader is the README's own: its GLSL block's shell_position function, read here and passed to the page.
 // Each view is written as an RGBA PNG with a transparent background; one line of JSON per view goes to
 // stdout ({"out": ..., "ms": ...}). Exit 0 when every view was written, 1 otherwise (the reason on stderr).
@@ -125,6 +126,8 @@ try {
     if (job.task === 'instanced') {
       fs.writeFileSync(job.engine_out, Buffer.from(r.enginePng.split(',')[1], 'base64'));
       fs.writeFileSync(job.straight_out, Buffer.from(r.straightPng.split(',')[1], 'base64'));
+      fs.writeFileSync(`${job.out}.cutoffs.png`, Buffer.from(r.cutoffsPng.split(',')[1], 'base64'));
+      fs.writeFileSync(`${job.out}.placeholder.png`, Buffer.from(r.placeholderPng.split(',')[1], 'base64'));
       fs.writeFileSync(job.report, JSON.stringify(r.report));
     }
     process.stdout.write(JSON.stringify({ out: job.out, ms: r.ms }) + '\n');

@@ -189,15 +189,17 @@ TEST(viewer, DemoCompressedFurMatchesPlain) {
 // JavaScript (double, and float32 as a GPU would), runs the README's own GLSL on the GPU (transform feedback),
 // and draws the base 16 times as one InstancedMesh through that GLSL (onBeforeCompile). All three rebuilt
 // shells must be the engine layout's within 1e-6 of the diagonal and the drawn coverage the engine layout's
-// (IoU >= 0.99, the bound of
-// CompressedFurMatchesPlain). Controls: without comb and droop (lean = sag = 0) the positions miss by more
-// than 1e-3 of the diagonal and the frame's coverage falls below IoU 0.99, so both checks see the bend.
+// (IoU >= 0.99, the bound of CompressedFurMatchesPlain). With the README's fragment rule (each shell discards
+// below its own cutoff), the shader's fur coverage is the viewer layout's in stock three.js. Controls: without
+// comb and droop (lean = sag = 0) the positions miss by more than 1e-3 of the diagonal and the frame's
+// coverage falls below IoU 0.99, so both checks see the bend; with one cutoff for every shell the coverage
+// is not the viewer layout's.
 TEST(viewer, InstancedLayoutRebuildsTheEngineShells) {
     const fs::path dir = temp_dir(), creature = source_dir() / "models/creature.glb";
     // A comb map that leans the strands differently over the body (r = along u, g = up the image).
     const ImageF comb{2, 2, 3, {0.9f, 0.5f, 0, 0.8f, 0.7f, 0, 0.6f, 0.2f, 0, 0.9f, 0.9f, 0}};
     ASSERT_TRUE(save_png(comb, (dir / "comb.png").string()).ok());
-    for (const char* layout : {"instanced", "engine"}) {
+    for (const char* layout : {"instanced", "engine", "viewer"}) {
         RunResult r = run_furrow({"shells", creature.string(), "-o", (dir / (std::string(layout) + ".glb")).string(), "--layers",
                                   "16", "--length", "0.04", "--mask", (source_dir() / "models/creature_fur_mask.png").string() + ":r",
                                   "--droop", "1", "--comb", (dir / "comb.png").string(), "--layout", layout, "-q"});
@@ -205,7 +207,9 @@ TEST(viewer, InstancedLayoutRebuildsTheEngineShells) {
     }
     ThreeJob job{dir / "instanced.glb", dir / "instanced.png", kCreatureView};
     job.engine = dir / "engine.glb";
-    ASSERT_EQ(render_three({job}, dir), "");
+    ThreeJob viewer{dir / "viewer.glb", dir / "viewer_coverage.png", kCreatureView};
+    viewer.mode = "coverage";
+    ASSERT_EQ(render_three({job, viewer}, dir), "");
     const nlohmann::json report = nlohmann::json::parse(read_text(dir / "instanced.png.json"));
     const int layers = report["layers"], vertices = report["vertices"];
     EXPECT_EQ(layers, 16);
@@ -224,8 +228,24 @@ TEST(viewer, InstancedLayoutRebuildsTheEngineShells) {
     const double straight_iou = mask_iou(silhouette_mask(load_image(dir / "instanced.png.straight.png")), engine);
     EXPECT_GE(iou, 0.99);
     EXPECT_LT(straight_iou, 0.99);
+
+    // Per-shell cutoffs: the README's fragment rule (discard alpha below cutoffs[i-1]) draws the coverage the
+    // viewer layout's per-shell MASK materials draw in stock three.js (each pixel's grey = the cutoff of the
+    // shell that shows there); the control, every shell at the material's one cutoff, does not.
+    const ImageF stock = load_image(dir / "viewer_coverage.png"), shader = load_image(dir / "instanced.png.cutoffs.png"),
+                 one_cutoff = load_image(dir / "instanced.png.placeholder.png");
+    const CutoffCoverage want = cutoff_coverage(stock), got = cutoff_coverage(shader), control = cutoff_coverage(one_cutoff);
+    ASSERT_GT(want.height, 0.0) << "no fur in the viewer layout's coverage";
+    const double cutoff_differ = mean_covered_difference(shader, stock), control_differ = mean_covered_difference(one_cutoff, stock);
+    EXPECT_LE(cutoff_differ, 1.0 / 255);
+    EXPECT_NEAR(got.covered / want.covered, 1.0, 0.01);
+    EXPECT_NEAR(got.height / want.height, 1.0, 0.01);
+    EXPECT_GE(control_differ, 4.0 / 255);
     std::printf("instanced layout in three.js: %d shells x %d vertices rebuilt in JavaScript, largest gap to the engine "
                 "layout's %.3g x diagonal (double), %.3g (float32), %.3g (the README's GLSL on the GPU); the shader's coverage vs the engine layout's IoU %.4f. "
-                "Controls without lean and sag: gap %.3g, IoU %.4f\n",
-                layers, vertices, gap, gap32, gpu_gap, iou, straight_gap, straight_iou);
+                "Controls without lean and sag: gap %.3g, IoU %.4f. Per-shell cutoffs vs the viewer layout's coverage: "
+                "mean |d| %.2f/255, covered %.4f, height %.4f of the viewer layout's (control, one cutoff: %.2f/255, %.4f, %.4f)\n",
+                layers, vertices, gap, gap32, gpu_gap, iou, straight_gap, straight_iou, 255 * cutoff_differ,
+                got.covered / want.covered, got.height / want.height, 255 * control_differ, control.covered / want.covered,
+                control.height / want.height);
 }

@@ -49,8 +49,10 @@ struct ThreeJob {
     bool mipmaps = true;
     // Non-empty: the instanced-layout check instead (render_three.mjs "task": "instanced"): `model` is the
     // `--layout instanced` file, `engine` the `--layout engine` file of the same fur; `out` gets the shader's
-    // frame, out + ".engine.png" the engine layout's, out + ".straight.png" the control (lean = sag = 0) and
-    // out + ".json" the position gaps.
+    // frame, out + ".engine.png" the engine layout's, out + ".straight.png" the control (lean = sag = 0),
+    // out + ".cutoffs.png" the shells' coverage (each shell's own cutoff, written as grey, as the "coverage"
+    // mode draws the viewer layout), out + ".placeholder.png" the same with the material's one cutoff (the
+    // control), and out + ".json" the position gaps.
     std::filesystem::path engine = {};
 };
 
