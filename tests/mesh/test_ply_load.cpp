@@ -173,6 +173,12 @@ TEST(ply_load, RefusalsNameTheLine) {
         {"ply\nformat ascii 1.0\n" + xyz + face + "end_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1\n", "PLY line 14: the file ends before its last element"},
         {"ply\nformat ascii 1.0\n" + xyz + face + "property list uchar float texcoord\nend_header\n0 0 0\n1 0 0\n0 1 0\n0 6 0 0 1 0 0 1\n",
          "PLY line 14: face texture coordinates without corners"},
+        {"ply\nformat ascii 1.0\n" + xyz + face + "property list uchar float texcoord\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2 4 0 0 1 0\n",
+         "PLY line 14: a texcoord list of 4 values for a face of 3 corners (2 per corner wanted)"},
+        {"ply\nformat ascii 1.0\n" + xyz + face + "property list uchar float texcoord\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2 6 0 0\n1 x 0 1\n",
+         "PLY line 15: 'x' is not a number"},
+        {"ply\nformat ascii 1.0\n" + xyz + face + "property list uchar float texcoord\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2 6 0 0 1 0 0\n",
+         "PLY line 15: the file ends before its last element"},
         {"ply\nformat ascii 1.0\n" + xyz + "element edge 1\nproperty int a\n" + face + "end_header\n0 0 0\n1 0 0\n0 1 0", "the file ends before element 'edge'"},
         {"ply\nformat ascii 1.0\n" + xyz + face + "end_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n", "1 faces reference vertices that do not exist"},
     };
@@ -505,6 +511,12 @@ TEST(ply_load, MeshLabCornerTexcoords) {
         EXPECT_EQ(st.code, StatusCode::invalid_input);
         EXPECT_NE(st.message.find(where + "a texcoord list of 4 values for "), std::string::npos) << st.message << " | wanted " << where;
         EXPECT_NE(st.message.find("3 corners (2 per corner wanted)"), std::string::npos) << st.message;
+        WedgeMesh nan = quad;
+        nan.uv[0][3] = std::nanf(""); // face 0, corner 1's v: never a NaN uv
+        const std::string nan_text = wedge_ply(nan, format);
+        const std::string nan_where = format == 0 ? "PLY line " + std::to_string(std::count(text.begin(), text.end(), '\n') - 1) + ": 'nan' is not a number"
+                                                  : "PLY byte " + std::to_string(body + 4 * 27 + 14 + 12) + ", face 0: a texture coordinate is not finite";
+        EXPECT_NE(load_ply(s, nan_text).message.find(nan_where), std::string::npos) << load_ply(s, nan_text).message << " | wanted " << nan_where;
         std::string ints = wedge_ply(quad, format);
         ints.replace(ints.find("uchar float texcoord"), 20, "uchar int texcoord");
         const auto line = std::count(ints.begin(), ints.begin() + std::ptrdiff_t(ints.find("texcoord")), '\n') + 1;
