@@ -514,9 +514,12 @@ TEST(ply_load, MeshLabCornerTexcoords) {
         WedgeMesh nan = quad;
         nan.uv[0][3] = std::nanf(""); // face 0, corner 1's v: never a NaN uv
         const std::string nan_text = wedge_ply(nan, format);
-        const std::string nan_where = format == 0 ? "PLY line " + std::to_string(std::count(text.begin(), text.end(), '\n') - 1) + ": 'nan' is not a number"
-                                                  : "PLY byte " + std::to_string(body + 4 * 27 + 14 + 12) + ", face 0: a texture coordinate is not finite";
-        EXPECT_NE(load_ply(s, nan_text).message.find(nan_where), std::string::npos) << load_ply(s, nan_text).message << " | wanted " << nan_where;
+        const auto face0_line = std::count(text.begin(), text.end(), '\n') - 1;
+        const std::string nan_where = format == 0 ? "PLY line " + std::to_string(face0_line) + ": 'nan' is not a number"
+                                                  : "PLY byte " + std::to_string(body + 4 * 27 + 14 + 12) +
+                                                        ", face 0: a texture coordinate is not finite";
+        const std::string nan_message = load_ply(s, nan_text).message;
+        EXPECT_NE(nan_message.find(nan_where), std::string::npos) << nan_message << " | wanted " << nan_where;
         std::string ints = wedge_ply(quad, format);
         ints.replace(ints.find("uchar float texcoord"), 20, "uchar int texcoord");
         const auto line = std::count(ints.begin(), ints.begin() + std::ptrdiff_t(ints.find("texcoord")), '\n') + 1;
@@ -526,8 +529,9 @@ TEST(ply_load, MeshLabCornerTexcoords) {
 }
 
 // What OpenMesh 9.0's binary reader did is kept: a coordinate of an integer type, and a colour of type double,
-// read nothing and are 0; a double coordinate is cast to float; after a comment as the last header line it starts one byte late (it seeks 12 bytes past where the read of
-// end_header began); a header of two coordinates reads z as 0.
+// read nothing and are 0; a double coordinate is cast to float; after a comment as the last header line it starts
+// one byte late (it seeks 12 bytes past where the read of end_header began); a header of two coordinates reads z
+// as 0. (A face's texcoord list, one float to it, is read as corner uvs now: MeshLabCornerTexcoords.)
 TEST(ply_load, BinaryOpenMeshReadingIsKept) {
     for (const bool msb : {false, true}) {
         const std::string head = "ply\n" + binary_format(msb) + "element vertex 3\n";
