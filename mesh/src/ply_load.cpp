@@ -1,53 +1,69 @@
-// PLY, ASCII and binary, in one pass over the bytes: ASCII with std::from_chars on the buffer (text_numbers.h,
-// shared with the OBJ and OFF readers), binary with memcpy and a byte swap for big endian. PLY is Greg Turk's
-// polygon file format (1994: a header of `element <name> <count>` lines, each followed by its `property <type>
-// <name>` / `property list <count type> <entry type> <name>` lines, then the elements' records in header order,
-// as text or as each value's bytes). http://paulbourke.net/dataformats/ply/
-// The former path (openmesh_load.cpp, kept as the oracle of tests/mesh/test_ply_load.cpp) walked the file twice,
-// a validation pass and then OpenMesh's PLYReader (ASCII with string streams: 10 MB/s on the generated grid of
-// `furrow bench io`; binary from a copy of the file in a std::istringstream: 50 MB/s). This reads the same
-// values the same way in one pass, gives the same scene for every file that path accepted, and refuses what
-// it refused, now naming the line (ASCII) or the byte and the element row (binary).
+// PLY, ASCII and binary, in one pass over the bytes: ASCII with std::from_chars on the buffer (text_numbers.h, shared
+// with the OBJ and OFF readers), binary with memcpy and a byte swap for big endian. PLY is Greg Turk's polygon file
+// format (1994: a header of `element <name> <count>` lines, each followed by its `property <type> <name>` / `property
+// list <count type> <entry type> <name>` lines, then the elements' records in header order, as text or as each
+// value's bytes). http://paulbourke.net/dataformats/ply/
+// The former path (openmesh_load.cpp, kept as the oracle of tests/mesh/test_ply_load.cpp) walked the file twice, a
+// validation pass and then OpenMesh's PLYReader (ASCII with string streams: 10 MB/s on the generated grid of `furrow
+// bench io`; binary from a copy of the file in a std::istringstream: 50 MB/s). This reads the same values the same
+// way in one pass, gives the same scene for every file that path accepted, and refuses what it refused, now naming
+// the line (ASCII) or the byte and the element row (binary) -- but for one departure:
+// a face's texcoord list (MeshLab's per-corner "wedge" uvs, `property list uchar float texcoord`, 2 values per
+// corner, often with `property int texnumber` and `comment TextureFile x.png`), which OpenMesh skipped as ONE value,
+// misreading the rest of every record (the faces after it read from its numbers).
+// Corner uvs (files without a face texcoord list are read exactly as before):
+//  - any list named texcoord on the face element, count of any integer type, entries float or double (other entry
+//    types refused at the header line), declared after the indices (one before them is dropped with the other face
+//    properties, as OpenMesh did): corner k of the face gets (list[2k], list[2k+1]). A count that is not 2 x the
+//    face's corners, or a face without corners, refuses the file at the count's line (ASCII) or byte and face row
+//    (binary); so do a non-finite binary value and, in ASCII, a token that is not a plain number (the validation
+//    pass's rule). Its tokens are those the validation pass read, so the list no longer puts the two passes out of
+//    step.
+//  - the uvs go to ReaderMesh::corner_uv; reader_mesh_to_scene (shared with the OBJ reader) makes one glTF vertex per
+//    distinct (vertex, uv) pair, in the order the faces first use them: a vertex splits only where its corners' uvs
+//    differ (a seam), its normal and colour go on every copy, and a vertex no face uses is left out (glTF has no
+//    per-corner uvs: every exporter splits so). Where the vertex element also has u/v, the corner uvs win.
 // Stages, each as that path did it:
-//  - header: `ply`, `format ascii|binary_little_endian|binary_big_endian <version>`, then keywords read as
-//    stream words up to `end_header`: comment lines skipped, unknown words ignored, `element` and `property`
-//    lines as OpenMesh 9.0 understands them (the type may come before or after the name; x y z, nx ny nz, u/s
-//    v/t, red green blue alpha (diffuse_ too) on the vertex; the vertex_index(es) list and colours on the face;
-//    everything else, a texcoord list and texnumber included, is one word, or in binary one value of its
-//    type). A vertex_indices list drops the face properties declared before it, as OpenMesh did. Refused: no
-//    end_header, a property before any element, a list count type OpenMesh does not know (uchar, uint8,
-//    uint16 and int are), two vertex or two face elements, an element count above the bytes left, and (ASCII
-//    only) fewer or more than three coordinates.
-//  - ASCII body, as OpenMesh's read_ascii read it with `stream >> value` (PlyStream below emulates that
-//    stream: its fail and eof bits, a failed read leaving the value as num_get does, later reads doing
-//    nothing): elements in header order until the face element; positions, normals and uvs as float; colours
-//    as int (or float x 255), cast to a byte; a list that is not a face's indices, and any unknown property,
-//    is one word. Each read is also held to the validation pass's rule for its token (a number; a plain
-//    unsigned count; the file not ending), so that what it refused is refused here at the token's line.
-//  - when a read takes part of a token the validation pass accepted (an int colour written "0.5"), or a face's
-//    texcoord list holds numbers (the validation pass read them, OpenMesh did not), the two passes stop reading
-//    the same tokens: the stream is followed on, and the validation pass is then run on its own over the body
-//    (validate_tokens) to decide, as before. Only such files pay for a second pass. Where OpenMesh then went on
-//    with a variable it had never written (undefined behaviour: its result changed from run to run), the file
-//    is refused.
-//  - binary body, as OpenMesh's read_binary read it (its PLYReader.cc; the type cases of readValue and
-//    readInteger as disassembled from Debian's libOpenMeshCore 9.0, and held to it by the tests): from 12 bytes past where its read of end_header began (14 after "\r\n"); the
-//    elements in header order until the faces, each value std::istream::read into a variable of its type.
-//    Its readValue into a float takes float and double only (a double is cast to float), its readInteger the
-//    integer types only (signed ones sign-extended); for any other type (an int x, a double colour, float
-//    indices) the value is 0 and no byte is taken. A float colour is x 255, cast to int, then a byte. A list
-//    that is not the face's indices (a face's texcoord list too) is skipped as one value of its entry type.
-//    No dimension check (three coordinates read, a missing one is 0). The validation pass before it skipped each
-//    value by the size of its first type word and a face's texcoord list as a list: where the two take the
-//    same bytes for every property (binary_in_step: nearly every file), the reads here hold the validation
-//    pass's checks (the file not ending inside a row; a list within the file); otherwise it runs on its own
-//    first (validate_binary, a walk over the face counts). A read past the end was OpenMesh's failure.
+//  - header: `ply`, `format ascii|binary_little_endian|binary_big_endian <version>`, then keywords read as stream
+//    words up to `end_header`: comment lines skipped, unknown words ignored, `element` and `property` lines as
+//    OpenMesh 9.0 understands them (the type may come before or after the name; x y z, nx ny nz, u/s v/t, red green
+//    blue alpha (diffuse_ too) on the vertex; the vertex_index(es) list and colours on the face; everything else,
+//    texnumber included, is one word, or in binary one value of its type; a face texcoord list as above). A
+//    vertex_indices list drops the face properties declared before it, as OpenMesh did. Refused: no end_header, a
+//    property before any element, a list count type OpenMesh does not know (uchar, uint8, uint16 and int are; any
+//    integer type for a face texcoord list), two vertex or two face elements, an element count above the bytes left,
+//    and (ASCII only) fewer or more than three coordinates.
+//  - ASCII body, as OpenMesh's read_ascii read it with `stream >> value` (PlyStream below emulates that stream: its
+//    fail and eof bits, a failed read leaving the value as num_get does, later reads doing nothing): elements in
+//    header order until the face element; positions, normals and uvs as float; colours as int (or float x 255), cast
+//    to a byte; a list that is not a face's indices, and any unknown property, is one word. Each read is also held to
+//    the validation pass's rule for its token (a number; a plain unsigned count; the file not ending), so that what
+//    it refused is refused here at the token's line.
+//  - when a read takes part of a token the validation pass accepted (an int colour written "0.5"), the two passes
+//    stop reading the same tokens: the stream is followed on, and the validation pass is then run on its own over the
+//    body (validate_tokens) to decide, as before. Only such files pay for a second pass. Where OpenMesh then went on
+//    with a variable it had never written (undefined behaviour: its result changed from run to run), the file is
+//    refused.
+//  - binary body, as OpenMesh's read_binary read it (its PLYReader.cc; the type cases of readValue and readInteger as
+//    disassembled from Debian's libOpenMeshCore 9.0, and held to it by the tests): from 12 bytes past where its read
+//    of end_header began (14 after "\r\n"); the elements in header order until the faces, each value
+//    std::istream::read into a variable of its type. Its readValue into a float takes float and double only (a double
+//    is cast to float), its readInteger the integer types only (signed ones sign-extended); for any other type (an
+//    int x, a double colour, float indices) the value is 0 and no byte is taken. A float colour is x 255, cast to
+//    int, then a byte. A list that is not the face's indices (nor its texcoord list, above) is skipped as one value
+//    of its entry type. No dimension check (three coordinates read, a missing one is 0). The validation pass before
+//    it skipped each value by the size of its first type word and a face's texcoord list as a list (as read now):
+//    where the two take the same bytes for every property (binary_in_step: nearly every file), the reads here hold
+//    the validation pass's checks (the file not ending inside a row; a list within the file); otherwise it runs on
+//    its own first (validate_binary, a walk over the face counts). A read past the end was OpenMesh's failure.
 #include "document.h"
 #include "text_numbers.h"
 #include <furrow_kernel/huge_pages.h>
 
 #include <algorithm>
 #include <cfloat>
+#include <charconv>
+#include <cmath>
 #include <cstring>
 #include <string>
 #include <string_view>
@@ -257,16 +273,20 @@ Status read_property(PlyStream& s, PlyHeader& h) {
     s.word(a);
     if (a == "list") {
         s.word(a), s.word(b), s.word(c); // count type, entry type, name
-        if (!s.fail && a != "uint8" && a != "uint16" && a != "uchar" && a != "int")
-            return s.error(line, "unsupported list count type '" + a.substr(0, 16) + "'");
         p.count = scalar_of(a, a);
         p.type = scalar_of(b, b);
         p.check_size = size_of(p.type);
-        if (face && (c == "vertex_index" || c == "vertex_indices")) {
+        if (face && c == "texcoord") { // per-corner uvs (MeshLab): any integer count, float or double entries
+            if (!s.fail && !(p.count >= Scalar::i8 && p.count <= Scalar::u32))
+                return s.error(line, "unsupported list count type '" + a.substr(0, 16) + "'");
+            if (!s.fail && p.type != Scalar::f32 && p.type != Scalar::f64)
+                return s.error(line, "a texcoord list of '" + b.substr(0, 16) + "' (float or double wanted)");
+            p.role = Role::texcoord;
+        } else if (!s.fail && a != "uint8" && a != "uint16" && a != "uchar" && a != "int") {
+            return s.error(line, "unsupported list count type '" + a.substr(0, 16) + "'");
+        } else if (face && (c == "vertex_index" || c == "vertex_indices")) {
             e.properties.clear(); // OpenMesh drops the face properties declared before the indices
             p.role = Role::indices;
-        } else if (face && c == "texcoord") {
-            p.role = Role::texcoord;
         }
         p.read_size = read_size_of(p);
         e.properties.push_back(p);
@@ -472,27 +492,62 @@ void read_indices(PlyStream& s, ReadState& st, ReaderMesh& m) {
     m.corners.insert(m.corners.end(), st.vh.begin(), st.vh.end());
 }
 
-// OpenMesh 9.0's read_ascii has no case for a face's texcoord list: it reads one word. The validation pass
-// read the list (a count, then that many numbers), so after a list of one or more the two read different tokens.
-void read_texcoord(PlyStream& s, const ReadState& st) {
-    const bool was_sync = s.sync && !s.bad;
+bool has_texcoord(const PlyElement& e) {
+    const auto texcoord = [](const PlyProperty& p) { return p.role == Role::texcoord; };
+    return std::any_of(e.properties.begin(), e.properties.end(), texcoord);
+}
+
+const char* const not_numbers = "a face's texcoord list holds something other than numbers";
+
+// One whole token of a face's texcoord list, held to `rule` whether or not the passes are in step (furrow's
+// own reading: OpenMesh never read the list); null where the file is refused.
+const char* list_token(PlyStream& s, Rule rule) {
     const char* b = s.begin_read();
-    s.word(Rule::count);
-    if (!was_sync || !b || s.bad) return;
-    if (st.vh.empty()) return s.refuse(b, "face texture coordinates without corners");
-    if (s.at - b != 1 || *b != '0') s.sync = false;
+    s.word(rule);
+    if (s.bad) return nullptr;
+    if (!b && s.eof) s.refuse(s.end, "the file ends before its last element");
+    else if (!b) s.refuse(s.failed_at ? s.failed_at : s.end, "not read as its property's type, before a texcoord list");
+    else if (!follows(rule, b, s.at))
+        s.refuse(b, rule == Rule::count ? "a texcoord list count is not a count" : not_numbers);
+    return s.bad ? nullptr : b;
+}
+
+// A face's texcoord list (MeshLab's per-corner uvs): a count of 2 per corner, then u v for each corner in
+// order, as the corner uvs of the face just read (`indexed`: this record had the indices list). Its tokens are
+// the validation pass's (a count, then that many numbers), so the passes stay in step.
+void read_texcoord(PlyStream& s, bool indexed, ReaderMesh& m) {
+    if (s.bad) return;
+    const char* b = list_token(s, Rule::count);
+    if (!b) return;
+    uint32_t n = 0;
+    std::from_chars(b, s.at, n);
+    const size_t corners = indexed ? m.corners.size() - m.face_start.back() : 0;
+    if (corners == 0) return s.refuse(b, "face texture coordinates without corners");
+    if (n != 2 * corners)
+        return s.refuse(b, "a texcoord list of " + std::to_string(n) + " values for a face of " +
+                               std::to_string(corners) + " corners (2 per corner wanted)");
+    m.corner_uv.resize(m.corners.size() * 2);
+    float* uv = m.corner_uv.data() + size_t(m.face_start.back()) * 2;
+    for (uint32_t k = 0; k < n; ++k) {
+        const char* t = list_token(s, Rule::number);
+        if (!t) return;
+        if (read_number(t, s.at, uv[k]) != s.at) return s.refuse(t, not_numbers);
+    }
+    m.any_corner_uv = true;
 }
 
 void read_faces(PlyStream& s, const PlyElement& e, ReadState& st, ReaderMesh& m) {
     const size_t cap = std::min<size_t>(e.count, st.body / 8 + 1); // a triangle is at least "3 0 1 2\n"
     kernel::reserve_huge(m.face_start, cap);
     kernel::reserve_huge(m.corners, cap * 3);
+    if (has_texcoord(e)) kernel::reserve_huge(m.corner_uv, cap * 6);
     uint32_t i = 0;
     for (; i < e.count && !s.eof && !s.bad; ++i) {
         int c[4] = {0, 0, 0, 255}; // face colours are read and dropped
+        bool indexed = false;
         for (const PlyProperty& p : e.properties) {
-            if (p.role == Role::indices) read_indices(s, st, m);
-            else if (p.role == Role::texcoord) read_texcoord(s, st);
+            if (p.role == Role::indices) read_indices(s, st, m), indexed = true;
+            else if (p.role == Role::texcoord) read_texcoord(s, indexed, m);
             else if (p.role >= Role::red && p.role <= Role::alpha) read_colour(s, p, c[int(p.role) - int(Role::red)], st);
             else s.word(p.rule);
         }
@@ -584,12 +639,12 @@ size_t binary_body_start(const char* text, size_t size, const PlyHeader& h) {
     return before + (size - before >= 2 && h.before_end[0] == '\r' && h.before_end[1] == '\n' ? 14 : 12);
 }
 
-// Whether the validation pass and OpenMesh take the same bytes for every property up to the faces; a face's
-// texcoord list is never so (the validation pass reads the list, OpenMesh one value).
+// Whether the validation pass and OpenMesh take the same bytes for every property up to the faces (a face's
+// texcoord list is read as a list by both now).
 bool binary_in_step(const PlyHeader& h) {
     for (const PlyElement& e : h.elements) {
         for (const PlyProperty& p : e.properties)
-            if (p.read_size != p.check_size || p.role == Role::texcoord) return false;
+            if (p.read_size != p.check_size) return false;
         if (e.name == "face") break;
     }
     return true;
@@ -660,15 +715,47 @@ Status read_binary_rows(BinaryBody& b, const PlyElement& e, const PlyHeader& h, 
     return rows < e.count ? b.past_end(b.at, e, rows) : Status::success();
 }
 
-// The faces: a count and that many indices for the vertex_indices list; every other property skipped (face
-// colours are dropped, a texcoord list is one value to OpenMesh).
+// A face's texcoord list, as read_texcoord: a count of 2 per corner of the face just read (`corners`), then
+// u v per corner as float or double (a double cast to float); a value that is not finite is refused.
+Status read_binary_texcoord(BinaryBody& b, const PlyProperty& p, const PlyElement& e, uint32_t row, size_t corners,
+                            ReaderMesh& m) {
+    const size_t where = b.at;
+    if (size_of(p.count) > b.left()) return b.past_end(where, e, row);
+    const uint32_t n = as_uint(p.count, b.text + b.at, b.msb);
+    b.at += size_of(p.count);
+    auto refuse = [&](size_t at, const std::string& what) {
+        return b.error(at, "face " + std::to_string(row) + ": " + what);
+    };
+    if (corners == 0) return refuse(where, "face texture coordinates without corners");
+    if (n != 2 * corners)
+        return refuse(where, "a texcoord list of " + std::to_string(n) + " values for " + std::to_string(corners) +
+                                  " corners (2 per corner wanted)");
+    if (n > b.left() / p.read_size) return b.past_end(where, e, row);
+    m.corner_uv.resize(m.corners.size() * 2);
+    float* uv = m.corner_uv.data() + (m.corners.size() - corners) * 2;
+    for (uint32_t k = 0; k < n; ++k, b.at += p.read_size) {
+        uv[k] = as_float(p.type, b.text + b.at, b.msb);
+        if (!std::isfinite(uv[k])) return refuse(b.at, "a texture coordinate is not finite");
+    }
+    m.any_corner_uv = true;
+    return Status::success();
+}
+
+// The faces: a count and that many indices for the vertex_indices list, a texcoord list as corner uvs; every
+// other property skipped (face colours are dropped).
 Status read_binary_faces(BinaryBody& b, const PlyElement& e, ReaderMesh& m) {
     const size_t cap = std::min<size_t>(e.count, b.left() / 4 + 1); // a triangle takes at least 4 bytes
     kernel::reserve_huge(m.face_start, cap);
     kernel::reserve_huge(m.corners, cap * 3);
+    if (has_texcoord(e)) kernel::reserve_huge(m.corner_uv, cap * 6);
     for (uint32_t i = 0; i < e.count; ++i) {
+        size_t corners = 0; // of this record's indices list
         for (const PlyProperty& p : e.properties) {
             const size_t where = b.at;
+            if (p.role == Role::texcoord) {
+                if (Status st = read_binary_texcoord(b, p, e, i, corners, m); !st.ok()) return st;
+                continue;
+            }
             if (p.role != Role::indices) {
                 if (p.read_size > b.left()) return b.past_end(where, e, i);
                 b.at += p.read_size;
@@ -686,6 +773,7 @@ Status read_binary_faces(BinaryBody& b, const PlyElement& e, ReaderMesh& m) {
             const char* q = b.text + b.at;
             for (uint32_t k = 0; k < n; ++k, q += p.read_size) m.corners.push_back(as_uint(p.type, q, b.msb));
             b.at += size_t(n) * p.read_size;
+            corners = n;
         }
     }
     return Status::success();
