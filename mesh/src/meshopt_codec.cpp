@@ -126,8 +126,8 @@ std::map<size_t, ViewUse> view_uses(const json& j) {
 // --compress writes vectors that are already decoded codes (mesh_quantize.cpp), but encoding such a vector
 // again gives a neighbouring code for about 0.6 % of them (the decode rounds), which would move them by one
 // more step and code worse. So each vector whose new code does not decode to it exactly takes the code
-// within two steps that does, when there is one: the file then holds the very codes gltfpack -cc writes for
-// the same float vectors.
+// within two steps that does, when there is one: the file then decodes to exactly what --quantize's
+// octahedral rounding chose (test mesh_encoding.CompressedNormalsDecodeToTheirOctahedralRounding).
 constexpr std::pair<int, int> k_nearest_codes_first[] = {
     {1, 0},   {-1, 0}, {0, 1},  {0, -1}, {1, 1},  {-1, 1}, {1, -1}, {-1, -1}, {2, 0},  {-2, 0},  {0, 2},  {0, -2},
     {2, 1},   {-2, 1}, {2, -1}, {-2, -1}, {1, 2}, {-1, 2}, {1, -2}, {-1, -2}, {2, 2}, {-2, 2}, {2, -2}, {-2, -2}};
