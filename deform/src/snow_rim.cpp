@@ -323,7 +323,7 @@ double rim_amplitude(Window& W, const RimInput& in, const TexelRect& win, const 
     }
     // Staircase noise of the texel-centre distances, blurred away (over a radius that grows with a widened
     // rim: its stripes are as long as it is wide); imprinted texels stay untouched.
-    blur(W.result, W.tmp, W.w, W.h, in.conserve ? std::clamp(int(width_m / (6 * in.texel)), 1, 16) : 1, in.parallel);
+    blur(W.result, W.tmp, W.w, W.h, in.conserve ? clamped_int(width_m / (6 * in.texel), 1, 16) : 1, in.parallel);
     if (!in.conserve) { // kept on receivers (the caller writes only its owned texels)
         const float k = float(in.height_ratio / 81.0); // the blur kernel sums to 81 (two 3 x 3 box passes)
         for (size_t x = 0; x < N; ++x) W.result[x] = W.receiver[x] ? W.result[x] * k : 0.0f;
