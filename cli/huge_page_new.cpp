@@ -1,0 +1,102 @@
+// The furrow command's global operator new: large blocks on transparent huge pages.
+//
+// Why: production-scale outputs (32 fur shells of a 69k-triangle scan: 80 MiB; a rate-8 tessellation: 160 MiB)
+// are written into memory just allocated, and the kernel maps fresh memory one 4 KiB page at a time, on first
+// touch. On the 2-core VM of `furrow bench` a first-touch fault costs about 17 us: a memcpy of the bunny's
+// 80 MiB of shells into fresh memory took 340 ms against 4.8 ms into warm memory, so page faults, not the
+// geometry, were most of the shell emission and a good part of every large command. Linux maps 2 MiB
+// transparent huge pages where a program asks for them (madvise(MADV_HUGEPAGE): Debian's default THP mode is
+// "madvise"), one fault per 512 pages.
+//
+// How, following what glibc's own `glibc.malloc.hugetlb=1` tunable does (which a program cannot set for itself
+// once started):
+// - glibc serves a large block (>= 4 MiB here) with its own mmap, untouched: the block's 2 MiB-aligned
+//   interior is advised before the caller writes it;
+// - smaller blocks come from the heap that glibc grows with brk: the heap grows in steps of at least
+//   kHeapStep (M_TOP_PAD), and each step is advised when the program break has moved. Shell layers and
+//   mesh attributes are mostly blocks of 0.1-2 MiB: this part is what makes emission fast.
+// Replacing the global operator new is the C++ way for a program to choose how it allocates ([new.delete]);
+// only the command does it: the libraries allocate with whatever their caller chose. Allocators that map
+// huge pages themselves (mimalloc with large OS pages, jemalloc with thp:always) were measured too: as fast,
+// but they kept 25-50 MiB more resident on the bunny's rate-4 tessellation, past the memory rule of
+// `furrow bench memory`.
+// Small blocks and everything freed go through malloc and free unchanged.
+#include <cstddef>
+#include <cstdint>
+#include <cstdlib>
+#include <algorithm>
+#include <atomic>
+#include <new>
+
+#include <malloc.h>
+#include <sys/mman.h>
+#include <unistd.h>
+
+namespace {
+
+constexpr std::size_t kHugePage = std::size_t(2) << 20;
+// Below this a block holds at most one whole huge page: not worth a system call.
+constexpr std::size_t kAdviseFrom = std::size_t(4) << 20;
+
+void advise_huge_pages(void* p, std::size_t size) {
+    const auto begin = (reinterpret_cast<std::uintptr_t>(p) + kHugePage - 1) & ~(kHugePage - 1);
+    const auto end = (reinterpret_cast<std::uintptr_t>(p) + size) & ~(kHugePage - 1);
+    // Advice only: a kernel without THP, or with THP off, refuses it and the block stays as it was.
+    if (end > begin) (void)madvise(reinterpret_cast<void*>(begin), end - begin, MADV_HUGEPAGE);
+}
+
+// The heap grows by at least this much at a time, so that its new part holds whole huge pages.
+constexpr std::size_t kHeapStep = std::size_t(32) << 20;
+std::atomic<std::uintptr_t> g_heap_advised{0}; // the program break up to which the heap was advised
+
+// The heap's part above the last advised break, advised (glibc wrote only its chunk headers there).
+void advise_heap_growth() {
+    static const bool padded = mallopt(M_TOP_PAD, int(kHeapStep)) == 1 && mallopt(M_MMAP_THRESHOLD, int(kHeapStep)) == 1;
+    if (!padded) return;
+    const auto brk = reinterpret_cast<std::uintptr_t>(sbrk(0)); // glibc's cached break: no system call
+    std::uintptr_t from = g_heap_advised.load(std::memory_order_relaxed);
+    if (brk < from) { // glibc trimmed the heap: what grows again is new memory
+        g_heap_advised.compare_exchange_strong(from, brk);
+        return;
+    }
+    if (brk <= from + kHugePage) return;
+    if (!g_heap_advised.compare_exchange_strong(from, brk)) return; // another thread advises it
+    if (from == 0) from = brk - std::min<std::uintptr_t>(brk, kHeapStep);
+    advise_huge_pages(reinterpret_cast<void*>(from), brk - from);
+}
+
+void* allocate(std::size_t size) noexcept {
+    void* p = std::malloc(size ? size : 1);
+    if (!p) return p;
+    if (size >= kAdviseFrom) advise_huge_pages(p, size);
+    advise_heap_growth();
+    return p;
+}
+
+void* allocate_or_throw(std::size_t size) {
+    for (;;) {
+        if (void* p = allocate(size)) return p;
+        std::new_handler handler = std::get_new_handler();
+        if (!handler) throw std::bad_alloc();
+        handler();
+    }
+}
+
+} // namespace
+
+void* operator new(std::size_t size) { return allocate_or_throw(size); }
+void* operator new[](std::size_t size) { return allocate_or_throw(size); }
+void* operator new(std::size_t size, const std::nothrow_t&) noexcept {
+    try {
+        return allocate_or_throw(size);
+    } catch (...) {
+        return nullptr;
+    }
+}
+void* operator new[](std::size_t size, const std::nothrow_t& tag) noexcept { return operator new(size, tag); }
+void operator delete(void* p) noexcept { std::free(p); }
+void operator delete[](void* p) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
+void operator delete(void* p, const std::nothrow_t&) noexcept { std::free(p); }
+void operator delete[](void* p, const std::nothrow_t&) noexcept { std::free(p); }
