@@ -10,11 +10,15 @@
 //
 // How, following what glibc's own `glibc.malloc.hugetlb=1` tunable does (which a program cannot set for itself
 // once started):
-// - glibc serves a large block (>= 4 MiB here) with its own mmap, untouched: the block's 2 MiB-aligned
-//   interior is advised before the caller writes it;
-// - smaller blocks come from the heap that glibc grows with brk: the heap grows in steps of at least
-//   kHeapStep (M_TOP_PAD), and each step is advised when the program break has moved. Shell layers and
-//   mesh attributes are mostly blocks of 0.1-2 MiB: this part is what makes emission fast.
+// - a large block (>= 4 MiB here) is advised as it is allocated: glibc maps it on its own, untouched, and its
+//   2 MiB-aligned interior gets huge pages on first touch;
+// - smaller blocks of the main thread come from the heap that glibc grows with brk: blocks below 32 MiB are
+//   kept there (M_MMAP_THRESHOLD), it grows in steps of 32 MiB (M_TOP_PAD), and each step is advised once the
+//   program break has moved. Shell layers and mesh attributes are mostly blocks of 0.1-2 MiB;
+// - worker threads (TBB) allocate from glibc's other arenas, heaps of 64 MiB reserved at 64 MiB-aligned
+//   addresses and committed as they grow: each such heap is advised whole, once, when it first serves a block
+//   of 64 KiB or more (the advice stays on the part not yet committed).
+// The checks run for blocks of 64 KiB or more only: small blocks cost what they did.
 // Replacing the global operator new is the C++ way for a program to choose how it allocates ([new.delete]);
 // only the command does it: the libraries allocate with whatever their caller chose. Allocators that map
 // huge pages themselves (mimalloc with large OS pages, jemalloc with thp:always) were measured too: as fast,
@@ -48,11 +52,12 @@ void advise_huge_pages(void* p, std::size_t size) {
 // The heap grows by at least this much at a time, so that its new part holds whole huge pages.
 constexpr std::size_t kHeapStep = std::size_t(32) << 20;
 std::atomic<std::uintptr_t> g_heap_advised{0}; // the program break up to which the heap was advised
+// Set while the program starts: blocks below kHeapStep stay in the heaps, and the main heap grows by kHeapStep.
+const bool g_heap_configured = mallopt(M_MMAP_THRESHOLD, int(kHeapStep)) == 1 && mallopt(M_TOP_PAD, int(kHeapStep)) == 1;
 
 // The heap's part above the last advised break, advised (glibc wrote only its chunk headers there).
 void advise_heap_growth() {
-    static const bool padded = mallopt(M_TOP_PAD, int(kHeapStep)) == 1 && mallopt(M_MMAP_THRESHOLD, int(kHeapStep)) == 1;
-    if (!padded) return;
+    if (!g_heap_configured) return;
     const auto brk = reinterpret_cast<std::uintptr_t>(sbrk(0)); // glibc's cached break: no system call
     std::uintptr_t from = g_heap_advised.load(std::memory_order_relaxed);
     if (brk < from) { // glibc trimmed the heap: what grows again is new memory
@@ -65,11 +70,37 @@ void advise_heap_growth() {
     advise_huge_pages(reinterpret_cast<void*>(from), brk - from);
 }
 
+// A worker thread's arena heap (glibc's HEAP_MAX_SIZE on 64-bit: 64 MiB, aligned to its size), advised whole
+// the first time one of its blocks is seen. Heaps seen so far: a few per thread, kept in a fixed table (this
+// code cannot allocate).
+constexpr std::size_t kArenaHeap = std::size_t(64) << 20;
+std::atomic<std::uintptr_t> g_arena_heaps[256];
+
+void advise_arena_heap(const void* p) {
+    const auto base = reinterpret_cast<std::uintptr_t>(p) & ~(kArenaHeap - 1);
+    for (auto& slot : g_arena_heaps) {
+        std::uintptr_t seen = slot.load(std::memory_order_relaxed);
+        if (seen == base) return;
+        if (seen == 0 && slot.compare_exchange_strong(seen, base)) {
+            // The parts not mapped (a heap not grown to its reservation's end) make madvise report ENOMEM;
+            // the mapped parts are advised all the same.
+            (void)madvise(reinterpret_cast<void*>(base), kArenaHeap, MADV_HUGEPAGE);
+            return;
+        }
+        if (seen == base) return;
+    }
+}
+
+constexpr std::size_t kCheckFrom = std::size_t(64) << 10;
+
 void* allocate(std::size_t size) noexcept {
     void* p = std::malloc(size ? size : 1);
-    if (!p) return p;
+    if (!p || size < kCheckFrom) return p;
     if (size >= kAdviseFrom) advise_huge_pages(p, size);
-    advise_heap_growth();
+    if (reinterpret_cast<std::uintptr_t>(p) < reinterpret_cast<std::uintptr_t>(sbrk(0)))
+        advise_heap_growth(); // the main heap: below the program break
+    else if (g_heap_configured && size < kHeapStep)
+        advise_arena_heap(p); // above it: a worker's arena (blocks below kHeapStep are never mapped alone)
     return p;
 }
 
