@@ -24,6 +24,8 @@
 // huge pages themselves (mimalloc with large OS pages, jemalloc with thp:always) were measured too: as fast,
 // but they kept 25-50 MiB more resident on the bunny's rate-4 tessellation, past the memory rule of
 // `furrow bench memory`.
+// The libraries advise their own largest arrays (mesh/kernel's huge_pages.h: reserve_huge, assign_huge), for
+// any program that links them; this file extends the advice to every block of the command.
 // Small blocks and everything freed go through malloc and free unchanged.
 #include <cstddef>
 #include <cstdint>
@@ -36,18 +38,14 @@
 #include <sys/mman.h>
 #include <unistd.h>
 
+#include <furrow_kernel/huge_pages.h>
+
 namespace {
 
+using furrow::kernel::advise_huge_pages;
 constexpr std::size_t kHugePage = std::size_t(2) << 20;
 // Below this a block holds at most one whole huge page: not worth a system call.
 constexpr std::size_t kAdviseFrom = std::size_t(4) << 20;
-
-void advise_huge_pages(void* p, std::size_t size) {
-    const auto begin = (reinterpret_cast<std::uintptr_t>(p) + kHugePage - 1) & ~(kHugePage - 1);
-    const auto end = (reinterpret_cast<std::uintptr_t>(p) + size) & ~(kHugePage - 1);
-    // Advice only: a kernel without THP, or with THP off, refuses it and the block stays as it was.
-    if (end > begin) (void)madvise(reinterpret_cast<void*>(begin), end - begin, MADV_HUGEPAGE);
-}
 
 // The heap grows by at least this much at a time, so that its new part holds whole huge pages.
 constexpr std::size_t kHeapStep = std::size_t(32) << 20;

@@ -23,6 +23,19 @@
 
 namespace furrow::kernel {
 
+// The 2 MiB-aligned interior of [p, p + bytes) advised for transparent huge pages: memory not yet touched
+// there gets 2 MiB pages on first touch. Advice only: where THP is off or missing, nothing changes.
+inline void advise_huge_pages(const void* p, size_t bytes) {
+#if defined(__linux__) && defined(MADV_HUGEPAGE)
+    constexpr uintptr_t huge = uintptr_t(2) << 20;
+    const uintptr_t begin = (uintptr_t(p) + huge - 1) & ~(huge - 1);
+    const uintptr_t end = (uintptr_t(p) + bytes) & ~(huge - 1);
+    if (end > begin) (void)::madvise(reinterpret_cast<void*>(begin), end - begin, MADV_HUGEPAGE);
+#else
+    (void)p, (void)bytes;
+#endif
+}
+
 // An empty v with room for n elements, a newly allocated block advised for huge pages when it is at least
 // 4 MiB (for a vector then filled by push_back up to n: no reallocation, few page faults).
 template <class T>
@@ -33,9 +46,7 @@ void reserve_huge(std::vector<T>& v, size_t n) {
     if (n * sizeof(T) >= 2 * huge && v.capacity() < n) {
         std::vector<T>().swap(v);
         v.reserve(n);
-        const uintptr_t begin = (uintptr_t(v.data()) + huge - 1) & ~(huge - 1);
-        const uintptr_t end = uintptr_t(v.data() + n) & ~(huge - 1);
-        if (end > begin) (void)::madvise(reinterpret_cast<void*>(begin), end - begin, MADV_HUGEPAGE); // advice only
+        advise_huge_pages(v.data(), n * sizeof(T));
     }
 #endif
     v.reserve(n);
