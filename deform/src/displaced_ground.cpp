@@ -181,7 +181,6 @@ struct DisplacedGround::Impl {
     HeightmapFrame frame;
     DisplaceOptions opt;
     size_t vertex_count = 0;
-    std::vector<uint32_t> remap;          // vertex -> welded point (kernel::welded_ids)
     Indices copy_off, copies;             // welded point -> its vertices (CSR)
     Doubles rest;                         // undeformed position per point
     Doubles dir;                          // displacement direction per point (unit)
@@ -260,16 +259,17 @@ Status DisplacedGround::prepare(const float* positions, size_t vertex_count, con
         m->opt = opt;
         m->vertex_count = vertex_count;
         size_t points = 0;
+        std::vector<uint32_t> remap; // vertex -> welded point; freed once the triangles are on welded points
         {
             std::vector<uint32_t> first(vertex_count);
             weld_positions(first.data(), positions, vertex_count);
             // Welded points numbered in order of first appearance.
             kernel::WeldedIds welded = kernel::welded_ids(first.data(), vertex_count);
             points = welded.first.size();
-            m->remap = std::move(welded.of_vertex);
+            remap = std::move(welded.of_vertex);
         }
         // Triangles on welded points; degenerate ones carry no normal and no neighbourhood.
-        auto welded = [&](size_t t, int k) { return m->remap[indices[t + size_t(k)]]; };
+        auto welded = [&](size_t t, int k) { return remap[indices[t + size_t(k)]]; };
         auto kept = [&](size_t t) {
             const uint32_t a = welded(t, 0), b = welded(t, 1), c = welded(t, 2);
             return a != b && b != c && c != a;
@@ -281,10 +281,12 @@ Status DisplacedGround::prepare(const float* positions, size_t vertex_count, con
         m->tiles_y = (frame.height + Impl::kTile - 1) / Impl::kTile + 1;
         const size_t tiles = size_t(m->tiles_x) * size_t(m->tiles_y);
         const bool terms = opt.keep_face_terms;
-        // One block for every array below (see Arena); the terms only when kept.
-        const size_t bytes = 4 * Arena::padded(24 * points) + Arena::padded(16 * points) + 4 * Arena::padded(4 * (points + 1)) +
-                        Arena::padded(4 * vertex_count) + 2 * Arena::padded(12 * T) + Arena::padded(4 * T) +
-                        Arena::padded(4 * (tiles + 1)) + (terms ? Arena::padded(sizeof(FaceTerm) * T) : 0);
+        // One block for every array below (see Arena); the terms and update()'s marks only when the terms are
+        // kept (`furrow stamp` displaces once: 4 bytes a triangle and a point less at its peak).
+        const size_t bytes = 4 * Arena::padded(24 * points) + Arena::padded(16 * points) + 2 * Arena::padded(4 * (points + 1)) +
+                        Arena::padded(4 * points) + Arena::padded(4 * vertex_count) + 2 * Arena::padded(12 * T) +
+                        Arena::padded(4 * (tiles + 1)) +
+                        (terms ? Arena::padded(sizeof(FaceTerm) * T) + Arena::padded(4 * points) + Arena::padded(4 * T) : 0);
         {
             // The old state goes now (a failure past this point, out of memory, leaves the ground empty): its
             // arrays point into the block this one may take over.
@@ -294,14 +296,15 @@ Status DisplacedGround::prepare(const float* positions, size_t vertex_count, con
         auto array = [&]<class T>(Array<T>& v, size_t n, const T& value) { v = Array<T>(n, value, ArenaAlloc<T>(&m->arena)); };
         array(m->rest, 3 * points, 0.0);
         for (size_t v = 0; v < vertex_count; ++v)
-            for (int d = 0; d < 3; ++d) m->rest[3 * size_t(m->remap[v]) + size_t(d)] = positions[3 * v + size_t(d)];
+            for (int d = 0; d < 3; ++d) m->rest[3 * size_t(remap[v]) + size_t(d)] = positions[3 * v + size_t(d)];
         array(m->copy_off, points + 1, 0u);
         array(m->copies, vertex_count, 0u);
-        bucket(m->copy_off, m->copies, points, vertex_count, [&](size_t v) { return m->remap[v]; }, [](size_t v) { return uint32_t(v); });
+        bucket(m->copy_off, m->copies, points, vertex_count, [&](size_t v) { return remap[v]; }, [](size_t v) { return uint32_t(v); });
         m->tris = Indices(ArenaAlloc<uint32_t>(&m->arena));
         m->tris.reserve(3 * T);
         for (size_t t = 0; t + 3 <= index_count; t += 3)
             if (kept(t)) m->tris.insert(m->tris.end(), {welded(t, 0), welded(t, 1), welded(t, 2)});
+        std::vector<uint32_t>().swap(remap);
         array(m->face_off, points + 1, 0u);
         array(m->faces, 3 * T, 0u);
         bucket(m->face_off, m->faces, points, 3 * T, [&](size_t c) { return m->tris[c]; }, [](size_t c) { return uint32_t(c); });
@@ -347,8 +350,10 @@ Status DisplacedGround::prepare(const float* positions, size_t vertex_count, con
         bucket(m->tile_off, m->tile_pts, tiles, points, tile_index, [](size_t p) { return uint32_t(p); });
         m->cur = Doubles(m->rest, ArenaAlloc<double>(&m->arena));
         array(m->nrm, 3 * points, 0.0);
-        array(m->mark, points, 0u);
-        array(m->face_mark, T, 0u);
+        if (terms) { // update()'s marks; without the terms (one displace_all) they come with the first update()
+            array(m->mark, points, 0u);
+            array(m->face_mark, T, 0u);
+        }
         impl_ = std::move(m);
         return Status::success();
     });
@@ -406,6 +411,11 @@ size_t DisplacedGround::update(const Heightmap& h, const std::vector<TexelRect>&
     if (m.terms.size() != m.tris.size() / 3) { // along_up, no displace_all yet: the terms of rest
         m.terms.assign(m.tris.size() / 3, FaceTerm{});
         tbb::parallel_for(size_t(0), m.terms.size(), [&](size_t f) { m.terms[f] = face_term(m.cur.data(), &m.tris[3 * f]); });
+    }
+    if (m.mark.size() != m.rest.size() / 3) {
+        m.mark.assign(m.rest.size() / 3, 0u);
+        m.face_mark.assign(m.tris.size() / 3, 0u);
+        m.epoch = 0;
     }
     auto next_epoch = [&] {
         if (++m.epoch == 0) std::fill(m.mark.begin(), m.mark.end(), 0), std::fill(m.face_mark.begin(), m.face_mark.end(), 0), m.epoch = 1;
