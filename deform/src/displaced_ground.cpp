@@ -60,11 +60,11 @@ struct Arena {
     uint8_t* base = nullptr; // the block's range, kept when the block moves on to a new Arena (see owns)
     size_t size = 0, used = 0;
     static size_t padded(size_t bytes) { return (bytes + 63) & ~size_t(63); }
-    // A block of `bytes`: `old`'s when it is at least that large (a re-prepare: its pages are already
-    // mapped, no fault), else a new one. The arrays of `old` keep pointing into the block until they are
-    // destroyed; they free nothing (owns() uses base, not block).
+    // A block of `bytes`: `old`'s when it is that large but not twice as large (a re-prepare: its pages are
+    // already mapped, no fault; a much smaller mesh does not keep a large block), else a new one. The arrays
+    // of `old` keep pointing into the block until they are destroyed; they free nothing (owns() uses base).
     void adopt(Arena* old, size_t bytes) {
-        if (old && old->block && old->size >= bytes) {
+        if (old && old->block && old->size >= bytes && old->size / 2 <= bytes) {
             block = std::move(old->block);
             size = old->size;
         } else {
