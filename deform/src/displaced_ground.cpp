@@ -12,11 +12,12 @@
 // Cost per point. Both passes cache each face's terms (unit normal, three corner angles) once per face, not
 // once per corner. prepare() puts every array in one huge-page block (Arena, below), which a later prepare()
 // of the same object takes over when the new mesh fits: on this project's VM a fresh 4 KiB page costs ~20 us,
-// so prepare used to spend most of its time in page faults (394k vertices: 502 ms, 17x the 99k mesh's 30 ms,
-// against ~150 ms now, ~60 ms of it in weld_positions). An update skips the points whose position comes out bit-identical (a dirty tile is
-// rarely dirty everywhere): their faces, normals and buffer entries are already those a full pass writes. The
-// points and faces to redo are claimed in parallel chunks, so the update scales with threads as the full pass
-// does; the result bytes do not depend on which chunk claims what.
+// and prepare used to spend most of its time in page faults (`bench stamp` §5, 394k vertices: 392-502 ms, 17x
+// the 99k mesh's; now 95-155 ms prepared again, 150-210 ms fresh, 45-60 ms of it in weld_positions). An update
+// skips the points whose position comes out bit-identical (a dirty tile is rarely dirty everywhere): their
+// faces, normals and buffer entries are already those a full pass writes. The points and faces to redo are
+// claimed in parallel chunks, so the update scales with threads as the full pass does; the result bytes do
+// not depend on which chunk claims what.
 #include "deform_internal.h"
 
 #include <furrow_kernel/angle_weighted_normal.h>
