@@ -9,11 +9,15 @@
 // the dirty rectangle and renormalises every point of the faces around them, which is exactly the set whose
 // angle-weighted normal can change. Each face's part of a normal, and which faces are degenerate, are the
 // kernel's (furrow_kernel/angle_weighted_normal.h), as in compute_vertex_normals.
-// Cost per point. Both passes cache each face's terms (unit normal, corner angles: three atan2) once per face,
-// not once per corner. An update skips the points whose position comes out bit-identical (a dirty tile is
-// rarely dirty everywhere): their faces, normals and buffer entries are already those a full pass writes. The
-// points and faces to redo are claimed in parallel chunks, so the update scales with threads as the full pass
-// does; the result bytes do not depend on which chunk claims what.
+// Cost per point. Both passes cache each face's terms (unit normal, three corner angles) once per face, not
+// once per corner. prepare() puts every array in one huge-page block (Arena, below), which a later prepare()
+// of the same object takes over when the new mesh fits: on this project's VM a fresh 4 KiB page costs ~20 us,
+// and prepare used to spend most of its time in page faults (`bench stamp` §5, 394k vertices: 392-502 ms, 17x
+// the 99k mesh's; now 95-155 ms prepared again, 150-210 ms fresh, 45-60 ms of it in weld_positions). An update
+// skips the points whose position comes out bit-identical (a dirty tile is rarely dirty everywhere): their
+// faces, normals and buffer entries are already those a full pass writes. The points and faces to redo are
+// claimed in parallel chunks, so the update scales with threads as the full pass does; the result bytes do
+// not depend on which chunk claims what.
 #include "deform_internal.h"
 
 #include <furrow_kernel/angle_weighted_normal.h>
@@ -27,6 +31,9 @@
 #include <algorithm>
 #include <atomic>
 #include <bit>
+#include <utility>
+#include <cstdlib>
+#include <new>
 
 namespace furrow {
 
@@ -43,9 +50,81 @@ struct FaceTerm {
     double angle[3] = {-1, -1, -1}; // < 0: degenerate (the kernel's rule), contributes nothing
 };
 
-// The large arrays are sized with kernel::assign_huge (huge pages: first touch faults once per 2 MiB).
-using FaceTerms = std::vector<FaceTerm>; // 48 bytes per triangle
-using Doubles = std::vector<double>;     // per point: 24 bytes a vector
+// Every array of a prepared ground comes from one block advised for huge pages (Arena), sized in prepare()
+// once the welded point and triangle counts are known. The cost is page faults, not bytes: on this project's
+// 2-core VM a first touch of a fresh 4 KiB page costs ~20 us (a zero-filled 2 MiB vector: 9 ms; 38 MiB: 170 ms,
+// against 12 ms with huge pages), and prepare() used to fault in ~20 separately allocated arrays, most below
+// kernel::assign_huge's 4 MiB threshold or with 4 KiB-paged ends. A vector that outgrows the block, or is made
+// without it, gets its own kernel::allocate_huge_bytes block.
+struct Arena {
+    kernel::HugeBytes block;
+    uint8_t* base = nullptr; // the block's range, kept when the block moves on to a new Arena (see owns)
+    size_t size = 0, used = 0;
+    static size_t padded(size_t bytes) { return (bytes + 63) & ~size_t(63); }
+    // A block of `bytes`: `old`'s when it is that large but not twice as large (a re-prepare: its pages are
+    // already mapped, no fault; a much smaller mesh does not keep a large block), else a new one. The arrays
+    // of `old` keep pointing into the block until they are destroyed; they free nothing (owns() uses base).
+    void adopt(Arena* old, size_t bytes) {
+        if (old && old->block && old->size >= bytes && old->size / 2 <= bytes) {
+            block = std::move(old->block);
+            size = old->size;
+        } else {
+            block = kernel::allocate_huge_bytes(bytes);
+            size = block ? bytes : 0; // no block: each array allocates its own
+        }
+        base = block.get();
+    }
+    void* take(size_t bytes) {
+        if (!base || used + bytes > size) return nullptr;
+        void* p = base + used;
+        used += padded(bytes);
+        return p;
+    }
+    bool owns(const void* p) const {
+        const auto* b = static_cast<const uint8_t*>(p);
+        return base && b >= base && b < base + size;
+    }
+};
+template <class T>
+struct ArenaAlloc {
+    using value_type = T;
+    using propagate_on_container_copy_assignment = std::true_type;
+    using propagate_on_container_move_assignment = std::true_type;
+    using propagate_on_container_swap = std::true_type;
+    Arena* arena = nullptr;
+    ArenaAlloc() = default;
+    explicit ArenaAlloc(Arena* a) : arena(a) {}
+    template <class U>
+    ArenaAlloc(const ArenaAlloc<U>& o) : arena(o.arena) {}
+    T* allocate(size_t n) {
+        if (void* p = arena ? arena->take(n * sizeof(T)) : nullptr) return static_cast<T*>(p);
+        void* p = kernel::allocate_huge_bytes(n * sizeof(T)).release();
+        if (!p) throw std::bad_alloc();
+        return static_cast<T*>(p);
+    }
+    void deallocate(T* p, size_t) {
+        if (!(arena && arena->owns(p))) std::free(p); // inside the block: freed with it
+    }
+    template <class U>
+    bool operator==(const ArenaAlloc<U>& o) const { return arena == o.arena; }
+};
+template <class T>
+using Array = std::vector<T, ArenaAlloc<T>>;
+using FaceTerms = Array<FaceTerm>; // 48 bytes per triangle
+using Doubles = Array<double>;     // per point: 24 bytes a vector
+using Indices = Array<uint32_t>;
+
+// Compressed rows (CSR) by counting sort: off[r] .. off[r + 1] holds, in increasing order, the items i < n
+// with row_of(i) == r, stored as item(i). off itself is the fill cursor, shifted back after (no scratch array).
+template <class RowOf, class Item>
+void bucket(Indices& off, Indices& items, size_t rows, size_t n, RowOf row_of, Item item) {
+    std::fill(off.begin(), off.end(), 0u);
+    for (size_t i = 0; i < n; ++i) ++off[size_t(row_of(i)) + 1];
+    for (size_t r = 0; r < rows; ++r) off[r + 1] += off[r];
+    for (size_t i = 0; i < n; ++i) items[off[row_of(i)]++] = item(i);
+    for (size_t r = rows; r > 0; --r) off[r] = off[r - 1];
+    off[0] = 0;
+}
 
 FaceTerm face_term(const double* P, const uint32_t* t) {
     FaceTerm f;
@@ -62,7 +141,7 @@ FaceTerm face_term(const double* P, const uint32_t* t) {
 // corners (3 × face + corner, see Impl::faces): the corner is known without reading the face's indices (a
 // cache miss per face on the per-frame path).
 template <class Term>
-void gather_normal(double* o, uint32_t v, const Term& term, const std::vector<uint32_t>& off, const std::vector<uint32_t>& corners) {
+void gather_normal(double* o, uint32_t v, const Term& term, const Indices& off, const Indices& corners) {
     kernel::Vec3 sum;
     for (uint32_t k = off[v]; k < off[size_t(v) + 1]; ++k) {
         const uint32_t f = corners[k] / 3;
@@ -79,8 +158,8 @@ void gather_normal(double* o, uint32_t v, const Term& term, const std::vector<ui
 // All faces' terms, then all points' normals. With `keep` false (a one-shot displacement) no term is kept:
 // each point computes its faces' terms itself (each face three times), and the 48 bytes per triangle of the
 // cache, the largest array of a `furrow stamp`, are never allocated.
-void all_normals(double* normals, FaceTerms& terms, bool keep, const double* P, const std::vector<uint32_t>& tri,
-                 const std::vector<uint32_t>& off, const std::vector<uint32_t>& faces) {
+void all_normals(double* normals, FaceTerms& terms, bool keep, const double* P, const Indices& tri, const Indices& off,
+                 const Indices& faces) {
     if (!keep) {
         FaceTerms().swap(terms);
         auto fresh = [&](uint32_t f) { return face_term(P, &tri[3 * size_t(f)]); };
@@ -89,7 +168,7 @@ void all_normals(double* normals, FaceTerms& terms, bool keep, const double* P, 
         });
         return;
     }
-    if (terms.size() != tri.size() / 3) kernel::assign_huge(terms, tri.size() / 3);
+    if (terms.size() != tri.size() / 3) terms.assign(tri.size() / 3, FaceTerm{});
     tbb::parallel_for(tbb::blocked_range<size_t>(0, terms.size(), 1024), [&](const tbb::blocked_range<size_t>& r) {
         for (size_t f = r.begin(); f != r.end(); ++f) terms[f] = face_term(P, &tri[3 * f]);
     });
@@ -102,27 +181,27 @@ void all_normals(double* normals, FaceTerms& terms, bool keep, const double* P, 
 } // namespace
 
 struct DisplacedGround::Impl {
+    Arena arena;                          // first: the arrays below live in it, and are destroyed before it
     HeightmapFrame frame;
     DisplaceOptions opt;
     size_t vertex_count = 0;
-    std::vector<uint32_t> remap;          // vertex -> welded point
-    std::vector<uint32_t> copy_off, copies; // welded point -> its vertices (CSR)
+    Indices copy_off, copies;             // welded point -> its vertices (CSR)
     Doubles rest;                         // undeformed position per point
     Doubles dir;                          // displacement direction per point (unit)
     Doubles texel;                        // (ti, tj) per point
     std::vector<uint8_t> movable;         // top_only: on the top surface
-    std::vector<uint32_t> tris;           // welded, non-degenerate
-    std::vector<uint32_t> face_off, faces; // point -> incident corners, 3 × triangle + corner (CSR)
+    Indices tris;                         // welded, non-degenerate
+    Indices face_off, faces;              // point -> incident corners, 3 × triangle + corner (CSR)
     Doubles cur, nrm;                     // current displaced positions and normals per point
     // Points bucketed by 16 x 16-texel tiles of their footprint's lower corner.
     int tiles_x = 0, tiles_y = 0;
-    std::vector<uint32_t> tile_off, tile_pts;
+    Indices tile_off, tile_pts;
     FaceTerms terms;                      // per triangle, as of the last displace_all/update
-    std::vector<uint32_t> mark, face_mark; // scratch for update()
+    Array<uint64_t> mark, face_mark;      // update()'s scratch: a bit per point and per triangle (27 + 55 KB at
+                                          // 221k points: in cache, unlike a word each, 2.6 MB)
     std::vector<uint32_t> moved;          // points under the dirty rectangles
     std::vector<std::vector<uint32_t>> claims; // per chunk of moved points: the points it renormalises
     std::vector<uint8_t> shifted;         // per moved point: its position changed
-    uint32_t epoch = 0;
     static constexpr int kTile = 16;
 
     // Clamped before the conversion: a vertex no triangle uses may lie far off the grid, with a texel
@@ -179,49 +258,63 @@ Status DisplacedGround::prepare(const float* positions, size_t vertex_count, con
         // reached an int conversion (undefined behaviour, found by fuzz_stamp).
         for (size_t k = 0; k < 3 * vertex_count; ++k)
             if (!std::isfinite(positions[k])) return Status::error(StatusCode::invalid_input, "a vertex position is not finite");
-        auto m = std::make_unique<Impl>();
+        auto m = std::make_unique<Impl>(), empty = std::make_unique<Impl>();
         m->frame = frame;
         m->opt = opt;
         m->vertex_count = vertex_count;
-        std::vector<uint32_t> first(vertex_count);
-        weld_positions(first.data(), positions, vertex_count);
-        // Welded points numbered in order of first appearance.
-        kernel::WeldedIds welded = kernel::welded_ids(first.data(), vertex_count);
-        m->remap = std::move(welded.of_vertex);
-        const uint32_t points = uint32_t(welded.first.size());
-        kernel::assign_huge(m->rest, 3 * size_t(points));
-        m->copy_off.assign(size_t(points) + 1, 0);
-        for (size_t v = 0; v < vertex_count; ++v) {
-            const uint32_t p = m->remap[v];
-            for (int d = 0; d < 3; ++d) m->rest[3 * size_t(p) + size_t(d)] = positions[3 * v + size_t(d)];
-            ++m->copy_off[size_t(p) + 1];
-        }
-        for (size_t p = 0; p < points; ++p) m->copy_off[p + 1] += m->copy_off[p];
-        m->copies.resize(vertex_count);
+        size_t points = 0;
+        std::vector<uint32_t> remap; // vertex -> welded point; freed once the triangles are on welded points
         {
-            std::vector<uint32_t> fill(m->copy_off.begin(), m->copy_off.end() - 1);
-            for (size_t v = 0; v < vertex_count; ++v) m->copies[fill[m->remap[v]]++] = uint32_t(v);
+            std::vector<uint32_t> first(vertex_count);
+            weld_positions(first.data(), positions, vertex_count);
+            // Welded points numbered in order of first appearance.
+            kernel::WeldedIds welded = kernel::welded_ids(first.data(), vertex_count);
+            points = welded.first.size();
+            remap = std::move(welded.of_vertex);
         }
         // Triangles on welded points; degenerate ones carry no normal and no neighbourhood.
-        m->tris.reserve(index_count); // one allocation, not a doubling series of copies
-        for (size_t t = 0; t + 3 <= index_count; t += 3) {
-            const uint32_t a = m->remap[indices[t]], b = m->remap[indices[t + 1]], c = m->remap[indices[t + 2]];
-            if (a == b || b == c || c == a) continue;
-            m->tris.insert(m->tris.end(), {a, b, c});
-        }
-        const size_t T = m->tris.size() / 3;
+        auto welded = [&](size_t t, int k) { return remap[indices[t + size_t(k)]]; };
+        auto kept = [&](size_t t) {
+            const uint32_t a = welded(t, 0), b = welded(t, 1), c = welded(t, 2);
+            return a != b && b != c && c != a;
+        };
+        size_t T = 0;
+        for (size_t t = 0; t + 3 <= index_count; t += 3) T += kept(t);
         if (3 * T > size_t(UINT32_MAX)) return Status::error(StatusCode::invalid_input, "more than 1.4 billion triangles");
-        m->face_off.assign(size_t(points) + 1, 0);
-        for (uint32_t v : m->tris) ++m->face_off[size_t(v) + 1];
-        for (size_t p = 0; p < points; ++p) m->face_off[p + 1] += m->face_off[p];
-        m->faces.resize(m->face_off.back());
+        m->tiles_x = (frame.width + Impl::kTile - 1) / Impl::kTile + 1;
+        m->tiles_y = (frame.height + Impl::kTile - 1) / Impl::kTile + 1;
+        const size_t tiles = size_t(m->tiles_x) * size_t(m->tiles_y);
+        const bool terms = opt.keep_face_terms;
+        // One block for every array below (see Arena); the terms only when kept.
+        const size_t bytes = 4 * Arena::padded(24 * points) + Arena::padded(16 * points) + 2 * Arena::padded(4 * (points + 1)) +
+                        Arena::padded(4 * points) + Arena::padded(4 * vertex_count) + 2 * Arena::padded(12 * T) +
+                        Arena::padded(4 * (tiles + 1)) +
+                        Arena::padded(8 * ((points + 63) / 64)) + Arena::padded(8 * ((T + 63) / 64)) +
+                        (terms ? Arena::padded(sizeof(FaceTerm) * T) : 0);
         {
-            std::vector<uint32_t> fill(m->face_off.begin(), m->face_off.end() - 1);
-            for (size_t t = 0; t < T; ++t)
-                for (int k = 0; k < 3; ++k) m->faces[fill[m->tris[3 * t + size_t(k)]]++] = uint32_t(3 * t + size_t(k));
+            // The old state goes now (a failure past this point, out of memory, leaves the ground empty): its
+            // arrays point into the block this one may take over.
+            std::unique_ptr<Impl> old = std::exchange(impl_, std::move(empty));
+            m->arena.adopt(old ? &old->arena : nullptr, bytes);
         }
+        auto array = [&]<class T>(Array<T>& v, size_t n, const T& value) { v = Array<T>(n, value, ArenaAlloc<T>(&m->arena)); };
+        array(m->rest, 3 * points, 0.0);
+        for (size_t v = 0; v < vertex_count; ++v)
+            for (int d = 0; d < 3; ++d) m->rest[3 * size_t(remap[v]) + size_t(d)] = positions[3 * v + size_t(d)];
+        array(m->copy_off, points + 1, 0u);
+        array(m->copies, vertex_count, 0u);
+        bucket(m->copy_off, m->copies, points, vertex_count, [&](size_t v) { return remap[v]; }, [](size_t v) { return uint32_t(v); });
+        m->tris = Indices(ArenaAlloc<uint32_t>(&m->arena));
+        m->tris.reserve(3 * T);
+        for (size_t t = 0; t + 3 <= index_count; t += 3)
+            if (kept(t)) m->tris.insert(m->tris.end(), {welded(t, 0), welded(t, 1), welded(t, 2)});
+        std::vector<uint32_t>().swap(remap);
+        array(m->face_off, points + 1, 0u);
+        array(m->faces, 3 * T, 0u);
+        bucket(m->face_off, m->faces, points, 3 * T, [&](size_t c) { return m->tris[c]; }, [](size_t c) { return uint32_t(c); });
+        if (terms) array(m->terms, T, FaceTerm{});
         // Undeformed normals give the displacement direction.
-        kernel::assign_huge(m->dir, 3 * size_t(points), 0.0);
+        array(m->dir, 3 * points, 0.0);
         if (opt.along_up) {
             for (size_t p = 0; p < points; ++p)
                 for (int d = 0; d < 3; ++d) m->dir[3 * p + size_t(d)] = frame.up[size_t(d)];
@@ -234,7 +327,7 @@ Status DisplacedGround::prepare(const float* positions, size_t vertex_count, con
                 if (o[0] == 0 && o[1] == 0 && o[2] == 0) o[0] = frame.up[0], o[1] = frame.up[1], o[2] = frame.up[2];
             }
         }
-        kernel::assign_huge(m->texel, 2 * size_t(points));
+        array(m->texel, 2 * points, 0.0);
         tbb::parallel_for(size_t(0), size_t(points), [&](size_t p) {
             auto t = frame.to_texel(&m->rest[3 * p]);
             m->texel[2 * p] = t[0], m->texel[2 * p + 1] = t[1];
@@ -252,26 +345,17 @@ Status DisplacedGround::prepare(const float* positions, size_t vertex_count, con
                 if (!std::isnan(g) && w < double(g) - tol) m->movable[p] = 0;
             }
         }
-        m->tiles_x = (frame.width + Impl::kTile - 1) / Impl::kTile + 1;
-        m->tiles_y = (frame.height + Impl::kTile - 1) / Impl::kTile + 1;
-        const size_t tiles = size_t(m->tiles_x) * size_t(m->tiles_y);
-        m->tile_off.assign(tiles + 1, 0);
-        std::vector<uint32_t> tile_of(points);
-        for (size_t p = 0; p < points; ++p) {
-            tile_of[p] = uint32_t(m->tile_of(m->texel[2 * p + 1], m->tiles_y) * m->tiles_x + m->tile_of(m->texel[2 * p], m->tiles_x));
-            ++m->tile_off[size_t(tile_of[p]) + 1];
-        }
-        for (size_t k = 0; k < tiles; ++k) m->tile_off[k + 1] += m->tile_off[k];
-        m->tile_pts.resize(points);
-        {
-            std::vector<uint32_t> fill(m->tile_off.begin(), m->tile_off.end() - 1);
-            for (size_t p = 0; p < points; ++p) m->tile_pts[fill[tile_of[p]]++] = uint32_t(p);
-        }
-        kernel::reserve_huge(m->cur, m->rest.size());
-        m->cur.assign(m->rest.begin(), m->rest.end());
-        kernel::assign_huge(m->nrm, 3 * size_t(points), 0.0);
-        m->mark.assign(points, 0);
-        m->face_mark.assign(m->tris.size() / 3, 0);
+        array(m->tile_off, tiles + 1, 0u);
+        array(m->tile_pts, points, 0u);
+        const Impl& c = *m;
+        auto tile_index = [&c](size_t p) {
+            return uint32_t(c.tile_of(c.texel[2 * p + 1], c.tiles_y) * c.tiles_x + c.tile_of(c.texel[2 * p], c.tiles_x));
+        };
+        bucket(m->tile_off, m->tile_pts, tiles, points, tile_index, [](size_t p) { return uint32_t(p); });
+        m->cur = Doubles(m->rest, ArenaAlloc<double>(&m->arena));
+        array(m->nrm, 3 * points, 0.0);
+        array(m->mark, (points + 63) / 64, uint64_t(0));
+        array(m->face_mark, (T + 63) / 64, uint64_t(0));
         impl_ = std::move(m);
         return Status::success();
     });
@@ -297,7 +381,7 @@ size_t DisplacedGround::update(const Heightmap& h, const TexelRect& dirty, float
 // texels floor(ti) .. floor(ti) + 1: it is affected when ti is in (x0 − 1, x1), and it lies in the tile of
 // floor(ti), so only the tiles from floor((x0 − 1) / 16) to (x1 − 1) / 16 are scanned; points of tiles wholly
 // inside the rectangle's span need no test.
-static void points_under(DisplacedGround::Impl& m, const std::vector<TexelRect>& rects, uint32_t stamp) {
+static void points_under(DisplacedGround::Impl& m, const std::vector<TexelRect>& rects) {
     constexpr int T = DisplacedGround::Impl::kTile;
     for (const TexelRect& dirty : rects) {
         if (dirty.empty()) continue;
@@ -312,10 +396,12 @@ static void points_under(DisplacedGround::Impl& m, const std::vector<TexelRect>&
                                     tx + 1 < m.tiles_x && ty + 1 < m.tiles_y && tx > 0 && ty > 0;
                 for (uint32_t k = m.tile_off[t]; k < m.tile_off[t + 1]; ++k) {
                     const uint32_t p = m.tile_pts[k];
-                    if (m.mark[p] == stamp) continue;
+                    uint64_t& word = m.mark[p / 64];
+                    const uint64_t bit = uint64_t(1) << (p % 64);
+                    if (word & bit) continue;
                     const double ti = m.texel[2 * size_t(p)], tj = m.texel[2 * size_t(p) + 1];
                     if (inside || (ti > double(dirty.x0) - 1 && ti < dirty.x1 && tj > double(dirty.y0) - 1 && tj < dirty.y1)) {
-                        m.mark[p] = stamp;
+                        word |= bit;
                         m.moved.push_back(p);
                     }
                 }
@@ -327,15 +413,13 @@ size_t DisplacedGround::update(const Heightmap& h, const std::vector<TexelRect>&
     Impl& m = *impl_;
     if (m.rest.empty()) return 0;
     if (m.terms.size() != m.tris.size() / 3) { // along_up, no displace_all yet: the terms of rest
-        kernel::assign_huge(m.terms, m.tris.size() / 3);
+        m.terms.assign(m.tris.size() / 3, FaceTerm{});
         tbb::parallel_for(size_t(0), m.terms.size(), [&](size_t f) { m.terms[f] = face_term(m.cur.data(), &m.tris[3 * f]); });
     }
-    auto next_epoch = [&] {
-        if (++m.epoch == 0) std::fill(m.mark.begin(), m.mark.end(), 0), std::fill(m.face_mark.begin(), m.face_mark.end(), 0), m.epoch = 1;
-        return m.epoch;
-    };
+    std::fill(m.mark.begin(), m.mark.end(), 0); // a bit a point: 27 KB at 221k points, cleared in microseconds
+    std::fill(m.face_mark.begin(), m.face_mark.end(), 0);
     m.moved.clear();
-    points_under(m, rects, next_epoch());
+    points_under(m, rects);
     if (m.moved.empty()) return 0;
     // Re-displaced; a point whose position came out bit-identical (its texels did not change: a dirty tile is
     // rarely dirty everywhere) changes no face, and is already in the buffers.
@@ -344,15 +428,16 @@ size_t DisplacedGround::update(const Heightmap& h, const std::vector<TexelRect>&
         for (size_t k = r.begin(); k != r.end(); ++k) m.shifted[k] = m.displace(m.moved[k], h);
     });
     // The faces around a shifted point change; every corner of such a face gets a new normal.
-    const uint32_t e = next_epoch();
-    // Each face and point is claimed by the first chunk that reaches it (an atomic exchange of its mark); which
+    std::fill(m.mark.begin(), m.mark.end(), 0);
+    // Each face and point is claimed by the first chunk that reaches it (an atomic or of its bit); which
     // chunk does does not matter, a face's terms and a point's normal are functions of positions alone.
     constexpr size_t kChunk = 1024;
     const size_t chunks = (m.moved.size() + kChunk - 1) / kChunk;
     if (m.claims.size() < chunks) m.claims.resize(chunks);
-    auto claim = [e](uint32_t& mark) { // a plain load first: most faces and points are claimed already
-        std::atomic_ref<uint32_t> a(mark);
-        return a.load(std::memory_order_relaxed) != e && a.exchange(e, std::memory_order_relaxed) != e;
+    auto claim = [](Array<uint64_t>& marks, uint32_t i) { // a plain load first: most are claimed already
+        std::atomic_ref<uint64_t> a(marks[i / 64]);
+        const uint64_t bit = uint64_t(1) << (i % 64);
+        return !(a.load(std::memory_order_relaxed) & bit) && !(a.fetch_or(bit, std::memory_order_relaxed) & bit);
     };
     tbb::parallel_for(size_t(0), chunks, [&](size_t c) {
         std::vector<uint32_t>& points = m.claims[c];
@@ -362,14 +447,14 @@ size_t DisplacedGround::update(const Heightmap& h, const std::vector<TexelRect>&
             const uint32_t p = m.moved[i];
             for (uint32_t k = m.face_off[p]; k < m.face_off[size_t(p) + 1]; ++k) {
                 const uint32_t f = m.faces[k] / 3;
-                if (!claim(m.face_mark[f])) continue;
+                if (!claim(m.face_mark, f)) continue;
                 m.terms[f] = face_term(m.cur.data(), &m.tris[3 * size_t(f)]);
                 for (int corner = 0; corner < 3; ++corner) {
                     const uint32_t q = m.tris[3 * size_t(f) + size_t(corner)];
-                    if (claim(m.mark[q])) points.push_back(q);
+                    if (claim(m.mark, q)) points.push_back(q);
                 }
             }
-            if (claim(m.mark[p])) points.push_back(p); // isolated points
+            if (claim(m.mark, p)) points.push_back(p); // isolated points
         }
     });
     tbb::parallel_for(size_t(0), chunks, [&](size_t c) {

@@ -90,6 +90,56 @@ TEST(DisplacedGround, WithoutTheFaceTermCacheTheSameBits) {
     EXPECT_EQ(na, nb);
 }
 
+// prepare() on a prepared ground takes over its old storage when the new mesh fits in it and needs at least
+// half of it (no page faults: see Arena in displaced_ground.cpp). Each re-prepare, into the old block or a new
+// one, with and without the face-term cache, gives the bits of a fresh object, in displace_all and in an
+// update after it.
+TEST(DisplacedGround, RePrepareGivesTheBitsOfAFreshObject) {
+    struct Case {
+        Prepared p;
+        Heightmap before, after; // a collider's imprint, then a second stamp
+        std::vector<TexelRect> dirty;
+    };
+    Case big, small;
+    big.p.ground = hill_ground(4, 100);
+    small.p.ground = hill_ground(4, 50);
+    for (Case* c : {&big, &small}) {
+        prepare(c->p);
+        ASSERT_TRUE(c->p.field.add_collider(sphere(0.3, {{0.2, hill_height(0.2, 0.1) + 0.1, 0.1}})).ok());
+        c->p.field.update();
+        c->before = c->p.field.heightmap();
+        ASSERT_TRUE(c->p.field.stamp(sphere(0.15, {}), ColliderPose{{-0.5, hill_height(-0.5, 0.4) + 0.1, 0.4}, 0, 0}).ok());
+        c->dirty = c->p.field.update();
+        c->after = c->p.field.heightmap();
+    }
+    auto run = [](DisplacedGround& dg, const Case& c, const DisplaceOptions& o, std::vector<float>& pos, std::vector<float>& nor) {
+        const Primitive& g = c.p.ground;
+        ASSERT_TRUE(dg.prepare(g.positions.data(), g.vertex_count(), g.indices.data(), g.indices.size(), c.p.field.frame(), o).ok());
+        pos.assign(g.positions.size(), -1.0f);
+        nor.assign(g.positions.size(), -1.0f);
+        dg.displace_all(c.before, pos.data(), nor.data());
+        EXPECT_GT(dg.update(c.after, c.dirty, pos.data(), nor.data()), 0u);
+    };
+    DisplaceOptions lean;
+    lean.keep_face_terms = false;
+    DisplacedGround reused; // prepared in turn on each case below: it takes over its block from big to big,
+                            // small to small and to small without the cache, and not from big to small (4x)
+    const std::vector<std::pair<const Case*, DisplaceOptions>> order = {{&big, {}},    {&big, {}},   {&small, {}},
+                                                                        {&small, {}},  {&small, lean}, {&big, lean}};
+    for (const auto& [c, o] : order) {
+        std::vector<float> pos, nor, fresh_pos, fresh_nor;
+        run(reused, *c, o, pos, nor);
+        DisplacedGround fresh;
+        run(fresh, *c, o, fresh_pos, fresh_nor);
+        EXPECT_EQ(reused.welded_count(), fresh.welded_count());
+        EXPECT_EQ(pos, fresh_pos);
+        EXPECT_EQ(nor, fresh_nor);
+        size_t moved = 0;
+        for (size_t i = 1; i < pos.size(); i += 3) moved += pos[i] != c->p.ground.positions[i];
+        EXPECT_GT(moved, 10u); // the heightmaps moved points: the normals compared are not all the rest's
+    }
+}
+
 TEST(DisplacedGround, SeamCopiesMoveTogether) {
     Prepared p;
     p.ground = seam_ground(4, 40);

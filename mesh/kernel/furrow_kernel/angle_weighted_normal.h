@@ -45,9 +45,33 @@ inline std::optional<FaceNormal> face_normal(Vec3 p0, Vec3 p1, Vec3 p2) {
     return FaceNormal{{n.x / double_area, n.y / double_area, n.z / double_area}, double_area};
 }
 
-// The interior angle at p of a non-degenerate triangle (p, q, r) of the given double area: atan2 of
-// |e1 × e2| (the same at every corner) and e1 · e2 stays accurate near 0 and pi, where acos of a normalised
-// dot product loses half its digits.
-inline double corner_angle(Vec3 p, Vec3 q, Vec3 r, double double_area) { return std::atan2(double_area, dot(q - p, r - p)); }
+// The interior angle at p of a non-degenerate triangle (p, q, r) of the given double area: the angle of
+// (e1 · e2, |e1 × e2|), with |e1 × e2| the same at every corner, stays accurate near 0 and pi, where acos of a
+// normalised dot product loses half its digits.
+//
+// The arctangent is Cephes' (S. L. Moshier, Cephes Math Library, atan.c): the ratio reduced to |t| <= 0.66 by
+// the identities atan(x) = pi/2 - atan(1/x) and pi/4 + atan((x - 1)/(x + 1)), then t + t³ P(t²)/Q(t²), a (4, 5)
+// rational approximation. It replaces libm's atan2 (there: ~29 ns a call, 45 % of the displaced ground's
+// re-displacement; here ~21 ns, inlined, no special cases: y > 0 and a finite x are all a corner can give).
+// Against std::atan2 over 20 M random corners (1e-9 .. 1e9 in y and x): at most 4.4e-16 rad (2 ulp of pi)
+// apart; test compute_vertex_normals.CornerAngleIsLibmAtan2WithinTwoUlp.
+inline double corner_angle(Vec3 p, Vec3 q, Vec3 r, double double_area) {
+    constexpr double P[5] = {-8.750608600031904122785e-1, -1.615753718733365076637e1, -7.500855792314704667340e1,
+                             -1.228866684490136173410e2, -6.485021904942025371773e1};
+    constexpr double Q[5] = {2.485846490142306297962e1, 1.650270098316988542046e2, 4.328810604912902668951e2,
+                             4.853903996359136964868e2, 1.945506571482613964425e2}; // leading 1 implied
+    constexpr double more_bits = 6.123233995736765886130e-17;                       // pi/2 - double(pi/2)
+    constexpr double tan_3pi_8 = 2.41421356237309504880, pi = 3.14159265358979323846;
+    const double y = double_area, x = dot(q - p, r - p), a = std::abs(x);
+    double base = 0, t = 0, extra = 0; // atan(y / a) = base + atan(t) + extra
+    if (y > tan_3pi_8 * a) base = pi / 2, t = -a / y, extra = more_bits;
+    else if (y <= 0.66 * a) t = y / a;
+    else base = pi / 4, t = (y - a) / (y + a), extra = 0.5 * more_bits;
+    const double z = t * t;
+    const double num = (((P[0] * z + P[1]) * z + P[2]) * z + P[3]) * z + P[4];
+    const double den = ((((z + Q[0]) * z + Q[1]) * z + Q[2]) * z + Q[3]) * z + Q[4];
+    const double angle = base + ((t + t * (z * num / den)) + extra);
+    return x >= 0 ? angle : pi - angle;
+}
 
 } // namespace furrow::kernel
