@@ -56,6 +56,7 @@ struct FaceTerm {
 // against 12 ms with huge pages), and prepare() used to fault in ~20 separately allocated arrays, most below
 // kernel::assign_huge's 4 MiB threshold or with 4 KiB-paged ends. A vector that outgrows the block, or is made
 // without it, gets its own kernel::allocate_huge_bytes block.
+constexpr size_t kHugeArenaFrom = size_t(32) << 20;
 struct Arena {
     kernel::HugeBytes block;
     uint8_t* base = nullptr; // the block's range, kept when the block moves on to a new Arena (see owns)
@@ -69,7 +70,11 @@ struct Arena {
             block = std::move(old->block);
             size = old->size;
         } else {
-            block = kernel::allocate_huge_bytes(bytes);
+            // Huge pages for a large block only: on the stamp command's ground (a 26 MB block) they raised the
+            // command's peak by 1.2-1.6 MiB (/usr/bin/time), to the edge of `furrow bench memory`'s rule; the
+            // 394k-point ground of `bench stamp` section 5 (a block of about 70 MB) keeps them.
+            block = bytes >= kHugeArenaFrom ? kernel::allocate_huge_bytes(bytes)
+                                            : kernel::HugeBytes(static_cast<uint8_t*>(std::malloc(bytes)));
             size = block ? bytes : 0; // no block: each array allocates its own
         }
         base = block.get();

@@ -72,7 +72,8 @@ inline HugeBytes allocate_huge_bytes(size_t n) {
     if (n >= 2 * huge) {
         const size_t rounded = (n + huge - 1) & ~(huge - 1); // aligned_alloc wants a multiple of the alignment
         auto* p = static_cast<uint8_t*>(std::aligned_alloc(huge, rounded));
-        if (p) (void)::madvise(p, rounded, MADV_HUGEPAGE); // advice only
+        // The n bytes asked for, not the rounding: a huge page past them would be resident for nothing.
+        if (p) advise_huge_pages(p, n);
         return HugeBytes(p);
     }
 #endif
