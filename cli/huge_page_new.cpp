@@ -22,8 +22,8 @@
 // Replacing the global operator new is the C++ way for a program to choose how it allocates ([new.delete]);
 // only the command does it: the libraries allocate with whatever their caller chose. Allocators that map
 // huge pages themselves (mimalloc with large OS pages, jemalloc with thp:always) were measured too: as fast,
-// but they kept 25-50 MiB more resident on the bunny's rate-4 tessellation, past the memory rule of
-// `furrow bench memory`.
+// but they peaked 17-51 MiB higher on the bunny's rate-4 tessellation (glibc: 111 MiB), mimalloc past the
+// memory rule of `furrow bench memory` (145 MiB there).
 // The libraries advise their own largest arrays (mesh/kernel's huge_pages.h: reserve_huge, assign_huge), for
 // any program that links them; this file extends the advice to every block of the command.
 // Small blocks and everything freed go through malloc and free unchanged.
