@@ -44,8 +44,10 @@ struct Scratch {
     std::vector<uint64_t> num, den, tmp_q;
     std::vector<uint8_t> is_source, receiver;
     // The cosmetic rim's ring: second-order prefix sums of the window, the sources near `out`, its result.
-    std::vector<uint64_t> num2, den2;
+    std::vector<uint64_t> num2;
+    std::vector<uint32_t> count2;
     std::vector<uint8_t> near_source;
+    std::vector<int> near_d2, near_rows;
     std::vector<float> ring, ring_tmp;
     std::vector<int> row_of;
     std::vector<double> dist2;
@@ -118,11 +120,17 @@ void box_pass_ordered(float* v, float* tmp, int w, int h, int r, bool par) {
         for (int j = rows.begin(); j != rows.end(); ++j) {
             const float* in = tmp + size_t(j) * size_t(w);
             float* o = v + size_t(j) * size_t(w);
-            for (int i = 0; i < w; ++i) {
+            auto clipped = [&](int i) { // near the window's edges
                 float acc = 0.0f;
                 for (int k = std::max(0, i - r); k <= std::min(w - 1, i + r); ++k) acc += in[k];
                 o[i] = acc;
-            }
+            };
+            const int a = std::min(r, w), b = std::max(a, w - r); // [a, b): all 2r + 1 terms inside
+            for (int i = 0; i < a; ++i) clipped(i);
+            std::fill(o + a, o + b, 0.0f);
+            for (int k = -r; k <= r; ++k) // the same terms in the same order, one column offset at a time
+                for (int i = a; i < b; ++i) o[i] += in[i + k];
+            for (int i = b; i < w; ++i) clipped(i);
         }
     });
 }
@@ -166,10 +174,8 @@ void blur(float* v, float* tmp, int w, int h, int r, bool par) {
 }
 
 // Squared distance (texels, exact Euclidean) to the nearest texel of a mask for every texel of a w × h window,
-// infinite when the mask is empty (S.dist2). With `rows` >= 0, mask texels more than `rows` rows away are left
-// out: the distance is exact wherever it is <= rows (the nearest texel is then that near in rows too) and
-// larger than rows elsewhere, and the second pass skips the columns with no near row.
-void distance_to_mask(Scratch& S, const uint8_t* mask, int w, int h, bool par, int rows = -1) {
+// infinite when the mask is empty (S.dist2).
+void distance_to_mask(Scratch& S, const uint8_t* mask, int w, int h, bool par) {
     const size_t N = size_t(w) * size_t(h);
     const float big = 1e30f;
     fit(S.f, N);
@@ -194,7 +200,6 @@ void distance_to_mask(Scratch& S, const uint8_t* mask, int w, int h, bool par, i
                 if (mask[x]) last[size_t(i)] = j;
                 const int below = last[size_t(i)];
                 if (below >= 0 && (row_of[x] < 0 || below - j < j - row_of[x])) row_of[x] = below;
-                if (rows >= 0 && row_of[x] >= 0 && std::abs(row_of[x] - j) > rows) row_of[x] = -1;
                 f[x] = row_of[x] < 0 ? big : float(row_of[x] - j) * float(row_of[x] - j);
             }
     }
@@ -249,9 +254,9 @@ namespace {
 struct Window {
     int w = 0, h = 0;
     size_t N = 0;
-    float *source, *mass, *profile, *result, *tmp;
-    uint64_t *num, *den, *tmp_q;
-    uint8_t *is_source, *receiver;
+    float *source = nullptr, *mass = nullptr, *profile = nullptr, *result = nullptr, *tmp = nullptr;
+    uint64_t *num = nullptr, *den = nullptr, *tmp_q = nullptr;
+    uint8_t *is_source = nullptr, *receiver = nullptr;
 };
 
 bool gather_sources(Window& W, const RimInput& in, const TexelRect& win, const RimOwner& own) {
@@ -350,12 +355,13 @@ double rim_amplitude(Window& W, const RimInput& in, const TexelRect& win, const 
 // are separable and commute), with C1 the prefix sum of f and C2 that of C1, the second box at x sums
 // B(y) = C1(y + n) − C1(y − n − 1) over y in [a, b] = [max(0, x − n), min(w − 1, x + n)]:
 // C2(b + n) − C2(a + n − 1) − C2(b − n − 1) + C2(a − n − 2). The table is padded by n + 2 texels before the
-// window and n after it. Unsigned 64-bit arithmetic wraps, and the true sums fit (kRimMaxGather): the result
-// is exactly smooth()'s.
+// window and n after it. Unsigned arithmetic wraps, and the true sums fit (kRimMaxGather): the result is
+// exactly smooth()'s.
+template <class T>
 struct SumTable {
-    const uint64_t* c = nullptr;
+    const T* c = nullptr;
     int pad = 0, stride = 0, n = 0, w = 0, h = 0;
-    uint64_t at(int i, int j) const { // smooth()'s value at window texel (i, j)
+    T at(int i, int j) const { // smooth()'s value at window texel (i, j)
         auto terms = [this](int x, int len, int* at) { // the four C2 indices of one axis, padded
             const int a = std::max(0, x - n), b = std::min(len - 1, x + n);
             at[0] = b + n + pad, at[1] = a + n - 1 + pad, at[2] = b - n - 1 + pad, at[3] = a - n - 2 + pad;
@@ -363,91 +369,163 @@ struct SumTable {
         int xs[4], ys[4];
         terms(i, w, xs);
         terms(j, h, ys);
-        uint64_t r[4];
+        T r[4];
         for (int k = 0; k < 4; ++k) {
-            const uint64_t* row = c + size_t(ys[k]) * size_t(stride);
-            r[k] = row[xs[0]] - row[xs[1]] - row[xs[2]] + row[xs[3]];
+            const T* row = c + size_t(ys[k]) * size_t(stride);
+            r[k] = T(row[xs[0]] - row[xs[1]] - row[xs[2]] + row[xs[3]]);
         }
-        return r[0] - r[1] - r[2] + r[3];
+        return T(r[0] - r[1] - r[2] + r[3]);
     }
 };
-template <class F>
-SumTable sum_table(std::vector<uint64_t>& c, int w, int h, int n, bool par, const F& value) {
+
+// The cosmetic rim's two gathered sums, built in one sweep of the window: the quantized imprint depth
+// (64-bit) and the imprint count (32-bit: its smoothed sum, at most (2n + 1)^4 < 2^32 for n <= kRimMaxGather,
+// is exact in wrapping 32-bit arithmetic; times the quantum of a depth of 1 it is the 64-bit sum of quantized
+// ones the whole-window path forms, the same integer). `carve` and `base` (may be null) point at the window's
+// first texel, rows `stride` apart; the imprint depth is base − carve, as gather_sources forms it.
+struct RingSums {
+    SumTable<uint64_t> depth;
+    SumTable<uint32_t> count;
+};
+RingSums ring_sums(Scratch& S, const float* carve, const float* base, size_t stride, int w, int h, int n, bool par) {
+    const double cap = quantum_cap(n);
     const int pad = n + 2, W2 = w + 2 * n + 2, H2 = h + 2 * n + 2;
-    fit(c, size_t(W2) * size_t(H2));
+    fit(S.num2, size_t(W2) * size_t(H2));
+    fit(S.count2, size_t(W2) * size_t(H2));
+    uint64_t* q = S.num2.data();
+    uint32_t* c = S.count2.data();
     for_range(par, tbb::blocked_range<int>(0, H2, 32), [&](const tbb::blocked_range<int>& r) { // along rows, twice
         for (int j = r.begin(); j != r.end(); ++j) {
-            uint64_t* row = c.data() + size_t(j) * size_t(W2);
-            uint64_t s1 = 0, s2 = 0;
+            uint64_t* qr = q + size_t(j) * size_t(W2);
+            uint32_t* cr = c + size_t(j) * size_t(W2);
+            uint64_t q1 = 0, q2 = 0;
+            uint32_t c1 = 0, c2 = 0;
             const bool inside = j >= pad && j < pad + h;
-            for (int i = 0; i < W2; ++i) {
-                if (inside && i >= pad && i < pad + w) s1 += value(i - pad, j - pad);
-                s2 += s1;
-                row[i] = s2;
+            int i = 0;
+            auto step = [&](int to) {
+                for (; i < to; ++i) q2 += q1, c2 += c1, qr[i] = q2, cr[i] = c2;
+            };
+            step(inside ? pad : W2);
+            if (inside) {
+                const float* carve_row = carve + size_t(j - pad) * stride; // texel (i - pad, j - pad)
+                const float* base_row = base ? base + size_t(j - pad) * stride : nullptr;
+                for (; i < pad + w; ++i) {
+                    const float s = (base_row ? base_row[i - pad] : 0.0f) - carve_row[i - pad];
+                    q1 += quantized(s, cap), c1 += s > 0 ? 1u : 0u;
+                    q2 += q1, c2 += c1, qr[i] = q2, cr[i] = c2;
+                }
             }
+            step(W2);
         }
     });
     for_range(par, tbb::blocked_range<int>(0, W2, 256), [&](const tbb::blocked_range<int>& r) { // down columns, twice
         const int i0 = r.begin(), i1 = r.end();
-        std::vector<uint64_t> s1(size_t(i1 - i0), 0), s2(size_t(i1 - i0), 0);
+        std::vector<uint64_t> q1(size_t(i1 - i0), 0), q2(size_t(i1 - i0), 0);
+        std::vector<uint32_t> c1(size_t(i1 - i0), 0), c2(size_t(i1 - i0), 0);
         for (int j = 0; j < H2; ++j) {
-            uint64_t* row = c.data() + size_t(j) * size_t(W2);
-            for (int i = i0; i < i1; ++i) {
-                s1[size_t(i - i0)] += row[i];
-                s2[size_t(i - i0)] += s1[size_t(i - i0)];
-                row[i] = s2[size_t(i - i0)];
+            uint64_t* qr = q + size_t(j) * size_t(W2) + i0;
+            uint32_t* cr = c + size_t(j) * size_t(W2) + i0;
+            for (int i = 0; i < i1 - i0; ++i) {
+                q1[size_t(i)] += qr[i], q2[size_t(i)] += q1[size_t(i)], qr[i] = q2[size_t(i)];
+                c1[size_t(i)] += cr[i], c2[size_t(i)] += c1[size_t(i)], cr[i] = c2[size_t(i)];
             }
         }
     });
-    return {c.data(), pad, W2, n, w, h};
+    return {{q, pad, W2, n, w, h}, {c, pad, W2, n, w, h}};
+}
+
+// Squared distance (texels) from each texel of a wi × hi block at (ox, oy) of a we × he mask to the nearest
+// texel with bit 1 set at most r away along each axis (S.near_d2): exact wherever it is below (r + 1)², and
+// at least that elsewhere. The rim's profile reads it only below (width + ½)² <= r², so there it is the exact
+// Euclidean distance transform's value, in a few vectorisable steps per texel with no division: the nearest
+// row per column (a sweep down and a sweep up, capped at r + 1), then the nearest column within r columns.
+void near_distance(Scratch& S, const uint8_t* mask, int we, int he, int ox, int oy, int wi, int hi, int r) {
+    const int far = r + 1, pw = we + 2 * r; // the columns' rows, padded by r columns of `far` on each side
+    fit(S.near_d2, size_t(wi) * size_t(hi));
+    fit(S.near_rows, size_t(pw) * size_t(hi));
+    std::vector<int> run(size_t(we), far);
+    int* rows = S.near_rows.data();
+    for (int y = 0; y < std::min(he, oy + hi); ++y) { // down: rows since the last marked one above
+        const uint8_t* m = mask + size_t(y) * size_t(we);
+        for (int i = 0; i < we; ++i) run[size_t(i)] = m[i] & 1 ? 0 : std::min(run[size_t(i)] + 1, far);
+        if (y < oy) continue;
+        int* o = rows + size_t(y - oy) * size_t(pw);
+        std::fill(o, o + r, far), std::fill(o + r + we, o + pw, far);
+        std::copy(run.begin(), run.end(), o + r);
+    }
+    std::fill(run.begin(), run.end(), far);
+    for (int y = he - 1; y >= oy; --y) { // up: the nearer of the two
+        const uint8_t* m = mask + size_t(y) * size_t(we);
+        for (int i = 0; i < we; ++i) run[size_t(i)] = m[i] & 1 ? 0 : std::min(run[size_t(i)] + 1, far);
+        if (y >= oy + hi) continue;
+        int* o = rows + size_t(y - oy) * size_t(pw) + r;
+        for (int i = 0; i < we; ++i) o[i] = std::min(o[i], run[size_t(i)]);
+    }
+    const int far2 = far * far;
+    for (int j = 0; j < hi; ++j) {
+        int* v = rows + size_t(j) * size_t(pw) + r + ox; // v[i + dx], |dx| <= r, stays within the padded row
+        for (int i = -r; i < wi + r; ++i) v[i] = v[i] * v[i];
+        int* o = S.near_d2.data() + size_t(j) * size_t(wi);
+        std::fill(o, o + wi, far2);
+        for (int dx = -r; dx <= r; ++dx)
+            for (int i = 0; i < wi; ++i) o[i] = std::min(o[i], dx * dx + v[i + dx]);
+    }
 }
 
 // The cosmetic rim evaluated only where `out` can read it (snow_field's per-frame cost): the ridge is zero
 // farther than its profile radius from an imprint, so past the window-wide sums (prefix tables, O(1) per
-// texel) every step runs on `out` grown by the blur's reach (2), the distances on that grown by the profile
-// radius. Each value is computed as the whole-window path computes it (the same integer distances and exact
-// sums, the blur's terms in the same order), so the bits equal it (tested). Fills W.result on `out`.
+// texel, read straight from the layers) every step runs on `out` grown by the blur's reach (2), the
+// distances within the profile radius of that. Each value is computed as the whole-window path computes it
+// (the same integer distances and exact sums, the blur's terms in the same order), so the bits equal it
+// (tested). Fills W.result on `out` grown by 2.
 void cosmetic_ring(Scratch& S, Window& W, const RimInput& in, const TexelRect& win, const TexelRect& out) {
-    const int n = rim_gather_radius(in.width_m, in.gather_m, in.texel);
-    const double cap = quantum_cap(n);
-    const SumTable num = sum_table(S.num2, W.w, W.h, n, in.parallel,
-                                   [&](int i, int j) { return quantized(W.source[size_t(j) * size_t(W.w) + size_t(i)], cap); });
-    const SumTable den = sum_table(S.den2, W.w, W.h, n, in.parallel,
-                                   [&](int i, int j) { return quantized(double(W.is_source[size_t(j) * size_t(W.w) + size_t(i)]), cap); });
+    const int n = rim_gather_radius(in.width_m, in.gather_m, in.texel), R = rim_profile_radius(in.width_m, in.texel);
+    const size_t origin = size_t(win.y0) * size_t(in.width) + size_t(win.x0); // the window's first texel
+    const RingSums sums = ring_sums(S, in.carve + origin, in.base ? in.base + origin : nullptr, size_t(in.width), W.w, W.h, n, in.parallel);
+    const uint64_t one = quantized(1.0, quantum_cap(n)); // an imprint texel's term of the whole-window count
     auto grown = [&](int m) { // `out` in window coordinates, grown by m, clipped to the window
         return TexelRect{std::max(0, out.x0 - win.x0 - m), std::max(0, out.y0 - win.y0 - m), std::min(W.w, out.x1 - win.x0 + m),
                          std::min(W.h, out.y1 - win.y0 + m)};
     };
-    const TexelRect I = grown(2), E = grown(2 + rim_profile_radius(in.width_m, in.texel));
+    const TexelRect I = grown(2), E = grown(2 + R);
     if (I.empty()) return;
     const int wi = I.x1 - I.x0, hi = I.y1 - I.y0, we = E.x1 - E.x0, he = E.y1 - E.y0;
+    // Per texel of E: 1 imprinted, 2 receiver (ground, not imprinted), as gather_sources classifies them.
     fit(S.near_source, size_t(we) * size_t(he));
-    for (int j = 0; j < he; ++j)
-        std::copy_n(W.is_source + size_t(j + E.y0) * size_t(W.w) + size_t(E.x0), we, S.near_source.data() + size_t(j) * size_t(we));
-    distance_to_mask(S, S.near_source.data(), we, he, in.parallel, rim_profile_radius(in.width_m, in.texel));
+    for (int j = 0; j < he; ++j) {
+        const size_t g = origin + size_t(j + E.y0) * size_t(in.width) + size_t(E.x0);
+        const float *carve = in.carve + g, *base = in.base ? in.base + g : nullptr, *ground = in.ground + g;
+        uint8_t* m = S.near_source.data() + size_t(j) * size_t(we);
+        for (int i = 0; i < we; ++i) {
+            const float s = (base ? base[i] : 0.0f) - carve[i];
+            m[i] = s > 0 ? 1 : std::isnan(ground[i]) ? 0 : 2;
+        }
+    }
+    near_distance(S, S.near_source.data(), we, he, I.x0 - E.x0, I.y0 - E.y0, wi, hi, R);
     fit(S.ring, size_t(wi) * size_t(hi));
     fit(S.ring_tmp, size_t(wi) * size_t(hi));
     float* ring = S.ring.data();
+    auto receiver = [&](int i, int j) { // (i, j) in I
+        return S.near_source[size_t(j + I.y0 - E.y0) * size_t(we) + size_t(i + I.x0 - E.x0)] == 2;
+    };
     for (int j = 0; j < hi; ++j)
         for (int i = 0; i < wi; ++i) {
-            const int wx = i + I.x0, wy = j + I.y0;
-            const size_t x = size_t(wy) * size_t(W.w) + size_t(wx);
-            const double d2 = S.dist2[size_t(wy - E.y0) * size_t(we) + size_t(wx - E.x0)];
-            const float profile = W.receiver[x] ? profile_at(d2, in.texel, in.width_m) : 0.0f;
+            const size_t x = size_t(j) * size_t(wi) + size_t(i);
+            const int d2 = S.near_d2[x];
+            const float profile = d2 <= R * R && receiver(i, j) ? profile_at(double(d2), in.texel, in.width_m) : 0.0f;
             float r = 0.0f;
             if (profile > 0) {
-                const double d = double(int64_t(den.at(wx, wy)));
-                if (d > 0) r = float(double(profile) * double(int64_t(num.at(wx, wy))) / d);
+                const int wx = i + I.x0, wy = j + I.y0;
+                const double d = double(int64_t(uint64_t(sums.count.at(wx, wy)) * one));
+                if (d > 0) r = float(double(profile) * double(int64_t(sums.depth.at(wx, wy))) / d);
             }
-            ring[size_t(j) * size_t(wi) + size_t(i)] = r;
+            ring[x] = r;
         }
     blur(ring, S.ring_tmp.data(), wi, hi, 1, in.parallel);
     const float k = float(in.height_ratio / 81.0); // the blur kernel sums to 81 (two 3 x 3 box passes)
     for (int j = 0; j < hi; ++j)
-        for (int i = 0; i < wi; ++i) {
-            const size_t x = size_t(j + I.y0) * size_t(W.w) + size_t(i + I.x0);
-            W.result[x] = W.receiver[x] ? ring[size_t(j) * size_t(wi) + size_t(i)] * k : 0.0f;
-        }
+        for (int i = 0; i < wi; ++i)
+            W.result[size_t(j + I.y0) * size_t(W.w) + size_t(i + I.x0)] = receiver(i, j) ? ring[size_t(j) * size_t(wi) + size_t(i)] * k : 0.0f;
 }
 
 // How far the rim breaks its limits: max over rim texels of height / (max_height × the local print depth) and of (slope / tan(repose))^½ (height goes as 1/width at a fixed volume, slope as 1/width²). <= 1:
@@ -478,12 +556,9 @@ double compute_rim(float* rim, const RimInput& in, const TexelRect& win, const R
     if (w <= 0 || h <= 0) return 0.0;
     const size_t N = size_t(w) * size_t(h);
     static thread_local Scratch S;
-    for (auto* v : {&S.source, &S.mass, &S.profile, &S.result, &S.tmp, &S.depth}) fit(*v, N);
-    for (auto* v : {&S.num, &S.den, &S.tmp_q}) fit(*v, N);
-    fit(S.is_source, N);
-    fit(S.receiver, N);
-    Window W{w, h, N, S.source.data(), S.mass.data(), S.profile.data(), S.result.data(), S.tmp.data(), S.num.data(),
-             S.den.data(), S.tmp_q.data(), S.is_source.data(), S.receiver.data()};
+    fit(S.result, N);
+    Window W{w, h, N};
+    W.result = S.result.data();
     // The owned texels of `out`, a tile's run of columns at a time (its owner and changed flag looked up once).
     auto write = [&](const float* result) {
         const int i0 = std::max(0, out.x0 - win.x0), i1 = std::min(w, out.x1 - win.x0);
@@ -504,13 +579,23 @@ double compute_rim(float* rim, const RimInput& in, const TexelRect& win, const R
                 a = b;
             }
     };
-    if (!gather_sources(W, in, win, own) || in.width_m <= 0) {
+    if (in.width_m <= 0) {
         write(nullptr);
         return 0.0;
     }
-    if (!in.conserve && !in.full_window) {
+    if (!in.conserve && !in.full_window) { // (a window without imprints comes out zero here too)
         cosmetic_ring(S, W, in, win, out);
         write(W.result);
+        return 0.0;
+    }
+    for (auto* v : {&S.source, &S.mass, &S.profile, &S.tmp, &S.depth}) fit(*v, N);
+    for (auto* v : {&S.num, &S.den, &S.tmp_q}) fit(*v, N);
+    fit(S.is_source, N);
+    fit(S.receiver, N);
+    W = Window{w, h, N, S.source.data(), S.mass.data(), S.profile.data(), S.result.data(), S.tmp.data(), S.num.data(),
+               S.den.data(), S.tmp_q.data(), S.is_source.data(), S.receiver.data()};
+    if (!gather_sources(W, in, win, own)) {
+        write(nullptr);
         return 0.0;
     }
     distance_to_mask(S, W.is_source, w, h, in.parallel);
