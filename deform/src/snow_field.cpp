@@ -39,13 +39,29 @@ struct SnowField::Impl {
     // Dirty state per 16 x 16-texel tile: stamped since the last update, output changed by refill.
     static constexpr int kTile = 16;
     int tiles_x = 0, tiles_y = 0;
-    std::vector<uint8_t> carve_tiles, out_tiles, rim_tiles, rim_changed; // rim: recomputed, changed in bits
+    std::vector<uint8_t> carve_tiles, out_tiles, rim_tiles; // rim: recomputed
+    // Per tile, the bounding box of the texels whose output is to be recomputed: deepened since the last
+    // update (carve_box), rim changed in bits in this update (rim_box). Empty: none.
+    std::vector<TexelRect> carve_box, rim_box;
     std::vector<TexelRect> stamped_rects; // texels stamped since the last update (the cosmetic rim's sources)
     int rim_reach = -1;                   // the cosmetic rim's reach (texels) at the last update
     void mark(std::vector<uint8_t>& tiles, const TexelRect& r) {
         if (r.empty()) return;
         for (int ty = r.y0 / kTile; ty <= (r.y1 - 1) / kTile; ++ty)
             for (int tx = r.x0 / kTile; tx <= (r.x1 - 1) / kTile; ++tx) tiles[size_t(ty) * size_t(tiles_x) + size_t(tx)] = 1;
+    }
+    TexelRect tile_rect(size_t t) const {
+        const int tx = int(t % size_t(tiles_x)), ty = int(t / size_t(tiles_x));
+        return {tx * kTile, ty * kTile, std::min(ground.frame.width, (tx + 1) * kTile), std::min(ground.frame.height, (ty + 1) * kTile)};
+    }
+    void mark_box(std::vector<TexelRect>& boxes, const TexelRect& r) { // each tile's box grown by its part of r
+        if (r.empty()) return;
+        for (int ty = r.y0 / kTile; ty <= (r.y1 - 1) / kTile; ++ty)
+            for (int tx = r.x0 / kTile; tx <= (r.x1 - 1) / kTile; ++tx) {
+                const size_t t = size_t(ty) * size_t(tiles_x) + size_t(tx);
+                const TexelRect c = tile_rect(t);
+                boxes[t].unite({std::max(r.x0, c.x0), std::max(r.y0, c.y0), std::min(r.x1, c.x1), std::min(r.y1, c.y1)});
+            }
     }
     bool all_dirty = false;
     bool stamped = false;
@@ -154,6 +170,7 @@ Status SnowField::create(const float* positions, size_t vertex_count, const uint
         impl->tiles_y = (f.height + Impl::kTile - 1) / Impl::kTile;
         impl->carve_tiles.assign(size_t(impl->tiles_x) * size_t(impl->tiles_y), 0);
         impl->out_tiles = impl->rim_tiles = impl->carve_tiles;
+        impl->carve_box.assign(impl->carve_tiles.size(), TexelRect{});
         impl->overhangs = rasterize_ground(impl->ground.values.data(), f, positions, vertex_count, indices, index_count);
         bool any = false;
         for (float g : impl->ground.values)
@@ -268,6 +285,7 @@ static StampStats run_jobs(SnowField::Impl& m, const std::vector<Job>& jobs, Sta
         ++st.stamps;
         st.texels_written += r.written;
         m.mark(m.carve_tiles, r.rect);
+        m.mark_box(m.carve_box, r.rect);
         if (!r.rect.empty()) m.stamped_rects.push_back(r.rect);
         if (m.stamped_rects.size() > 4096) { // many stamps between updates: their bounding box (more rim, same bits)
             TexelRect box;
@@ -410,28 +428,25 @@ void SnowField::set_time(double t) {
 
 double SnowField::now() const { return impl_->now; }
 
-// Disjoint rectangles covering the set tiles: runs along rows, merged with identical runs on the next rows.
-static std::vector<TexelRect> tile_rects(const std::vector<uint8_t>& tiles, int tx, int ty, int tile, int width, int height) {
+// Disjoint rectangles covering the tiles' boxes: runs along a tile row of boxes that touch with the same rows,
+// merged with identical runs on the next rows (whole tiles merge as whole-tile rectangles).
+static std::vector<TexelRect> box_rects(const std::vector<TexelRect>& boxes, int tx, int ty) {
     std::vector<TexelRect> out;
     std::vector<TexelRect> open; // runs of the previous tile row, extendable downwards
     for (int y = 0; y < ty; ++y) {
         std::vector<TexelRect> row;
-        for (int x = 0; x < tx;) {
-            if (!tiles[size_t(y) * size_t(tx) + size_t(x)]) {
-                ++x;
-                continue;
-            }
-            int e = x;
-            while (e < tx && tiles[size_t(y) * size_t(tx) + size_t(e)]) ++e;
-            row.push_back({x, y, e, y + 1});
-            x = e;
+        for (int x = 0; x < tx; ++x) {
+            const TexelRect& b = boxes[size_t(y) * size_t(tx) + size_t(x)];
+            if (b.empty()) continue;
+            if (!row.empty() && row.back().x1 == b.x0 && row.back().y0 == b.y0 && row.back().y1 == b.y1) row.back().x1 = b.x1;
+            else row.push_back(b);
         }
         std::vector<TexelRect> next;
         for (TexelRect r : row) {
             bool merged = false;
             for (TexelRect& o : open)
-                if (o.x0 == r.x0 && o.x1 == r.x1 && o.y1 == y) {
-                    o.y1 = y + 1;
+                if (o.x0 == r.x0 && o.x1 == r.x1 && o.y1 == r.y0) {
+                    o.y1 = r.y1;
                     next.push_back(o);
                     o.x1 = o.x0; // consumed
                     merged = true;
@@ -444,8 +459,6 @@ static std::vector<TexelRect> tile_rects(const std::vector<uint8_t>& tiles, int 
         open = std::move(next);
     }
     for (const TexelRect& o : open) out.push_back(o);
-    for (TexelRect& r : out)
-        r = {r.x0 * tile, r.y0 * tile, std::min(width, r.x1 * tile), std::min(height, r.y1 * tile)};
     std::sort(out.begin(), out.end(), [](const TexelRect& a, const TexelRect& b) { return std::tie(a.y0, a.x0) < std::tie(b.y0, b.x0); });
     return out;
 }
@@ -543,15 +556,15 @@ static void update_conserving_rim(SnowField::Impl& m, std::vector<uint8_t>& regi
 // sums), so only the tiles within that reach of a stamped rectangle change, and each is recomputed from a
 // window holding its reach: the same bits as recomputing the whole field. The tiles are gathered per band
 // of four tile rows into runs of columns (runs whose windows would overlap merged), one window per run.
-// Only the tiles whose rim came out different in bits join the output's changed region: the reach is a bound,
-// and most of it lies where no older imprint is near.
-static void update_local_rim(SnowField::Impl& m, std::vector<uint8_t>& region, SnowUpdateStats& st) {
+// Only the texels whose rim came out different in bits join the output's changed region (per tile, their
+// bounding box, in `boxes`): the reach is a bound, and most of it lies where no older imprint is near.
+static void update_local_rim(SnowField::Impl& m, std::vector<TexelRect>& boxes, SnowUpdateStats& st) {
     const HeightmapFrame& f = m.ground.frame;
     const int T = SnowField::Impl::kTile, TX = m.tiles_x, TY = m.tiles_y;
     const int reach = m.rim_reach;
     std::vector<uint8_t>& rim_tiles = m.rim_tiles;
     std::fill(rim_tiles.begin(), rim_tiles.end(), 0);
-    m.rim_changed.assign(rim_tiles.size(), 0);
+    m.rim_box.assign(rim_tiles.size(), TexelRect{});
     for (const TexelRect& r : m.stamped_rects)
         m.mark(rim_tiles, {std::max(0, r.x0 - reach), std::max(0, r.y0 - reach), std::min(f.width, r.x1 + reach), std::min(f.height, r.y1 + reach)});
     RimInput in = rim_input(m);
@@ -587,12 +600,12 @@ static void update_local_rim(SnowField::Impl& m, std::vector<uint8_t>& region, S
         const TexelRect& out = outs[k];
         const TexelRect win{std::max(0, out.x0 - reach), std::max(0, out.y0 - reach), std::min(f.width, out.x1 + reach),
                             std::min(f.height, out.y1 + reach)};
-        compute_rim(m.rim.data(), in, win, RimOwner{rim_tiles.data(), TX, T, m.rim_changed.data()}, out); // loses nothing
+        compute_rim(m.rim.data(), in, win, RimOwner{rim_tiles.data(), TX, T, nullptr, m.rim_box.data()}, out); // loses nothing
     });
     for (const TexelRect& out : outs) m.content.unite(out);
     st.rim_windows += outs.size();
-    for (size_t k = 0; k < region.size(); ++k) { // the output changes where the rim did
-        region[k] |= m.rim_changed[k];
+    for (size_t k = 0; k < boxes.size(); ++k) { // the output changes where the rim did
+        boxes[k].unite(m.rim_box[k]);
         if (rim_tiles[k]) st.rim_texels += size_t(T) * size_t(T);
     }
 }
@@ -603,7 +616,7 @@ std::vector<TexelRect> SnowField::update(SnowUpdateStats* stats) {
     using clock = std::chrono::steady_clock;
     const auto t0 = clock::now();
     const HeightmapFrame& f = m.ground.frame;
-    const int T = Impl::kTile, TX = m.tiles_x, TY = m.tiles_y;
+    const int TX = m.tiles_x, TY = m.tiles_y;
     const double rw = m.rim_width();
     const bool local_rim = rw > 0 && !m.opt.conserve_volume;
     if (local_rim) { // another reach (a larger collider) changes the rim around every imprint
@@ -615,26 +628,37 @@ std::vector<TexelRect> SnowField::update(SnowUpdateStats* stats) {
         std::fill(m.carve_tiles.begin(), m.carve_tiles.end(), 1);
         m.stamped_rects.assign(1, m.full());
     }
-    std::vector<uint8_t> region = m.carve_tiles; // tiles whose output is recomputed
+    // Per tile, the texels whose output is recomputed: deepened, rim changed (a conserving rim's whole region).
+    std::vector<TexelRect> boxes = m.carve_box;
+    if (m.all_dirty)
+        for (size_t k = 0; k < boxes.size(); ++k) boxes[k] = m.tile_rect(k);
     SnowUpdateStats st;
-    if (local_rim) update_local_rim(m, region, st);
-    else if (rw > 0) update_conserving_rim(m, region, st);
+    if (local_rim) update_local_rim(m, boxes, st);
+    else if (rw > 0) {
+        std::vector<uint8_t> region = m.carve_tiles;
+        update_conserving_rim(m, region, st);
+        for (size_t k = 0; k < region.size(); ++k)
+            if (region[k]) boxes[k] = m.tile_rect(k);
+    }
     const auto t1 = clock::now();
-    const std::vector<TexelRect> rects = tile_rects(region, TX, TY, T, f.width, f.height);
-    for (const TexelRect& A : rects)
-        tbb::parallel_for(A.y0, A.y1, [&](int j) {
+    const std::vector<TexelRect> rects = box_rects(boxes, TX, TY);
+    tbb::parallel_for(size_t(0), rects.size(), [&](size_t k) { // disjoint rectangles
+        const TexelRect& A = rects[k];
+        for (int j = A.y0; j < A.y1; ++j)
             for (int i = A.x0; i < A.x1; ++i) {
                 const size_t x = size_t(j) * size_t(f.width) + size_t(i);
                 m.out.values[x] = m.carve[x] + m.rim[x];
             }
-        });
+    });
     if (!rects.empty()) m.volumes_valid = false;
-    for (size_t k = 0; k < region.size(); ++k) region[k] = region[k] | m.out_tiles[k];
+    for (size_t k = 0; k < boxes.size(); ++k) // refill changed the whole tile
+        if (m.out_tiles[k]) boxes[k] = m.tile_rect(k);
     std::fill(m.carve_tiles.begin(), m.carve_tiles.end(), 0);
+    std::fill(m.carve_box.begin(), m.carve_box.end(), TexelRect{});
     std::fill(m.out_tiles.begin(), m.out_tiles.end(), 0);
     m.stamped_rects.clear();
     m.all_dirty = false;
-    std::vector<TexelRect> changed = tile_rects(region, TX, TY, T, f.width, f.height);
+    std::vector<TexelRect> changed = box_rects(boxes, TX, TY);
     st.rim_seconds = std::chrono::duration<double>(t1 - t0).count();
     st.output_seconds = std::chrono::duration<double>(clock::now() - t1).count();
     if (stats) *stats = st;

@@ -567,14 +567,17 @@ double compute_rim(float* rim, const RimInput& in, const TexelRect& win, const R
                 const int b = std::min(i1, ((a + win.x0) / own.tile + 1) * own.tile - win.x0); // end of this tile's run
                 const size_t t = own.tile_of(a + win.x0, j + win.y0);
                 if (own.tiles[t]) {
-                    bool changed = false;
+                    int first = b, last = a - 1; // the run's texels whose value changes (in bits)
                     for (int i = a; i < b; ++i) {
                         const float v = result ? result[size_t(j) * size_t(w) + size_t(i)] : 0.0f;
                         float& dst = rim[size_t(j + win.y0) * size_t(in.width) + size_t(i + win.x0)];
-                        changed = changed || std::bit_cast<uint32_t>(dst) != std::bit_cast<uint32_t>(v);
+                        if (std::bit_cast<uint32_t>(dst) != std::bit_cast<uint32_t>(v)) first = std::min(first, i), last = i;
                         dst = v;
                     }
-                    if (changed && own.changed) own.changed[t] = 1;
+                    if (last >= first) {
+                        if (own.changed) own.changed[t] = 1;
+                        if (own.changed_box) own.changed_box[t].unite({first + win.x0, j + win.y0, last + 1 + win.x0, j + 1 + win.y0});
+                    }
                 }
                 a = b;
             }

@@ -5,6 +5,7 @@
 #include <tbb/global_control.h>
 
 #include <algorithm>
+#include <array>
 #include <cstring>
 #include <random>
 
@@ -727,4 +728,45 @@ TEST(SnowField, IncrementalRimEqualsFromScratchByteForByte) {
                 else EXPECT_EQ(std::memcmp(at_one_thread.data(), a.data(), a.size() * sizeof(float)), 0) << "1 vs 2 threads";
             }
         }
+}
+
+// update() returns, per 16-texel tile, only the bounding box of the texels that changed (runs of boxes merged),
+// not whole tiles: every rectangle lies within the bounding box of the texels whose output changed, and the
+// rectangles are disjoint and hold every changed texel.
+TEST(SnowField, DirtyRectanglesHoldOnlyWhatChanged) {
+    SnowOptions o = fine(0.02);
+    o.rim_width = 0.06;
+    SnowField f = make_field(flat_ground(4, 1), o);
+    f.update();
+    const int W = f.frame().width;
+    size_t tiles_area = 0, rects_area = 0;
+    for (const std::array<double, 3> at : {std::array<double, 3>{0.13, 0.07, -0.21}, {0.29, 0.07, -0.13}, {-1.0, 0.05, 0.7}}) {
+        const std::vector<float> before = f.heightmap().values;
+        ASSERT_TRUE(f.stamp(sphere(0.1, {}), ColliderPose{at, 0, 0}).ok());
+        const std::vector<TexelRect> rects = f.update();
+        const std::vector<float>& after = f.heightmap().values;
+        TexelRect changed;
+        for (size_t k = 0; k < after.size(); ++k)
+            if (std::memcmp(&after[k], &before[k], sizeof(float)) != 0) {
+                const int i = int(k % size_t(W)), j = int(k / size_t(W));
+                changed.unite({i, j, i + 1, j + 1});
+                bool inside = false;
+                for (const TexelRect& r : rects) inside = inside || (i >= r.x0 && i < r.x1 && j >= r.y0 && j < r.y1);
+                ASSERT_TRUE(inside) << "changed texel " << i << ", " << j << " outside the dirty rectangles";
+            }
+        ASSERT_FALSE(changed.empty());
+        for (size_t a = 0; a < rects.size(); ++a) {
+            const TexelRect& p = rects[a];
+            EXPECT_TRUE(p.x0 >= changed.x0 && p.y0 >= changed.y0 && p.x1 <= changed.x1 && p.y1 <= changed.y1)
+                << "rectangle " << a << " reaches past the changed texels";
+            rects_area += size_t(p.x1 - p.x0) * size_t(p.y1 - p.y0);
+            for (size_t b = a + 1; b < rects.size(); ++b) {
+                const TexelRect& q = rects[b];
+                EXPECT_TRUE(p.x1 <= q.x0 || q.x1 <= p.x0 || p.y1 <= q.y0 || q.y1 <= p.y0) << "rectangles " << a << " and " << b << " overlap";
+            }
+        }
+        const int T = 16; // the tiles holding the changed texels' box: what whole-tile rectangles would cover at least
+        tiles_area += size_t((changed.x1 + T - 1) / T - changed.x0 / T) * size_t((changed.y1 + T - 1) / T - changed.y0 / T) * T * T;
+    }
+    EXPECT_LT(rects_area, tiles_area);
 }
