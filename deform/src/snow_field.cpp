@@ -10,10 +10,11 @@
 // order of stamps, only on their times. The rim is linear in the removed depth with a fixed receiver set,
 // so it decays with the same factor.
 //
-// update() is a game's per-frame cost, so it redoes only what the stamps since the last call can change: the
-// output on the stamped tiles, and a cosmetic rim within its reach of the stamped texels (the rim is local
-// and computed exactly, snow_rim.cpp, so this equals recomputing everything); a wider reach (a larger
-// collider) redoes the rim around every imprint. A volume-conserving rim is recomputed per connected region,
+// update() is a game's per-frame cost, so it redoes only what the stamps since the last call can change: a
+// cosmetic rim within its reach of the stamped texels (the rim is local and computed exactly, snow_rim.cpp,
+// so this equals recomputing everything), and the output where the imprint deepened or the rim changed (per
+// tile, those texels' bounding box: what the caller re-displaces); a wider reach (a larger collider) redoes
+// the rim around every imprint. A volume-conserving rim is recomputed per connected region,
 // each balancing its own volume.
 #include "deform_internal.h"
 #include <furrow_kernel/no_throw.h>

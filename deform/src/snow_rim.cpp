@@ -23,9 +23,11 @@
 // Windows. A game recomputes the rim only around what it stamped (SnowField::update), in small windows, and
 // the result must be the bytes a whole-field computation gives. Everything a cosmetic rim texel reads lies
 // within rim_reach of it, and every step gives that texel the same bits in any window that holds its reach:
-// the distance transform is exact (integers); the gathered sums are fixed point (2^-20 m) added in 64-bit
-// integers, where a running sum is exact wherever it starts (floating-point running sums round differently
-// from different starts); the blur adds its few terms in one fixed order per texel.
+// the distance transform is exact (integers; the per-frame ring needs it only within the rim's width, where
+// a bounded search, nearest row per column then nearest column, gives the same integers); the gathered sums
+// are fixed point (2^-20 m) added in 64-bit integers, where a running sum is exact wherever it starts
+// (floating-point running sums round differently from different starts); the blur adds its few terms in one
+// fixed order per texel.
 #include "deform_internal.h"
 
 #include <tbb/blocked_range.h>
