@@ -122,8 +122,7 @@ struct RimInput {
 struct RimOwner {
     const uint8_t* tiles = nullptr; // per tile, 1 = owned
     int tiles_x = 0, tile = 16;
-    uint8_t* changed = nullptr;     // optional, per tile: set to 1 where a written rim value differs (in bits)
-    TexelRect* changed_box = nullptr; // optional, per tile: grown to hold every texel whose written value differs
+    TexelRect* changed_box = nullptr; // optional, per tile: grown to hold every texel whose written value differs (in bits)
     size_t tile_of(int i, int j) const { return size_t(j / tile) * size_t(tiles_x) + size_t(i / tile); }
     bool owns(int i, int j) const { return tiles[tile_of(i, j)] != 0; }
 };

@@ -10,8 +10,8 @@
 // angle-weighted normal can change. Each face's part of a normal, and which faces are degenerate, are the
 // kernel's (furrow_kernel/angle_weighted_normal.h), as in compute_vertex_normals.
 // Cost per point. Both passes cache each face's terms (unit normal, three corner angles) once per face, not
-// once per corner. prepare() puts every array in one huge-page block (Arena, below), which a later prepare()
-// of the same object takes over when the new mesh fits: on this project's VM a fresh 4 KiB page costs ~20 us,
+// once per corner. prepare() puts every array in one block (Arena, below; on huge pages from 32 MiB), which a
+// later prepare() of the same object takes over when the new mesh fits: on this project's VM a fresh 4 KiB page costs ~20 us,
 // and prepare used to spend most of its time in page faults (`bench stamp` §5, 394k vertices: 392-502 ms, 17x
 // the 99k mesh's; now 95-155 ms prepared again, 150-210 ms fresh, 45-60 ms of it in weld_positions). An update
 // skips the points whose position comes out bit-identical (a dirty tile is rarely dirty everywhere): their
@@ -50,7 +50,7 @@ struct FaceTerm {
     double angle[3] = {-1, -1, -1}; // < 0: degenerate (the kernel's rule), contributes nothing
 };
 
-// Every array of a prepared ground comes from one block advised for huge pages (Arena), sized in prepare()
+// Every array of a prepared ground comes from one block (Arena), advised for huge pages from 32 MiB, sized in prepare()
 // once the welded point and triangle counts are known. The cost is page faults, not bytes: on this project's
 // 2-core VM a first touch of a fresh 4 KiB page costs ~20 us (a zero-filled 2 MiB vector: 9 ms; 38 MiB: 170 ms,
 // against 12 ms with huge pages), and prepare() used to fault in ~20 separately allocated arrays, most below
@@ -72,9 +72,9 @@ struct Arena {
         } else {
             // Huge pages for a large block only: on the stamp command's ground (a 26 MB block) they raised the
             // command's peak by 1.2-1.6 MiB (/usr/bin/time), to the edge of `furrow bench memory`'s rule; the
-            // 394k-point ground of `bench stamp` section 5 (a block of about 70 MB) keeps them.
-            block = bytes >= kHugeArenaFrom ? kernel::allocate_huge_bytes(bytes)
-                                            : kernel::HugeBytes(static_cast<uint8_t*>(std::malloc(bytes)));
+            // 394k-point ground of `bench stamp` section 5 (a block of about 70 MB) keeps them. A smaller
+            // block, written whole below, is mapped in one call instead.
+            block = bytes >= kHugeArenaFrom ? kernel::allocate_huge_bytes(bytes) : kernel::allocate_prefaulted_bytes(bytes);
             size = block ? bytes : 0; // no block: each array allocates its own
         }
         base = block.get();

@@ -601,7 +601,7 @@ static void update_local_rim(SnowField::Impl& m, std::vector<TexelRect>& boxes, 
         const TexelRect& out = outs[k];
         const TexelRect win{std::max(0, out.x0 - reach), std::max(0, out.y0 - reach), std::min(f.width, out.x1 + reach),
                             std::min(f.height, out.y1 + reach)};
-        compute_rim(m.rim.data(), in, win, RimOwner{rim_tiles.data(), TX, T, nullptr, m.rim_box.data()}, out); // loses nothing
+        compute_rim(m.rim.data(), in, win, RimOwner{rim_tiles.data(), TX, T, m.rim_box.data()}, out); // loses nothing
     });
     for (const TexelRect& out : outs) m.content.unite(out);
     st.rim_windows += outs.size();

@@ -576,10 +576,8 @@ double compute_rim(float* rim, const RimInput& in, const TexelRect& win, const R
                         if (std::bit_cast<uint32_t>(dst) != std::bit_cast<uint32_t>(v)) first = std::min(first, i), last = i;
                         dst = v;
                     }
-                    if (last >= first) {
-                        if (own.changed) own.changed[t] = 1;
-                        if (own.changed_box) own.changed_box[t].unite({first + win.x0, j + win.y0, last + 1 + win.x0, j + 1 + win.y0});
-                    }
+                    if (last >= first && own.changed_box)
+                        own.changed_box[t].unite({first + win.x0, j + win.y0, last + 1 + win.x0, j + 1 + win.y0});
                 }
                 a = b;
             }

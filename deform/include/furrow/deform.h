@@ -232,9 +232,10 @@ public:
     // Brings the rim and the output heightmap up to date and returns where the output changed since the last
     // call: disjoint rectangles (empty when nothing changed), so that colliders far apart do not dirty
     // everything between them. Within each 16-texel tile they cover the bounding box of the texels that
-    // changed (deepened, or whose rim changed in bits; refill dirties whole tiles), boxes that meet merged. The rim is recomputed over the stamped tiles grown by the
-    // rim's reach. A cosmetic rim is local: each texel depends only on the carve within its reach, summed
-    // exactly, so incremental updates give the same bytes as one update after the same stamps (without refill,
+    // changed (deepened, or whose rim changed in bits; refill dirties whole tiles), boxes that meet merged.
+    // The rim is recomputed over the stamped tiles grown by the rim's reach. A cosmetic rim is local: each
+    // texel depends only on the carve within its reach, summed exactly, so incremental updates give the same
+    // bytes as one update after the same stamps (without refill,
     // whose decay scales the rim as it is). With conserve_volume each region balances its own removed and
     // raised volume, so a one-shot update is exact and incremental updates keep every recomputed region exact.
     std::vector<TexelRect> update(SnowUpdateStats* stats = nullptr);

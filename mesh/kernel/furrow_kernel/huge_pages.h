@@ -80,4 +80,19 @@ inline HugeBytes allocate_huge_bytes(size_t n) {
     return HugeBytes(static_cast<uint8_t*>(std::malloc(n)));
 }
 
+// n bytes for a block the caller writes whole right away, mapped in one system call (MADV_POPULATE_WRITE,
+// Linux 5.14) instead of one fault per 4 KiB page on first touch: a 32 MiB block written on this project's VM
+// took 130-135 ms so, against 260-340 ms faulted page by page (huge pages: 34-37 ms, but a huge page
+// rounds the resident size up where a block ends). Where the call is refused, the pages fault as usual.
+// Null if the allocation fails.
+inline HugeBytes allocate_prefaulted_bytes(size_t n) {
+    constexpr size_t page = 4096;
+    const size_t rounded = (std::max<size_t>(n, 1) + page - 1) & ~(page - 1);
+    auto* p = static_cast<uint8_t*>(std::aligned_alloc(page, rounded));
+#if defined(__linux__) && defined(MADV_POPULATE_WRITE)
+    if (p) (void)::madvise(p, rounded, MADV_POPULATE_WRITE);
+#endif
+    return HugeBytes(p);
+}
+
 } // namespace furrow::kernel
