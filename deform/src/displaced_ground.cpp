@@ -11,9 +11,9 @@
 // kernel's (furrow_kernel/angle_weighted_normal.h), as in compute_vertex_normals.
 // Cost per point. Both passes cache each face's terms (unit normal, three corner angles) once per face, not
 // once per corner. prepare() puts every array in one block (Arena, below; on huge pages from 32 MiB), which a
-// later prepare() of the same object takes over when the new mesh fits: on this project's VM a fresh 4 KiB page costs ~20 us,
-// and prepare used to spend most of its time in page faults (`bench stamp` §5, 394k vertices: 392-502 ms, 17x
-// the 99k mesh's; now 95-155 ms prepared again, 150-210 ms fresh, 45-60 ms of it in weld_positions). An update
+// later prepare() of the same object takes over when the new mesh fits: on this project's VM a fresh 4 KiB
+// page costs ~20 us, and prepare used to spend most of its time in page faults (`bench stamp` §5, 394k
+// vertices: 392-624 ms, 17x the 99k mesh's; now 87-99 ms prepared again, 117-141 ms fresh). An update
 // skips the points whose position comes out bit-identical (a dirty tile is rarely dirty everywhere): their
 // faces, normals and buffer entries are already those a full pass writes. The points and faces to redo are
 // claimed in parallel chunks, so the update scales with threads as the full pass does; the result bytes do
@@ -50,8 +50,8 @@ struct FaceTerm {
     double angle[3] = {-1, -1, -1}; // < 0: degenerate (the kernel's rule), contributes nothing
 };
 
-// Every array of a prepared ground comes from one block (Arena), advised for huge pages from 32 MiB, sized in prepare()
-// once the welded point and triangle counts are known. The cost is page faults, not bytes: on this project's
+// Every array of a prepared ground comes from one block (Arena), advised for huge pages from 32 MiB, sized in
+// prepare() once the welded point and triangle counts are known. The cost is page faults, not bytes: on this project's
 // 2-core VM a first touch of a fresh 4 KiB page costs ~20 us (a zero-filled 2 MiB vector: 9 ms; 38 MiB: 170 ms,
 // against 12 ms with huge pages), and prepare() used to fault in ~20 separately allocated arrays, most below
 // kernel::assign_huge's 4 MiB threshold or with 4 KiB-paged ends. A vector that outgrows the block, or is made

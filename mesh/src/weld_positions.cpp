@@ -4,9 +4,10 @@
 // and every group maps to its lowest index. The sort is an LSD radix sort (Knuth, TAOCP vol. 3, §5.2.5) on the
 // 96-bit key: stable, and the records start in index order, so it gives the (key, index) order of a
 // comparison sort in O(n), in nine passes of 11 bits (a pass whose digit is the same in every record is
-// skipped). It replaced tbb::parallel_sort, which took 45-60 ms of the 394k-point ground's prepare
-// (`furrow bench stamp` section 5). Hashing would be O(n) on average but its worst case depends on the data
-// (crafted input), and sorting keeps the result independent of any hash seed or container order.
+// skipped). It replaced tbb::parallel_sort: on a 473k-vertex grid (both versions in one program, same remap)
+// 43 ms against 61 ms on two threads and 88 ms on one. Hashing would be O(n) on average but its worst case
+// depends on the data (crafted input), and sorting keeps the result independent of any hash seed or container
+// order.
 //
 // Tolerance mode follows the usual uniform-grid approach (cells of side `tolerance`, neighbours searched in
 // the 3×3×3 block around a point's cell; see e.g. Ericson, "Real-Time Collision Detection", 2005, §7.1).
