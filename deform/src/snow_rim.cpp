@@ -306,7 +306,9 @@ double quantum_cap(int n) {
     const double side = 2.0 * n + 1;
     return std::floor(4.6e18 / (side * side * side * side));
 }
-uint64_t quantized(double x, double cap) { return x > 0 ? uint64_t(std::min(x / kQuantum, cap) + 0.5) : 0; } // half up
+// Half up. Through int64 (the capped value is below 2^62): SSE2 has no unsigned conversion, and the compiler's
+// emulation of one cost a branch per texel in the rim's sums.
+uint64_t quantized(double x, double cap) { return x > 0 ? uint64_t(int64_t(std::min(x / kQuantum, cap) + 0.5)) : 0; }
 
 // The rim for one width: local amplitude (ratio of two smoothed fields) × profile, blurred, kept on owned
 // receivers, scaled (conserve: to the removed volume × (1 − compaction); cosmetic: by rim_height). Returns
@@ -363,20 +365,25 @@ template <class T>
 struct SumTable {
     const T* c = nullptr;
     int pad = 0, stride = 0, n = 0, w = 0, h = 0;
-    T at(int i, int j) const { // smooth()'s value at window texel (i, j)
-        auto terms = [this](int x, int len, int* at) { // the four C2 indices of one axis, padded
-            const int a = std::max(0, x - n), b = std::min(len - 1, x + n);
-            at[0] = b + n + pad, at[1] = a + n - 1 + pad, at[2] = b - n - 1 + pad, at[3] = a - n - 2 + pad;
-        };
-        int xs[4], ys[4];
-        terms(i, w, xs);
-        terms(j, h, ys);
+    // The four C2 indices along one axis of length len at x, padded; the two axes' indices are the same for
+    // every table of a window, and for a whole row or column: the ring finds them once.
+    static void terms(int x, int len, int n, int pad, int* at) {
+        const int a = std::max(0, x - n), b = std::min(len - 1, x + n);
+        at[0] = b + n + pad, at[1] = a + n - 1 + pad, at[2] = b - n - 1 + pad, at[3] = a - n - 2 + pad;
+    }
+    T at(const int* xs, const int* ys) const { // smooth()'s value at the texel of those indices
         T r[4];
         for (int k = 0; k < 4; ++k) {
             const T* row = c + size_t(ys[k]) * size_t(stride);
             r[k] = T(row[xs[0]] - row[xs[1]] - row[xs[2]] + row[xs[3]]);
         }
         return T(r[0] - r[1] - r[2] + r[3]);
+    }
+    T at(int i, int j) const { // smooth()'s value at window texel (i, j)
+        int xs[4], ys[4];
+        terms(i, w, n, pad, xs);
+        terms(j, h, n, pad, ys);
+        return at(xs, ys);
     }
 };
 
@@ -441,6 +448,22 @@ RingSums ring_sums(Scratch& S, const float* carve, const float* base, size_t str
 // at least that elsewhere. The rim's profile reads it only below (width + ½)² <= r², so there it is the exact
 // Euclidean distance transform's value, in a few vectorisable steps per texel with no division: the nearest
 // row per column (a sweep down and a sweep up, capped at r + 1), then the nearest column within r columns.
+template <class D>
+void near_columns(const int* rows, int* out, int pw, int r, int ox, int wi, int hi) {
+    const D far2 = D((r + 1) * (r + 1));
+    std::vector<D> sq(static_cast<size_t>(wi + 2 * r)), o(static_cast<size_t>(wi));
+    for (int j = 0; j < hi; ++j) {
+        const int* v = rows + size_t(j) * size_t(pw) + ox; // v[r + i + dx], |dx| <= r, stays within the padded row
+        for (int i = 0; i < wi + 2 * r; ++i) sq[size_t(i)] = D(v[i] * v[i]);
+        std::fill(o.begin(), o.end(), far2);
+        for (int dx = -r; dx <= r; ++dx) {
+            const D dd = D(dx * dx);
+            const D* s = sq.data() + r + dx;
+            for (int i = 0; i < wi; ++i) o[size_t(i)] = std::min(o[size_t(i)], D(dd + s[i]));
+        }
+        std::copy(o.begin(), o.end(), out + size_t(j) * size_t(wi));
+    }
+}
 void near_distance(Scratch& S, const uint8_t* mask, int we, int he, int ox, int oy, int wi, int hi, int r) {
     const int far = r + 1, pw = we + 2 * r; // the columns' rows, padded by r columns of `far` on each side
     fit(S.near_d2, size_t(wi) * size_t(hi));
@@ -463,15 +486,10 @@ void near_distance(Scratch& S, const uint8_t* mask, int we, int he, int ox, int 
         int* o = rows + size_t(y - oy) * size_t(pw) + r;
         for (int i = 0; i < we; ++i) o[i] = std::min(o[i], run[size_t(i)]);
     }
-    const int far2 = far * far;
-    for (int j = 0; j < hi; ++j) {
-        int* v = rows + size_t(j) * size_t(pw) + r + ox; // v[i + dx], |dx| <= r, stays within the padded row
-        for (int i = -r; i < wi + r; ++i) v[i] = v[i] * v[i];
-        int* o = S.near_d2.data() + size_t(j) * size_t(wi);
-        std::fill(o, o + wi, far2);
-        for (int dx = -r; dx <= r; ++dx)
-            for (int i = 0; i < wi; ++i) o[i] = std::min(o[i], dx * dx + v[i + dx]);
-    }
+    // The nearest column: the inner loop is a minimum over 2r + 1 shifted rows, in 16-bit lanes (eight to an
+    // SSE2 register, which has a 16-bit minimum and no 32-bit one) while every sum fits, dx² + far² < 2^15.
+    if (2 * far * far < 32768) near_columns<int16_t>(rows, S.near_d2.data(), pw, r, ox, wi, hi);
+    else near_columns<int>(rows, S.near_d2.data(), pw, r, ox, wi, hi);
 }
 
 // The cosmetic rim evaluated only where `out` can read it (snow_field's per-frame cost): the ridge is zero
@@ -500,7 +518,8 @@ void cosmetic_ring(Scratch& S, Window& W, const RimInput& in, const TexelRect& w
         uint8_t* m = S.near_source.data() + size_t(j) * size_t(we);
         for (int i = 0; i < we; ++i) {
             const float s = (base ? base[i] : 0.0f) - carve[i];
-            m[i] = s > 0 ? 1 : std::isnan(ground[i]) ? 0 : 2;
+            const uint8_t imprinted = s > 0, on_ground = ground[i] == ground[i]; // (not NaN), without a branch
+            m[i] = uint8_t(imprinted | ((on_ground & (imprinted ^ 1)) << 1));
         }
     }
     near_distance(S, S.near_source.data(), we, he, I.x0 - E.x0, I.y0 - E.y0, wi, hi, R);
@@ -510,19 +529,27 @@ void cosmetic_ring(Scratch& S, Window& W, const RimInput& in, const TexelRect& w
     auto receiver = [&](int i, int j) { // (i, j) in I
         return S.near_source[size_t(j + I.y0 - E.y0) * size_t(we) + size_t(i + I.x0 - E.x0)] == 2;
     };
-    for (int j = 0; j < hi; ++j)
+    // The profile is a function of the integer squared distance: a table of its R² + 1 values (the same bits).
+    std::vector<float> profile_of(size_t(R) * size_t(R) + 1);
+    for (size_t d2 = 0; d2 < profile_of.size(); ++d2) profile_of[d2] = profile_at(double(d2), in.texel, in.width_m);
+    std::vector<int> xs(4 * size_t(wi)); // the sums' column indices, per column of I
+    for (int i = 0; i < wi; ++i) decltype(sums.depth)::terms(i + I.x0, W.w, n, sums.depth.pad, &xs[4 * size_t(i)]);
+    for (int j = 0; j < hi; ++j) {
+        int ys[4];
+        decltype(sums.depth)::terms(j + I.y0, W.h, n, sums.depth.pad, ys);
         for (int i = 0; i < wi; ++i) {
             const size_t x = size_t(j) * size_t(wi) + size_t(i);
             const int d2 = S.near_d2[x];
-            const float profile = d2 <= R * R && receiver(i, j) ? profile_at(double(d2), in.texel, in.width_m) : 0.0f;
+            const float profile = d2 <= R * R && receiver(i, j) ? profile_of[size_t(d2)] : 0.0f;
             float r = 0.0f;
             if (profile > 0) {
-                const int wx = i + I.x0, wy = j + I.y0;
-                const double d = double(int64_t(uint64_t(sums.count.at(wx, wy)) * one));
-                if (d > 0) r = float(double(profile) * double(int64_t(sums.depth.at(wx, wy))) / d);
+                const int* xi = &xs[4 * size_t(i)];
+                const double d = double(int64_t(uint64_t(sums.count.at(xi, ys)) * one));
+                if (d > 0) r = float(double(profile) * double(int64_t(sums.depth.at(xi, ys))) / d);
             }
             ring[x] = r;
         }
+    }
     blur(ring, S.ring_tmp.data(), wi, hi, 1, in.parallel);
     const float k = float(in.height_ratio / 81.0); // the blur kernel sums to 81 (two 3 x 3 box passes)
     for (int j = 0; j < hi; ++j)

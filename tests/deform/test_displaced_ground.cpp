@@ -2,7 +2,9 @@
 #include "deform_test_util.h"
 #include "test_support.h"
 
+#include <algorithm>
 #include <map>
+#include <numeric>
 #include <random>
 
 using namespace furrow;
@@ -205,6 +207,47 @@ TEST(DisplacedGround, NormalsAreThoseOfTheMeshLibrary) {
     p.dg.displace_all(p.field.heightmap(), pos.data(), nor.data());
     compute_vertex_normals(ref.data(), pos.data(), p.ground.vertex_count(), p.ground.indices.data(), p.ground.indices.size());
     for (size_t k = 0; k < n; ++k) EXPECT_NEAR(nor[k], ref[k], 1e-5);
+}
+
+// prepare() numbers the welded points by heightmap tile and the triangles by their lowest point (memory
+// order for the updates), but keeps each point's faces in input order: the output cannot depend on how the
+// input's vertices are numbered. The same mesh with its vertices shuffled (the triangles in the same order)
+// gives, vertex for vertex, the same bits, in displace_all and in an update. Were a normal summed in the
+// internal face order, the shuffle (which reorders points within a tile) would change low bits.
+TEST(DisplacedGround, OutputDoesNotDependOnTheVertexNumbering) {
+    Prepared a, b;
+    a.ground = hill_ground(4, 60);
+    b.ground = a.ground;
+    const size_t V = a.ground.vertex_count();
+    std::vector<uint32_t> to(V); // a vertex's number in b
+    std::iota(to.begin(), to.end(), 0u);
+    std::shuffle(to.begin(), to.end(), std::mt19937(5));
+    for (size_t v = 0; v < V; ++v)
+        for (int d = 0; d < 3; ++d) b.ground.positions[3 * size_t(to[v]) + size_t(d)] = a.ground.positions[3 * v + size_t(d)];
+    for (uint32_t& i : b.ground.indices) i = to[i];
+    prepare(a);
+    prepare(b);
+    std::vector<float> pa(3 * V), na(3 * V), pb(3 * V), nb(3 * V);
+    auto same = [&] {
+        size_t differ = 0;
+        for (size_t v = 0; v < V; ++v)
+            for (int d = 0; d < 3; ++d)
+                differ += pa[3 * v + size_t(d)] != pb[3 * size_t(to[v]) + size_t(d)] || na[3 * v + size_t(d)] != nb[3 * size_t(to[v]) + size_t(d)];
+        return differ;
+    };
+    for (Prepared* p : {&a, &b}) {
+        ASSERT_TRUE(p->field.add_collider(sphere(0.3, {{0.2, hill_height(0.2, 0.1) + 0.1, 0.1}})).ok());
+        p->field.update();
+    }
+    a.dg.displace_all(a.field.heightmap(), pa.data(), na.data());
+    b.dg.displace_all(b.field.heightmap(), pb.data(), nb.data());
+    EXPECT_EQ(same(), 0u);
+    for (Prepared* p : {&a, &b})
+        ASSERT_TRUE(p->field.stamp(sphere(0.15, {}), ColliderPose{{-0.5, hill_height(-0.5, 0.4) + 0.1, 0.4}, 0, 0}).ok());
+    const auto ra = a.field.update(), rb = b.field.update();
+    EXPECT_GT(a.dg.update(a.field.heightmap(), ra, pa.data(), na.data()), 0u);
+    EXPECT_GT(b.dg.update(b.field.heightmap(), rb, pb.data(), nb.data()), 0u);
+    EXPECT_EQ(same(), 0u);
 }
 
 TEST(DisplacedGround, TopOnlyLeavesTheUndersideAlone) {

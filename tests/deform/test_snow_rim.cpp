@@ -74,7 +74,7 @@ TEST(SnowRim, RingOnlyCosmeticRimEqualsTheWholeWindowPathByteForByte) {
     const std::vector<uint8_t> all(size_t(TX) * size_t(TY), 1);
     const TexelRect grid{0, 0, w, h};
     for (unsigned seed = 1; seed <= 6; ++seed)
-        for (double width_m : {0.04, 0.06, 0.15}) {
+        for (double width_m : {0.04, 0.06, 0.15, 2.6}) { // 2.6 m: a profile radius past the 16-bit lanes (126 texels)
             SCOPED_TRACE("seed " + std::to_string(seed) + ", width " + std::to_string(width_m));
             const RimFrame f = random_frame(seed, w, h, seed % 2 == 0);
             std::vector<float> ref(size_t(w) * size_t(h), -1.0f);
