@@ -17,7 +17,8 @@
 // skips the points whose position comes out bit-identical (a dirty tile is rarely dirty everywhere): their
 // faces, normals and buffer entries are already those a full pass writes. The points and faces to redo are
 // found in one cheap sweep and recomputed in parallel; the result bytes do not depend on the thread count.
-// Points and faces are numbered in heightmap tile order, so that a footprint's are near each other in memory.
+// (Numbering the points by heightmap tile and the faces by their lowest point, for locality, made an update
+// 5-10 % faster and prepare() 30 % slower, 82 -> 107 ms at 394k points: not kept.)
 #include "deform_internal.h"
 
 #include <furrow_kernel/angle_weighted_normal.h>
@@ -29,7 +30,6 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
-#include <array>
 #include <bit>
 #include <utility>
 #include <cstdlib>
@@ -198,10 +198,9 @@ struct DisplacedGround::Impl {
     Indices tris;                         // welded, non-degenerate
     Indices face_off, faces;              // point -> incident corners, 3 × triangle + corner (CSR)
     Doubles cur, nrm;                     // current displaced positions and normals per point
-    // Points bucketed by 16 x 16-texel tiles of their footprint's lower corner: numbered in tile order, the
-    // points of tile t are tile_off[t] .. tile_off[t + 1] - 1.
+    // Points bucketed by 16 x 16-texel tiles of their footprint's lower corner.
     int tiles_x = 0, tiles_y = 0;
-    Indices tile_off;
+    Indices tile_off, tile_pts;
     FaceTerms terms;                      // per triangle, as of the last displace_all/update
     Array<uint64_t> mark, face_mark;      // update()'s scratch: a bit per point and per triangle (27 + 55 KB at
                                           // 221k points: in cache, unlike a word each, 2.6 MB)
@@ -215,8 +214,6 @@ struct DisplacedGround::Impl {
     int tile_of(double t, int tiles) const {
         return std::clamp(int(std::floor(std::clamp(t, -1.0, double(tiles) * kTile))) / kTile, 0, tiles - 1);
     }
-
-    uint32_t tile_index(const double* t) const { return uint32_t(tile_of(t[1], tiles_y) * tiles_x + tile_of(t[0], tiles_x)); }
 
     void write(uint32_t p, float* pos, float* nor) const {
         for (uint32_t k = copy_off[p]; k < copy_off[size_t(p) + 1]; ++k) {
@@ -246,53 +243,6 @@ struct DisplacedGround::Impl {
     }
 };
 
-// Memory order. An update touches the points under a few footprints and the faces around them; numbered in
-// the order of the welded input (tessellation patch by patch), those are spread over the arrays, and an
-// update spent most of its time in cache misses (`bench stamp` section 4: ~97 ns a recomputed face against
-// ~27 ns in the full pass). So the points are numbered by heightmap tile (in order of first appearance within
-// a tile), and the triangles by their lowest point: the points and faces of a footprint are near each other.
-// The numbering changes no value: a point's incident faces stay listed in input order (the normal's sum runs
-// in the same order), and every result is a function of positions alone.
-static void number_points_by_tile(std::vector<uint32_t>& remap, const std::vector<uint32_t>& first, const float* positions,
-                                  const DisplacedGround::Impl& m) {
-    const size_t points = first.size(), tiles = size_t(m.tiles_x) * size_t(m.tiles_y);
-    std::vector<uint32_t> tile(points), start(tiles + 1, 0);
-    for (size_t p = 0; p < points; ++p) {
-        const float* x = positions + 3 * size_t(first[p]);
-        const double world[3] = {x[0], x[1], x[2]}; // as prepare() forms rest
-        const auto t = m.frame.to_texel(world);
-        tile[p] = m.tile_index(t.data());
-        ++start[tile[p] + 1];
-    }
-    for (size_t t = 0; t < tiles; ++t) start[t + 1] += start[t];
-    std::vector<uint32_t> new_id(points);
-    for (size_t p = 0; p < points; ++p) new_id[p] = start[tile[p]]++;
-    for (uint32_t& r : remap) r = new_id[r];
-}
-
-// Triangles (m.tris, on numbered points) reordered by their lowest point, and the incident corners of every
-// point (face_off, faces) listed in the triangles' input order.
-static void number_faces_by_point(DisplacedGround::Impl& m, size_t points) {
-    const size_t T = m.tris.size() / 3;
-    std::vector<uint32_t> new_face(T), start(points + 1, 0);
-    auto lowest = [&](size_t f) { return std::min({m.tris[3 * f], m.tris[3 * f + 1], m.tris[3 * f + 2]}); };
-    for (size_t f = 0; f < T; ++f) ++start[lowest(f) + 1];
-    for (size_t p = 0; p < points; ++p) start[p + 1] += start[p];
-    for (size_t f = 0; f < T; ++f) new_face[f] = start[lowest(f)]++;
-    bucket(m.face_off, m.faces, points, 3 * T, [&](size_t c) { return m.tris[c]; },
-           [&](size_t c) { return uint32_t(3 * new_face[c / 3] + c % 3); });
-    // The triangles moved in place along the permutation's cycles.
-    std::vector<bool> placed(T, false);
-    for (size_t f = 0; f < T; ++f) {
-        if (placed[f]) continue;
-        std::array<uint32_t, 3> carried{m.tris[3 * f], m.tris[3 * f + 1], m.tris[3 * f + 2]};
-        for (size_t g = new_face[f]; !placed[g]; g = new_face[g]) { // carried belongs at g
-            placed[g] = true;
-            for (int k = 0; k < 3; ++k) std::swap(carried[size_t(k)], m.tris[3 * g + size_t(k)]);
-        }
-    }
-}
-
 DisplacedGround::DisplacedGround() : impl_(std::make_unique<Impl>()) {}
 DisplacedGround::~DisplacedGround() = default;
 DisplacedGround::DisplacedGround(DisplacedGround&&) noexcept = default;
@@ -317,18 +267,15 @@ Status DisplacedGround::prepare(const float* positions, size_t vertex_count, con
         m->frame = frame;
         m->opt = opt;
         m->vertex_count = vertex_count;
-        m->tiles_x = (frame.width + Impl::kTile - 1) / Impl::kTile + 1;
-        m->tiles_y = (frame.height + Impl::kTile - 1) / Impl::kTile + 1;
-        const size_t tiles = size_t(m->tiles_x) * size_t(m->tiles_y);
         size_t points = 0;
         std::vector<uint32_t> remap; // vertex -> welded point; freed once the triangles are on welded points
         {
             std::vector<uint32_t> first(vertex_count);
             weld_positions(first.data(), positions, vertex_count);
+            // Welded points numbered in order of first appearance.
             kernel::WeldedIds welded = kernel::welded_ids(first.data(), vertex_count);
             points = welded.first.size();
             remap = std::move(welded.of_vertex);
-            number_points_by_tile(remap, welded.first, positions, *m);
         }
         // Triangles on welded points; degenerate ones carry no normal and no neighbourhood.
         auto welded = [&](size_t t, int k) { return remap[indices[t + size_t(k)]]; };
@@ -339,10 +286,13 @@ Status DisplacedGround::prepare(const float* positions, size_t vertex_count, con
         size_t T = 0;
         for (size_t t = 0; t + 3 <= index_count; t += 3) T += kept(t);
         if (3 * T > size_t(UINT32_MAX)) return Status::error(StatusCode::invalid_input, "more than 1.4 billion triangles");
+        m->tiles_x = (frame.width + Impl::kTile - 1) / Impl::kTile + 1;
+        m->tiles_y = (frame.height + Impl::kTile - 1) / Impl::kTile + 1;
+        const size_t tiles = size_t(m->tiles_x) * size_t(m->tiles_y);
         const bool terms = opt.keep_face_terms;
         // One block for every array below (see Arena); the terms only when kept.
         const size_t bytes = 4 * Arena::padded(24 * points) + Arena::padded(16 * points) + 2 * Arena::padded(4 * (points + 1)) +
-                        Arena::padded(4 * vertex_count) + 2 * Arena::padded(12 * T) +
+                        Arena::padded(4 * points) + Arena::padded(4 * vertex_count) + 2 * Arena::padded(12 * T) +
                         Arena::padded(4 * (tiles + 1)) +
                         Arena::padded(8 * ((points + 63) / 64)) + Arena::padded(8 * ((T + 63) / 64)) +
                         (terms ? Arena::padded(sizeof(FaceTerm) * T) : 0);
@@ -366,7 +316,7 @@ Status DisplacedGround::prepare(const float* positions, size_t vertex_count, con
         std::vector<uint32_t>().swap(remap);
         array(m->face_off, points + 1, 0u);
         array(m->faces, 3 * T, 0u);
-        number_faces_by_point(*m, points);
+        bucket(m->face_off, m->faces, points, 3 * T, [&](size_t c) { return m->tris[c]; }, [](size_t c) { return uint32_t(c); });
         if (terms) array(m->terms, T, FaceTerm{});
         // Undeformed normals give the displacement direction.
         array(m->dir, 3 * points, 0.0);
@@ -400,10 +350,13 @@ Status DisplacedGround::prepare(const float* positions, size_t vertex_count, con
                 if (!std::isnan(g) && w < double(g) - tol) m->movable[p] = 0;
             }
         }
-        // The points of tile t are tile_off[t] .. tile_off[t + 1] (numbered in tile order).
         array(m->tile_off, tiles + 1, 0u);
-        for (size_t p = 0; p < points; ++p) ++m->tile_off[m->tile_index(&m->texel[2 * p]) + 1];
-        for (size_t t = 0; t < tiles; ++t) m->tile_off[t + 1] += m->tile_off[t];
+        array(m->tile_pts, points, 0u);
+        const Impl& c = *m;
+        auto tile_index = [&c](size_t p) {
+            return uint32_t(c.tile_of(c.texel[2 * p + 1], c.tiles_y) * c.tiles_x + c.tile_of(c.texel[2 * p], c.tiles_x));
+        };
+        bucket(m->tile_off, m->tile_pts, tiles, points, tile_index, [](size_t p) { return uint32_t(p); });
         m->cur = Doubles(m->rest, ArenaAlloc<double>(&m->arena));
         array(m->nrm, 3 * points, 0.0);
         array(m->mark, (points + 63) / 64, uint64_t(0));
@@ -446,7 +399,8 @@ static void points_under(DisplacedGround::Impl& m, const std::vector<TexelRect>&
                 // Inside: every point of an inner tile has floor(ti) in [tx·16, tx·16 + 15], within [x0, x1 − 1].
                 const bool inside = tx * T >= dirty.x0 && tx * T + T <= dirty.x1 && ty * T >= dirty.y0 && ty * T + T <= dirty.y1 &&
                                     tx + 1 < m.tiles_x && ty + 1 < m.tiles_y && tx > 0 && ty > 0;
-                for (uint32_t p = m.tile_off[t]; p < m.tile_off[t + 1]; ++p) {
+                for (uint32_t k = m.tile_off[t]; k < m.tile_off[t + 1]; ++k) {
+                    const uint32_t p = m.tile_pts[k];
                     uint64_t& word = m.mark[p / 64];
                     const uint64_t bit = uint64_t(1) << (p % 64);
                     if (word & bit) continue;

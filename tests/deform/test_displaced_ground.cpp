@@ -209,11 +209,11 @@ TEST(DisplacedGround, NormalsAreThoseOfTheMeshLibrary) {
     for (size_t k = 0; k < n; ++k) EXPECT_NEAR(nor[k], ref[k], 1e-5);
 }
 
-// prepare() numbers the welded points by heightmap tile and the triangles by their lowest point (memory
-// order for the updates), but keeps each point's faces in input order: the output cannot depend on how the
-// input's vertices are numbered. The same mesh with its vertices shuffled (the triangles in the same order)
-// gives, vertex for vertex, the same bits, in displace_all and in an update. Were a normal summed in the
-// internal face order, the shuffle (which reorders points within a tile) would change low bits.
+// A point's normal sums its faces' terms in the input's triangle order, whatever numbering prepare() gives
+// the welded points (today: order of first appearance): the output cannot depend on how the input's
+// vertices are numbered. The same mesh with its vertices shuffled (the triangles in the same order) gives,
+// vertex for vertex, the same bits, in displace_all and in an update. (Checked to fail with the points
+// numbered by heightmap tile and each point's faces listed in that internal order.)
 TEST(DisplacedGround, OutputDoesNotDependOnTheVertexNumbering) {
     Prepared a, b;
     a.ground = hill_ground(4, 60);
