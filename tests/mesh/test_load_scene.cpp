@@ -452,11 +452,7 @@ TEST(load_scene, ObjTexcoordLineThatDoesNotParseIsAnError) {
 // loader gives what a direct reading of the same statements gives: one vertex per distinct (v, vt) pair in
 // order of first use, positions as the nearest float of the written double, uv with v flipped.
 TEST(load_scene, ObjMatchesAnIndependentReadingOfRandomText) {
-    uint64_t state = 12345;
-    auto next = [&](uint64_t n) {
-        state = state * 6364136223846793005ull + 1442695040888963407ull;
-        return (state >> 33) % n;
-    };
+    test::Lcg next(12345);
     for (int round = 0; round < 300; ++round) {
         const size_t nv = 3 + next(20), nt = next(2) ? 1 + next(8) : 0;
         const bool crlf = next(4) == 0;
@@ -489,11 +485,7 @@ TEST(load_scene, ObjMatchesAnIndependentReadingOfRandomText) {
         const size_t faces = 1 + next(12);
         for (size_t f = 0; f < faces; ++f) {
             const size_t n = 3 + next(std::min<size_t>(nv - 2, 4));
-            std::vector<size_t> corners;
-            while (corners.size() < n) {
-                const size_t c = next(nv);
-                if (std::find(corners.begin(), corners.end(), c) == corners.end()) corners.push_back(c);
-            }
+            const std::vector<uint32_t> corners = test::distinct_corners(next, nv, n);
             text += "f";
             for (size_t c : corners) {
                 const size_t t = nt ? next(nt) : 0;

@@ -2,40 +2,22 @@
 // broken, it agrees with the former reader (a validation pass, then OpenMesh's stream reader, still reachable
 // as load_openmesh_bytes(".off")) on what it accepts, the scene it gives and what it refuses; and it gives what
 // an independent reading of the written numbers gives.
+#include "scene_compare.h"
 #include "test_support.h"
 
 #include <cstdio>
 
-namespace furrow {
-// The former OFF reader (mesh/src/openmesh_load.cpp, internal to furrow::mesh; the library is static).
-Status load_openmesh_bytes(Scene& out, const std::string& bytes, const std::string& ext, const LoadOptions& options);
-} // namespace furrow
-
 using namespace furrow;
 
 namespace {
-Status load_off(Scene& s, const std::string& text) {
-    return load_scene_from_memory(s, reinterpret_cast<const uint8_t*>(text.data()), text.size(), ".off");
-}
-
 // Both readers on one text: the same verdict, and on success the same scene.
 void expect_same_as_former_reader(const std::string& text) {
     Scene now, before;
-    const Status a = load_off(now, text);
+    const Status a = test::load_text(now, text, ".off");
     const Status b = load_openmesh_bytes(before, text, ".off", LoadOptions{});
     ASSERT_EQ(a.code, b.code) << a.message << " | " << b.message << "\n" << text;
     if (!a.ok()) return;
-    ASSERT_EQ(now.meshes.size(), before.meshes.size());
-    const Primitive& p = now.meshes[0].primitives.at(0);
-    const Primitive& q = before.meshes[0].primitives.at(0);
-    EXPECT_EQ(p.positions, q.positions) << text;
-    EXPECT_EQ(p.indices, q.indices) << text;
-    EXPECT_EQ(p.face_sizes, q.face_sizes) << text;
-    EXPECT_EQ(p.normals, q.normals) << text;
-    EXPECT_EQ(p.colors, q.colors) << text;
-    EXPECT_EQ(p.uv0, q.uv0) << text;
-    EXPECT_EQ(now.warnings, before.warnings) << text;
-    EXPECT_EQ(now.nodes[0].translation, before.nodes[0].translation) << text;
+    furrow::test::expect_same_reading(now, before, text);
 }
 } // namespace
 
@@ -57,13 +39,13 @@ TEST(off_load, RefusalsNameTheLine) {
     };
     for (const auto& [text, message] : cases) {
         Scene s;
-        const Status st = load_off(s, text);
+        const Status st = test::load_text(s, text, ".off");
         EXPECT_EQ(st.code, StatusCode::invalid_input) << text;
         EXPECT_NE(st.message.find(message), std::string::npos) << st.message << "\n" << text;
         expect_same_as_former_reader(text); // refused by both
     }
     Scene s;
-    EXPECT_EQ(load_off(s, "OFF BINARY\n").code, StatusCode::unsupported);
+    EXPECT_EQ(test::load_text(s, "OFF BINARY\n", ".off").code, StatusCode::unsupported);
 }
 
 // What the stream did is kept: counts after the first line only (counts on it are skipped), a vertex may run
@@ -71,7 +53,7 @@ TEST(off_load, RefusalsNameTheLine) {
 // its line end ends the vertices, faces of fewer than 3 corners are dropped with a warning.
 TEST(off_load, StreamReadingIsKept) {
     Scene s;
-    Status st = load_off(s, "NOFF 9 9 9\n3 2 0\n0 0\n0 0 0 1 junk\n1\t0 0\r\n0 1 0\n3 0\n1 2 2\n1 0\n");
+    Status st = test::load_text(s, "NOFF 9 9 9\n3 2 0\n0 0\n0 0 0 1 junk\n1\t0 0\r\n0 1 0\n3 0\n1 2 2\n1 0\n", ".off");
     ASSERT_TRUE(st.ok()) << st.message;
     const Primitive& p = s.meshes[0].primitives.at(0);
     EXPECT_EQ(p.positions, (std::vector<float>{0, 0, 0, 1, 0, 0, 0, 1, 0}));
@@ -89,11 +71,7 @@ TEST(off_load, StreamReadingIsKept) {
 // the same text broken at random (cut short, a character replaced) is accepted or refused as the former reader
 // did, with the same scene when accepted.
 TEST(off_load, RandomTextMatchesDirectReadingAndFormerReader) {
-    uint64_t state = 2024;
-    auto next = [&](uint64_t n) {
-        state = state * 6364136223846793005ull + 1442695040888963407ull;
-        return (state >> 33) % n;
-    };
+    test::Lcg next(2024);
     const char* keywords[] = {"OFF", "COFF", "NOFF", "STOFF", "CNOFF"};
     for (int round = 0; round < 300; ++round) {
         const size_t nv = 3 + next(15), nf = 1 + next(10);
@@ -117,11 +95,7 @@ TEST(off_load, RandomTextMatchesDirectReadingAndFormerReader) {
         std::vector<uint32_t> want_indices, want_sizes;
         for (size_t f = 0; f < nf; ++f) {
             const size_t n = 3 + next(std::min<size_t>(nv - 2, 3));
-            std::vector<uint32_t> corners;
-            while (corners.size() < n) {
-                const uint32_t c = uint32_t(next(nv));
-                if (std::find(corners.begin(), corners.end(), c) == corners.end()) corners.push_back(c);
-            }
+            const std::vector<uint32_t> corners = test::distinct_corners(next, nv, n);
             text += std::to_string(n);
             for (uint32_t c : corners) text += space() + std::to_string(c);
             text += eol();
@@ -129,7 +103,7 @@ TEST(off_load, RandomTextMatchesDirectReadingAndFormerReader) {
             want_sizes.push_back(uint32_t(n));
         }
         Scene s;
-        const Status st = load_off(s, text);
+        const Status st = test::load_text(s, text, ".off");
         ASSERT_TRUE(st.ok()) << st.message << "\n" << text;
         const Primitive& p = s.meshes[0].primitives.at(0);
         const std::array<double, 3> centre = s.nodes[0].translation;

@@ -3,6 +3,7 @@
 // validation pass, then OpenMesh's PLYReader, still reachable as load_openmesh_bytes(".ply")) on what it
 // accepts, the scene it gives and what it refuses; and it gives what an independent reading of the written
 // numbers gives, a face texcoord list (MeshLab's per-corner uvs, which OpenMesh misread) included.
+#include "scene_compare.h"
 #include "test_support.h"
 
 #include <algorithm>
@@ -16,17 +17,9 @@
 #include <set>
 #include <sstream>
 
-namespace furrow {
-// The former PLY reader (mesh/src/openmesh_load.cpp, internal to furrow::mesh; the library is static).
-Status load_openmesh_bytes(Scene& out, const std::string& bytes, const std::string& ext, const LoadOptions& options);
-} // namespace furrow
-
 using namespace furrow;
 
 namespace {
-Status load_ply(Scene& s, const std::string& text) {
-    return load_scene_from_memory(s, reinterpret_cast<const uint8_t*>(text.data()), text.size(), ".ply");
-}
 
 // OpenMesh 9.0's header parser leaves a PropertyInfo's value type uninitialised for a scalar property it does
 // not know (neither a coordinate, normal, uv nor colour): whether it then keeps the property is chance (seen:
@@ -51,13 +44,6 @@ bool former_reader_is_defined(const std::string& text) {
         if (!(element == "vertex" ? vertex : element == "face" ? face : std::set<std::string>{}).count(name)) return false;
     }
     return true;
-}
-
-// The bits of floats (NaN equals itself).
-std::vector<uint32_t> bits(const std::vector<float>& v) {
-    std::vector<uint32_t> out(v.size());
-    if (!v.empty()) std::memcpy(out.data(), v.data(), v.size() * sizeof(float));
-    return out;
 }
 
 // A file for a failure message: ASCII whole, binary as its header and the size of its body.
@@ -85,7 +71,7 @@ bool has_face_texcoord(const std::string& text) {
 // accepted, one finite uv per vertex.
 void expect_same_as_former_reader(const std::string& text) {
     Scene now, before;
-    const Status a = load_ply(now, text);
+    const Status a = test::load_text(now, text, ".ply");
     const bool binary = text.find("format ascii") == std::string::npos;
     if (has_face_texcoord(text)) {
         if (!a.ok() || now.meshes.empty()) return;
@@ -108,17 +94,7 @@ void expect_same_as_former_reader(const std::string& text) {
     std::cerr.rdbuf(cerr);
     ASSERT_EQ(a.code, b.code) << a.message << " | " << b.message << "\n" << shown(text);
     if (!a.ok()) return;
-    ASSERT_EQ(now.meshes.size(), before.meshes.size());
-    const Primitive& p = now.meshes[0].primitives.at(0);
-    const Primitive& q = before.meshes[0].primitives.at(0);
-    EXPECT_EQ(p.positions, q.positions) << shown(text);
-    EXPECT_EQ(p.indices, q.indices) << shown(text);
-    EXPECT_EQ(p.face_sizes, q.face_sizes) << shown(text);
-    EXPECT_EQ(bits(p.normals), bits(q.normals)) << shown(text); // garbage bytes may be NaN
-    EXPECT_EQ(p.colors, q.colors) << shown(text);
-    EXPECT_EQ(bits(p.uv0), bits(q.uv0)) << shown(text);
-    EXPECT_EQ(now.warnings, before.warnings) << shown(text);
-    EXPECT_EQ(now.nodes[0].translation, before.nodes[0].translation) << shown(text);
+    furrow::test::expect_same_reading(now, before, shown(text)); // garbage bytes may be NaN
 }
 
 // The direct reading of a file with per-corner uvs, through the index buffer: each corner has the position
@@ -184,7 +160,7 @@ TEST(ply_load, RefusalsNameTheLine) {
     };
     for (const auto& [text, message] : cases) {
         Scene s;
-        const Status st = load_ply(s, text);
+        const Status st = test::load_text(s, text, ".ply");
         EXPECT_EQ(st.code, StatusCode::invalid_input) << text;
         EXPECT_NE(st.message.find(message), std::string::npos) << st.message << "\n" << text;
         expect_same_as_former_reader(text); // refused by both
@@ -201,7 +177,7 @@ TEST(ply_load, OpenMeshReadingIsKept) {
     Status st;
     const std::string before = head + "element face 2\nproperty uchar red\nproperty list uchar int vertex_indices\n"
                                       "property list uchar int extra\nend_header\n" + quad + "3 0 1 2 7\n3 0 2 3 1.5\n";
-    st = load_ply(s, before);
+    st = test::load_text(s, before, ".ply");
     ASSERT_TRUE(st.ok()) << st.message;
     EXPECT_EQ(s.meshes[0].primitives[0].indices, (std::vector<uint32_t>{0, 1, 2, 0, 2, 3}));
     expect_same_as_former_reader(before);
@@ -217,15 +193,7 @@ TEST(ply_load, OpenMeshReadingIsKept) {
 // what the former reader gave; and the same text broken at random (cut short, a character replaced) is
 // accepted or refused as the former reader did, with the same scene when accepted.
 TEST(ply_load, RandomTextMatchesDirectReadingAndFormerReader) {
-    uint64_t state = 1994, tstate = 2003;
-    auto next = [&](uint64_t n) {
-        state = state * 6364136223846793005ull + 1442695040888963407ull;
-        return (state >> 33) % n;
-    };
-    auto tnext = [&](uint64_t n) { // the face texcoord lists' own generator
-        tstate = tstate * 6364136223846793005ull + 1442695040888963407ull;
-        return (tstate >> 33) % n;
-    };
+    test::Lcg next(1994), tnext(2003); // tnext: the face texcoord lists' own generator
     for (int round = 0; round < 1500; ++round) {
         const size_t nv = 3 + next(12), nf = 1 + next(8);
         const bool crlf = next(4) == 0;
@@ -292,11 +260,7 @@ TEST(ply_load, RandomTextMatchesDirectReadingAndFormerReader) {
         for (std::string& uv : vertex_uv) uv = std::to_string(tnext(1001) / 1000.0) + (tnext(2) ? " " : "\t") + std::to_string(tnext(1001) / 1000.0);
         for (size_t f = 0; f < nf; ++f) {
             const size_t n = 3 + next(std::min<size_t>(nv - 2, 3));
-            std::vector<uint32_t> corners;
-            while (corners.size() < n) {
-                const uint32_t c = uint32_t(next(nv));
-                if (std::find(corners.begin(), corners.end(), c) == corners.end()) corners.push_back(c);
-            }
+            const std::vector<uint32_t> corners = test::distinct_corners(next, nv, n);
             text += std::to_string(n);
             for (uint32_t c : corners) text += space() + std::to_string(c);
             std::string texcoord(1, ' '); // not " " + std::to_string(): a GCC 12 -Wrestrict false positive
@@ -320,7 +284,7 @@ TEST(ply_load, RandomTextMatchesDirectReadingAndFormerReader) {
         }
         if (text.find("material") != std::string::npos && next(2)) text += "0.5" + eol;
         Scene s;
-        const Status st = load_ply(s, text);
+        const Status st = test::load_text(s, text, ".ply");
         ASSERT_TRUE(st.ok()) << st.message << "\n" << text;
         const Primitive& p = s.meshes[0].primitives.at(0);
         const bool all_triangles = std::all_of(want_sizes.begin(), want_sizes.end(), [](uint32_t n) { return n == 3; });
@@ -410,13 +374,13 @@ TEST(ply_load, BinaryRefusalsNameTheByte) {
         };
         for (const auto& [text, message] : cases) {
             Scene s;
-            const Status st = load_ply(s, text);
+            const Status st = test::load_text(s, text, ".ply");
             EXPECT_EQ(st.code, StatusCode::invalid_input) << shown(text);
             EXPECT_NE(st.message.find(message), std::string::npos) << st.message << " | wanted " << message << "\n" << shown(text);
             expect_same_as_former_reader(text); // refused by both
         }
         Scene s;
-        const Status st = load_ply(s, tri);
+        const Status st = test::load_text(s, tri, ".ply");
         ASSERT_TRUE(st.ok()) << st.message;
         EXPECT_EQ(s.meshes[0].primitives[0].indices, (std::vector<uint32_t>{0, 1, 2}));
         EXPECT_EQ(s.meshes[0].primitives[0].positions.size(), 9u);
@@ -480,7 +444,7 @@ TEST(ply_load, MeshLabCornerTexcoords) {
         for (const auto& [m, vertices] : {std::pair{quad, 4u}, std::pair{seam, 5u}, std::pair{both, 5u}}) {
             const std::string text = wedge_ply(m, format);
             Scene s;
-            const Status st = load_ply(s, text);
+            const Status st = test::load_text(s, text, ".ply");
             ASSERT_TRUE(st.ok()) << st.message << "\n" << shown(text);
             EXPECT_TRUE(s.warnings.empty()) << s.warnings.front();
             std::vector<float> xyz, uv;
@@ -507,7 +471,7 @@ TEST(ply_load, MeshLabCornerTexcoords) {
         const std::string where = format == 0 ? "PLY line " + std::to_string(std::count(text.begin(), text.end(), '\n')) + ": "
                                               : "PLY byte " + std::to_string(body + 4 * 27 + 42 + 13) + ", face 1: ";
         Scene s;
-        const Status st = load_ply(s, text);
+        const Status st = test::load_text(s, text, ".ply");
         EXPECT_EQ(st.code, StatusCode::invalid_input);
         EXPECT_NE(st.message.find(where + "a texcoord list of 4 values for "), std::string::npos) << st.message << " | wanted " << where;
         EXPECT_NE(st.message.find("3 corners (2 per corner wanted)"), std::string::npos) << st.message;
@@ -518,12 +482,12 @@ TEST(ply_load, MeshLabCornerTexcoords) {
         const std::string nan_where = format == 0 ? "PLY line " + std::to_string(face0_line) + ": 'nan' is not a number"
                                                   : "PLY byte " + std::to_string(body + 4 * 27 + 14 + 12) +
                                                         ", face 0: a texture coordinate is not finite";
-        const std::string nan_message = load_ply(s, nan_text).message;
+        const std::string nan_message = test::load_text(s, nan_text, ".ply").message;
         EXPECT_NE(nan_message.find(nan_where), std::string::npos) << nan_message << " | wanted " << nan_where;
         std::string ints = wedge_ply(quad, format);
         ints.replace(ints.find("uchar float texcoord"), 20, "uchar int texcoord");
         const auto line = std::count(ints.begin(), ints.begin() + std::ptrdiff_t(ints.find("texcoord")), '\n') + 1;
-        const std::string message = load_ply(s, ints).message;
+        const std::string message = test::load_text(s, ints, ".ply").message;
         EXPECT_NE(message.find("PLY line " + std::to_string(line) + ": a texcoord list of 'int' (float or double wanted)"), std::string::npos) << message;
     }
 }
@@ -547,7 +511,7 @@ TEST(ply_load, BinaryOpenMeshReadingIsKept) {
                                         {"uchar", 3}, {"int", 0}, {"int", 1}, {"int", 2}}) +
                                   std::string(16, '\0'); // the validation pass wants the 4 bytes of each y
         Scene s;
-        { const Status st = load_ply(s, int_y); ASSERT_TRUE(st.ok()) << st.message; }
+        { const Status st = test::load_text(s, int_y, ".ply"); ASSERT_TRUE(st.ok()) << st.message; }
         expect_same_as_former_reader(int_y);
         const std::string colour = head + "property double x\nproperty double y\nproperty double z\nproperty double red\n"
                                           "property uchar green\nproperty float blue\n" + face + "end_header\n" +
@@ -556,7 +520,7 @@ TEST(ply_load, BinaryOpenMeshReadingIsKept) {
                                          {"double", 0}, {"double", 1}, {"double", 0}, {"uchar", 0}, {"float", 2},
                                          {"uchar", 3}, {"int", 0}, {"int", 1}, {"int", 2}}) +
                                    std::string(24, '\0'); // the validation pass wants the 8 bytes of each red
-        ASSERT_TRUE(load_ply(s, colour).ok());
+        ASSERT_TRUE(test::load_text(s, colour, ".ply").ok());
         EXPECT_EQ(s.meshes[0].primitives[0].colors[0], 0.0f);              // red: a double colour is 0
         EXPECT_EQ(s.meshes[0].primitives[0].colors[1], 200.0f / 255.0f); // green
         EXPECT_EQ(s.meshes[0].primitives[0].colors[2], 127.0f / 255.0f); // blue: int(0.5 * 255)
@@ -564,13 +528,13 @@ TEST(ply_load, BinaryOpenMeshReadingIsKept) {
         const std::string comment = head + "property float x\nproperty float y\nproperty float z\n" + face + "comment last\nend_header\n" +
                                     "?" + body({{"float", 0}, {"float", 0}, {"float", 0}, {"float", 1}, {"float", 0}, {"float", 0},
                                                 {"float", 0}, {"float", 1}, {"float", 0}, {"uchar", 3}, {"int", 0}, {"int", 1}, {"int", 2}});
-        ASSERT_TRUE(load_ply(s, comment).ok());
+        ASSERT_TRUE(test::load_text(s, comment, ".ply").ok());
         EXPECT_EQ(s.meshes[0].primitives[0].indices, (std::vector<uint32_t>{0, 1, 2}));
         expect_same_as_former_reader(comment);
         const std::string flat = head + "property float x\nproperty float y\n" + face + "end_header\n" +
                                  body({{"float", 0}, {"float", 0}, {"float", 1}, {"float", 0}, {"float", 0}, {"float", 1},
                                        {"uchar", 3}, {"int", 0}, {"int", 1}, {"int", 2}});
-        ASSERT_TRUE(load_ply(s, flat).ok());
+        ASSERT_TRUE(test::load_text(s, flat, ".ply").ok());
         expect_same_as_former_reader(flat);
     }
 }
@@ -582,15 +546,7 @@ TEST(ply_load, BinaryOpenMeshReadingIsKept) {
 // corner uvs) and, without a face texcoord list, what the former reader gave; broken copies (cut short, a byte
 // replaced, inserted or removed) are accepted or refused as it did, with the same scene.
 TEST(ply_load, RandomBinaryMatchesDirectReadingAndFormerReader) {
-    uint64_t state = 2026, tstate = 2003;
-    auto next = [&](uint64_t n) {
-        state = state * 6364136223846793005ull + 1442695040888963407ull;
-        return (state >> 33) % n;
-    };
-    auto tnext = [&](uint64_t n) { // the face texcoord lists' own generator: the other files are as before
-        tstate = tstate * 6364136223846793005ull + 1442695040888963407ull;
-        return (tstate >> 33) % n;
-    };
+    test::Lcg next(2026), tnext(2003); // tnext: the face texcoord lists' own generator: the other files are as before
     auto pick = [&](std::initializer_list<const char*> names) { return std::string(names.begin()[next(names.size())]); };
     for (int round = 0; round < 1500; ++round) {
         const bool msb = next(2), crlf = next(6) == 0;
@@ -676,11 +632,7 @@ TEST(ply_load, RandomBinaryMatchesDirectReadingAndFormerReader) {
         for (double& x : vertex_uv) x = double(tnext(1001)) / 1000.0;
         for (size_t f = 0; f < nf; ++f) {
             const size_t n = 3 + next(std::min<size_t>(nv - 2, 3));
-            std::vector<uint32_t> corners;
-            while (corners.size() < n) {
-                const uint32_t c = uint32_t(next(nv));
-                if (std::find(corners.begin(), corners.end(), c) == corners.end()) corners.push_back(c);
-            }
+            const std::vector<uint32_t> corners = test::distinct_corners(next, nv, n);
             w.value(count_type, double(n));
             for (uint32_t c : corners) w.value(index_type, c);
             if (!face_colour.empty()) w.value(face_colour, face_colour == "float" ? 0.5 : double(next(256)));
@@ -699,7 +651,7 @@ TEST(ply_load, RandomBinaryMatchesDirectReadingAndFormerReader) {
         if (head.find("material") != std::string::npos && next(2)) w.value("float", 0.5);
         const std::string text = head + w.out;
         Scene s;
-        const Status st = load_ply(s, text);
+        const Status st = test::load_text(s, text, ".ply");
         if (as_written && texcoord) {
             ASSERT_TRUE(st.ok()) << st.message << "\n" << shown(text);
             expect_corners(s, xyz, want_indices, want_uv, shown(text));

@@ -6,8 +6,45 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
+
+namespace furrow {
+// The former OFF and PLY reader (mesh/src/openmesh_load.cpp: a validation pass, then OpenMesh's reader;
+// internal to furrow::mesh, reachable because the library is static), the oracle of the one-pass readers.
+Status load_openmesh_bytes(Scene& out, const std::string& bytes, const std::string& ext, const LoadOptions& options);
+} // namespace furrow
 
 namespace furrow::test {
+
+// A mesh file's text read by the one-pass reader of its extension (".off", ".ply", ...).
+inline Status load_text(Scene& s, const std::string& text, const char* ext) {
+    return load_scene_from_memory(s, reinterpret_cast<const uint8_t*>(text.data()), text.size(), ext);
+}
+
+// A float array's bit patterns (NaN compares equal to itself, -0 differs from 0).
+inline std::vector<uint32_t> float_bits(const std::vector<float>& v) {
+    std::vector<uint32_t> out(v.size());
+    if (!v.empty()) std::memcpy(out.data(), v.data(), v.size() * sizeof(float));
+    return out;
+}
+
+// Two readings of one mesh file (a one-pass reader against the former OpenMesh-based one): the same first
+// primitive, bit for bit where the file's bytes may be garbage (normals, uvs), the same warnings and the same
+// recentring. `shown` is the file as a failure message shows it.
+inline void expect_same_reading(const Scene& now, const Scene& before, const std::string& shown) {
+    ASSERT_EQ(now.meshes.size(), before.meshes.size());
+    const Primitive& p = now.meshes[0].primitives.at(0);
+    const Primitive& q = before.meshes[0].primitives.at(0);
+    EXPECT_EQ(p.positions, q.positions) << shown;
+    EXPECT_EQ(p.indices, q.indices) << shown;
+    EXPECT_EQ(p.face_sizes, q.face_sizes) << shown;
+    EXPECT_EQ(float_bits(p.normals), float_bits(q.normals)) << shown;
+    EXPECT_EQ(p.colors, q.colors) << shown;
+    EXPECT_EQ(float_bits(p.uv0), float_bits(q.uv0)) << shown;
+    EXPECT_EQ(now.warnings, before.warnings) << shown;
+    EXPECT_EQ(now.nodes[0].translation, before.nodes[0].translation) << shown;
+}
 
 inline void expect_same_floats(const std::vector<float>& a, const std::vector<float>& b, float tol, const std::string& what) {
     ASSERT_EQ(a.size(), b.size()) << what;

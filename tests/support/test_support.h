@@ -1,6 +1,9 @@
 // Helpers shared by the test executables: paths, temp folders, the CLI runner, the Khronos validator.
 #pragma once
 
+#include <algorithm>
+#include <cstdint>
+
 #include <furrow/mesh.h>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -54,6 +57,27 @@ bool under_address_sanitizer();
 // `furrow bench memory` on the inputs: expects `rows` rows, each exiting 0 with a real peak (above 4 MiB) within
 // the memory rule's limit. Returns the commands measured.
 std::set<std::string> expect_memory_rule(const std::vector<std::string>& inputs, size_t rows);
+
+// A reproducible random stream for generated test files (Knuth's MMIX linear congruential generator): the
+// same numbers on every platform, unlike the standard distributions. next(n) is in [0, n).
+struct Lcg {
+    uint64_t state;
+    explicit Lcg(uint64_t seed) : state(seed) {}
+    uint64_t operator()(uint64_t n) {
+        state = state * 6364136223846793005ull + 1442695040888963407ull;
+        return (state >> 33) % n;
+    }
+};
+
+// A face's n distinct vertex indices below nv, drawn from `next` (n <= nv).
+inline std::vector<uint32_t> distinct_corners(Lcg& next, size_t nv, size_t n) {
+    std::vector<uint32_t> corners;
+    while (corners.size() < n) {
+        const uint32_t c = uint32_t(next(nv));
+        if (std::find(corners.begin(), corners.end(), c) == corners.end()) corners.push_back(c);
+    }
+    return corners;
+}
 
 // The JSON document of a .gltf or .glb file (the GLB's JSON chunk); null on failure.
 nlohmann::json gltf_json(const std::filesystem::path& file);
