@@ -362,14 +362,14 @@ size_t CrossingTest::run(uint8_t* hit, const std::vector<double>& shell, const s
         uint32_t other; // < T: base face; else T + shell triangle (by base face)
     };
     std::vector<Candidate> cand;
-    auto add_base = [&](uint32_t f, uint32_t g) {
-        if (st.bbox[g].overlaps(st.sbox[f])) cand.push_back({f, g});
+    auto add_base = [&](uint32_t f, uint32_t g, std::vector<Candidate>& out) {
+        if (st.bbox[g].overlaps(st.sbox[f])) out.push_back({f, g});
     };
     // once: the enumeration yields each unordered pair once already; otherwise a pair of two touched
     // triangles comes from both and is kept from the lower one.
-    auto add_shell = [&](uint32_t f, uint32_t g, bool once) { // f touched
+    auto add_shell = [&](uint32_t f, uint32_t g, bool once, std::vector<Candidate>& out) { // f touched
         if (g == f || !st.is_shell[g] || (!once && touched_face[g] && g < f) || !st.sbox[g].overlaps(st.sbox[f])) return;
-        cand.push_back({std::min(f, g), uint32_t(T) + std::max(f, g)});
+        out.push_back({std::min(f, g), uint32_t(T) + std::max(f, g)});
     };
     if (touched.size() * 8 > T) {
         BoxBvh asking;
@@ -379,14 +379,19 @@ size_t CrossingTest::run(uint8_t* hit, const std::vector<double>& shell, const s
             asking.refit(st.ix.bvh, touched_box);
         }
         const BoxBvh& query = changed ? asking : shells;
-        for (const auto& [f, g] : query.overlapping_pairs(st.ix.bvh))
-            if (st.is_shell[f]) add_base(f, g);
-        for (const auto& [f, g] : query.overlapping_pairs(shells))
-            if (st.is_shell[f]) add_shell(f, g, !changed); // query == shells: each pair once, in either order
+        // The candidates are kept in the traversal's tasks, each into its task's list (on the lattice, 25
+        // cells, first round: 0.73 M base and 2.96 M shell candidates, which were listed, joined and only then
+        // filtered one by one).
+        query.overlapping_pairs(st.ix.bvh, [&](uint32_t f, uint32_t g, std::vector<Candidate>& out) {
+            if (st.is_shell[f]) add_base(f, g, out);
+        }, cand);
+        query.overlapping_pairs(shells, [&](uint32_t f, uint32_t g, std::vector<Candidate>& out) {
+            if (st.is_shell[f]) add_shell(f, g, !changed, out); // query == shells: each pair once, in either order
+        }, cand);
     } else {
         for (uint32_t f : touched) {
-            st.ix.bvh.for_overlapping(st.sbox[f], [&](uint32_t g) { add_base(f, g); });
-            shells.for_overlapping(st.sbox[f], [&](uint32_t g) { add_shell(f, g, false); });
+            st.ix.bvh.for_overlapping(st.sbox[f], [&](uint32_t g) { add_base(f, g, cand); });
+            shells.for_overlapping(st.sbox[f], [&](uint32_t g) { add_shell(f, g, false, cand); });
         }
     }
     std::vector<uint8_t> crossing(cand.size(), 0);
