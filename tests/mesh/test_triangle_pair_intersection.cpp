@@ -4,14 +4,17 @@
 // shortcuts exist for: corners exactly on the other triangle's plane (integer lattices and their copies
 // translated by one vector, as the lattice's shells are), coplanar neighbours, pairs that touch exactly, and
 // the same moved by a few ulps (where a filter with too small an error bound answers wrongly), plus random
-// pairs. Each test also checks that the shortcut fires on a good share of its cases (a filter that never
-// answers would pass the comparison vacuously).
+// pairs. The tests also check that their cases are the hard ones (both answers, every kind of shared corner,
+// many pairs touching within their boxes) and that the separating axes answer a good share of them (a filter
+// that never answers would pass the comparison vacuously). Removing the rounding bound of the separating
+// axes, or flipping the sign of the axis-plane fold test, makes them fail.
 #include <furrow_kernel/triangle_pair_intersection.h>
 
 #include <gtest/gtest.h>
 
 #include <CGAL/intersections.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <random>
