@@ -162,39 +162,42 @@ public:
 
     // Every pair (a primitive of this tree, one of `other`) whose boxes overlap, found by descending both
     // trees together (Ericson, chapter 6): the upper levels are visited once for all pairs instead of once per
-    // query box. With other == this, each unordered pair of distinct primitives comes once. Parallel: the
-    // node pairs are expanded breadth-first into independent tasks in a fixed order, each task lists its own
-    // pairs, and the lists are joined in task order, so the result is the same for any thread count.
-    std::vector<std::pair<uint32_t, uint32_t>> overlapping_pairs(const BoxBvh& other) const {
+    // query box. With other == this, each unordered pair of distinct primitives comes once. Each pair goes to
+    // emit(a, b, list), which appends to `list` what the caller keeps of it (the caller's filter runs in the
+    // tasks, and only what it keeps is stored and copied); the lists are appended to `out`. Parallel: the
+    // node pairs are expanded breadth-first into independent tasks in a fixed order, each task fills its own
+    // list, and the lists are joined in task order, so the result is the same for any thread count.
+    template <class T, class Emit>
+    void overlapping_pairs(const BoxBvh& other, Emit&& emit, std::vector<T>& out) const {
         using Pair = std::pair<uint32_t, uint32_t>;
-        std::vector<Pair> out;
-        if (nodes_.empty() || other.nodes_.empty()) return out;
+        if (nodes_.empty() || other.nodes_.empty()) return;
         const bool self = &other == this;
         std::vector<Pair> frontier{{0, 0}}, next;
+        auto no_leaves = [](uint32_t, uint32_t) {};
         for (int depth = 0; depth < 12 && frontier.size() < 256; ++depth) {
             next.clear();
             bool split = false;
-            for (const Pair& xy : frontier) split |= expand(other, self, xy, next, nullptr);
+            for (const Pair& xy : frontier) split |= expand(other, self, xy, next, no_leaves, false);
             frontier.swap(next);
             if (!split) break;
         }
-        std::vector<std::vector<Pair>> lists(frontier.size());
+        std::vector<std::vector<T>> lists(frontier.size());
         tbb::parallel_for(tbb::blocked_range<size_t>(0, frontier.size(), 1), [&](const tbb::blocked_range<size_t>& r) {
             std::vector<Pair> stack;
             for (size_t k = r.begin(); k != r.end(); ++k) {
+                auto leaf = [&](uint32_t a, uint32_t b) { emit(a, b, lists[k]); };
                 stack.assign(1, frontier[k]);
                 while (!stack.empty()) {
                     const Pair xy = stack.back();
                     stack.pop_back();
-                    expand(other, self, xy, stack, &lists[k]);
+                    expand(other, self, xy, stack, leaf, true);
                 }
             }
         });
-        size_t total = 0;
+        size_t total = out.size();
         for (const auto& l : lists) total += l.size();
         out.reserve(total);
         for (const auto& l : lists) out.insert(out.end(), l.begin(), l.end());
-        return out;
     }
 
     // Primitives whose box the ray o + t·d (t in [0, t_max]) enters, nearer boxes first; f(prim, t_max) may
@@ -267,22 +270,23 @@ private:
     };
 
     // One step of the paired descent from node pair xy: overlapping child pairs go to `next`; at two leaves
-    // the overlapping primitive pairs go to `pairs` (or, when null, the leaf pair itself goes to `next`).
-    // Returns whether xy was split.
+    // the overlapping primitive pairs go to leaf(a, b) (or, without `at_leaves`, the leaf pair itself goes
+    // to `next`). Returns whether xy was split.
+    template <class Leaf>
     bool expand(const BoxBvh& other, bool self, std::pair<uint32_t, uint32_t> xy, std::vector<std::pair<uint32_t, uint32_t>>& next,
-                std::vector<std::pair<uint32_t, uint32_t>>* pairs) const {
+                Leaf& leaf, bool at_leaves) const {
         const auto [x, y] = xy;
         const Node &a = nodes_[x], &b = other.nodes_[y];
         if (!a.box.overlaps(b.box)) return false;
         const bool same = self && x == y;
         if (a.count > 0 && b.count > 0) {
-            if (!pairs) {
+            if (!at_leaves) {
                 next.push_back(xy);
                 return false;
             }
             for (uint32_t i = a.first; i < a.first + a.count; ++i)
                 for (uint32_t j = same ? i + 1 : b.first; j < b.first + b.count; ++j)
-                    if (boxes_[i].overlaps(other.boxes_[j])) pairs->emplace_back(prims_[i], other.prims_[j]);
+                    if (boxes_[i].overlaps(other.boxes_[j])) leaf(prims_[i], other.prims_[j]);
             return false;
         }
         if (same) { // (l, l), (l, r), (r, r): the pair (r, l) is (l, r) again
