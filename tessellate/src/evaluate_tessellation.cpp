@@ -28,8 +28,8 @@
 // and the 16 patch points are combined here in Bfr's order (points::Combine3: the first point's product, then
 // the others' added in turn, no fused multiply-add: -ffp-contract=off in CMakeLists.txt), which gives the same
 // bits as Surface::Evaluate. `furrow -j 1 bench tessellate --blender-only --repeat 5` (32k-quad cube sphere,
-// prepare + tessellate, three interleaved rounds against the previous binary): rate 8 236-237 -> 166-187 ms,
-// rate 4 81-83 -> 66-76 ms.
+// prepare + tessellate, three interleaved rounds against the binary before this path): rate 8 239-286 ->
+// 132-142 ms, rate 4 84-95 -> 56-60 ms (Blender level 2: 191-244 ms, level 3: 688-786 ms in the same runs).
 #include "tessellate_internal.h"
 #include <furrow_kernel/huge_pages.h>
 
@@ -41,6 +41,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cstring>
 
 namespace furrow::tessellate_detail {
 namespace {
@@ -130,22 +131,25 @@ void combine3(const float* w, const float* pts, int n, float* P, float* Du, floa
     }
 }
 
-// The same for positions alone (3 floats), summed in locals (the outputs could alias the inputs, so the
-// general loop stores every partial sum).
+// The same for positions alone (3 floats): the x, y, z of P, Du and Dv summed as three 4-lane vectors (GCC
+// vector extensions: lane by lane the same float products and sums, in the same order, as Combine3). The
+// 4th lane reads the next point's x, and past the 16th point one float of padding (patch_v has it).
+using float4 = float __attribute__((vector_size(16)));
+
 void combine3_xyz(const float* w, const float* pts, float* P, float* Du, float* Dv) {
     const float *wp = w, *wu = w + regular_points, *wv = w + 2 * regular_points;
-    float p0 = wp[0] * pts[0], p1 = wp[0] * pts[1], p2 = wp[0] * pts[2];
-    float u0 = wu[0] * pts[0], u1 = wu[0] * pts[1], u2 = wu[0] * pts[2];
-    float v0 = wv[0] * pts[0], v1 = wv[0] * pts[1], v2 = wv[0] * pts[2];
+    float4 s;
+    std::memcpy(&s, pts, sizeof s);
+    float4 p = wp[0] * s, u = wu[0] * s, v = wv[0] * s;
     for (int i = 1; i < regular_points; ++i) {
-        const float* s = pts + size_t(i) * 3;
-        p0 += wp[i] * s[0], p1 += wp[i] * s[1], p2 += wp[i] * s[2];
-        u0 += wu[i] * s[0], u1 += wu[i] * s[1], u2 += wu[i] * s[2];
-        v0 += wv[i] * s[0], v1 += wv[i] * s[1], v2 += wv[i] * s[2];
+        std::memcpy(&s, pts + size_t(i) * 3, sizeof s);
+        p += wp[i] * s;
+        u += wu[i] * s;
+        v += wv[i] * s;
     }
-    P[0] = p0, P[1] = p1, P[2] = p2;
-    Du[0] = u0, Du[1] = u1, Du[2] = u2;
-    Dv[0] = v0, Dv[1] = v1, Dv[2] = v2;
+    P[0] = p[0], P[1] = p[1], P[2] = p[2];
+    Du[0] = u[0], Du[1] = u[1], Du[2] = u[2];
+    Dv[0] = v[0], Dv[1] = v[1], Dv[2] = v[2];
 }
 
 // P alone (face-varying data), as Bfr's points::Combine1 sums them.
@@ -327,7 +331,8 @@ FaceEvaluation::FaceEvaluation(Evaluation& ev, size_t f, bool smooth, bool limit
     x.w.resize(size_t(n));
     x.corner_data.resize(size_t(n));
     if (smooth) {
-        x.patch_v.resize(size_t(vtx.GetNumPatchPoints()) * size_t(W));
+        x.patch_v.resize(size_t(vtx.GetNumPatchPoints()) * size_t(W) + 1); // + 1: combine3_xyz's 4th lane
+        x.patch_v.back() = 0.0f;
         vtx.PreparePatchPoints(m.refiner_data.data(), W, x.patch_v.data(), W);
         if (K > 0) {
             x.patch_a.resize(size_t(fvar.GetNumPatchPoints()) * size_t(K));
