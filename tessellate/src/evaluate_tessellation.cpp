@@ -20,15 +20,28 @@
 // per normal sector, which gives split normals across creases. Where the owner finds no tangent plane (vanishing derivatives: the control polygon's
 // normal is the fallback, and it differs per face), the point is marked and every face evaluates it in a
 // second, small pass, as at a crease.
+//
+// Regular interior faces (a B-spline patch of 16 control points, no boundary: Bfr::Surface::IsRegular(),
+// OpenSubdiv "Bfr Overview", regular patches) all evaluate the same basis weights at the same tessellation
+// coordinates, since the coordinates depend on the rates only. The weights of P, Du, Dv are computed once per
+// rate signature and thread (Surface::EvaluateStencil, which calls the same Far basis as Surface::Evaluate)
+// and the 16 patch points are combined here in Bfr's order (points::Combine3: the first point's product, then
+// the others' added in turn, no fused multiply-add: -ffp-contract=off in CMakeLists.txt), which gives the same
+// bits as Surface::Evaluate. `furrow -j 1 bench tessellate --blender-only --repeat 5` (32k-quad cube sphere,
+// prepare + tessellate, three interleaved rounds against the binary before this path): rate 8 239-286 ->
+// 132-142 ms, rate 4 84-95 -> 56-60 ms (Blender level 2: 191-244 ms, level 3: 688-786 ms in the same runs).
 #include "tessellate_internal.h"
 #include <furrow_kernel/huge_pages.h>
 
 #include <opensubdiv/bfr/tessellation.h>
 
 #include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <array>
+#include <cstring>
 
 namespace furrow::tessellate_detail {
 namespace {
@@ -52,6 +65,101 @@ struct Scratch {
     std::vector<float> coords, patch_v, patch_a, P, Du, Dv, w;
     std::vector<const float*> corner_data, control;
 };
+
+// ---- regular interior faces: basis weights cached per rate signature
+constexpr int regular_points = 16; // a bicubic B-spline patch
+constexpr int regular_weights = 3 * regular_points; // per coordinate: P, Du, Dv
+
+// The weights of every coordinate of one tessellation (one rate signature) of a regular interior patch.
+struct RegularWeights {
+    std::vector<int> rates;
+    std::vector<float> w; // per coordinate: 16 of P, 16 of Du, 16 of Dv
+};
+
+// One thread's cache (weights are a function of the coordinates alone: which thread computed them changes no
+// bit). A handful of signatures at uniform rates; bounded for adaptive rates, where the rest use Bfr.
+struct WeightCache {
+    static constexpr size_t max_entries = 64;
+    std::vector<RegularWeights> entries;
+};
+
+// True if the surface is a regular B-spline patch with no boundary: at an interior (u, v) every one of the 16
+// basis weights is non-zero, while a boundary folds the phantom points' weights into others and sets them to
+// zero (Far's boundary-adjusted B-spline basis).
+bool regular_interior(const Surface& s, const osd::Bfr::Parameterization& param) {
+    if (!s.IsRegular() || s.GetNumControlPoints() != regular_points ||
+        param.GetType() != osd::Bfr::Parameterization::QUAD)
+        return false;
+    float w[regular_points];
+    const float probe[2] = {0.375f, 0.625f};
+    if (s.EvaluateStencil(probe, w) != regular_points) return false;
+    for (float x : w)
+        if (x == 0.0f) return false;
+    return true;
+}
+
+// The cached weights for this face's rates, computed from its surface if new; null if the cache is full.
+const float* regular_weights_for(WeightCache& cache, const Surface& s, const std::vector<int>& rates,
+                                 const std::vector<float>& coords, int ncoords) {
+    for (const RegularWeights& e : cache.entries)
+        if (e.rates == rates) return e.w.data();
+    if (cache.entries.size() >= WeightCache::max_entries) return nullptr;
+    RegularWeights e{rates, std::vector<float>(size_t(ncoords) * regular_weights)};
+    for (int i = 0; i < ncoords; ++i) {
+        float* w = &e.w[size_t(i) * regular_weights];
+        s.EvaluateStencil(&coords[size_t(i) * 2], w, w + regular_points, w + 2 * regular_points);
+    }
+    cache.entries.push_back(std::move(e));
+    return cache.entries.back().w.data();
+}
+
+// P, Du, Dv from 16 patch points of any width, as Bfr's points::Combine3 sums them.
+void combine3(const float* w, const float* pts, int n, float* P, float* Du, float* Dv) {
+    const float *wp = w, *wu = w + regular_points, *wv = w + 2 * regular_points;
+    for (int j = 0; j < n; ++j) {
+        P[j] = wp[0] * pts[j];
+        Du[j] = wu[0] * pts[j];
+        Dv[j] = wv[0] * pts[j];
+    }
+    for (int i = 1; i < regular_points; ++i) {
+        const float* src = pts + size_t(i) * size_t(n);
+        for (int j = 0; j < n; ++j) {
+            P[j] += wp[i] * src[j];
+            Du[j] += wu[i] * src[j];
+            Dv[j] += wv[i] * src[j];
+        }
+    }
+}
+
+// The same for positions alone (3 floats): the x, y, z of P, Du and Dv summed as three 4-lane vectors (GCC
+// vector extensions: lane by lane the same float products and sums, in the same order, as Combine3). The
+// 4th lane reads the next point's x, and past the 16th point one float of padding (patch_v has it).
+using float4 = float __attribute__((vector_size(16)));
+
+void combine3_xyz(const float* w, const float* pts, float* P, float* Du, float* Dv) {
+    const float *wp = w, *wu = w + regular_points, *wv = w + 2 * regular_points;
+    float4 s;
+    std::memcpy(&s, pts, sizeof s);
+    float4 p = wp[0] * s, u = wu[0] * s, v = wv[0] * s;
+    for (int i = 1; i < regular_points; ++i) {
+        std::memcpy(&s, pts + size_t(i) * 3, sizeof s);
+        p += wp[i] * s;
+        u += wu[i] * s;
+        v += wv[i] * s;
+    }
+    P[0] = p[0], P[1] = p[1], P[2] = p[2];
+    Du[0] = u[0], Du[1] = u[1], Du[2] = u[2];
+    Dv[0] = v[0], Dv[1] = v[1], Dv[2] = v[2];
+}
+
+// P alone (face-varying data), as Bfr's points::Combine1 sums them.
+void combine1(const float* wp, const float* pts, int n, float* P) {
+    for (int j = 0; j < n; ++j) P[j] = wp[0] * pts[j];
+    for (int i = 1; i < regular_points; ++i) {
+        const float* src = pts + size_t(i) * size_t(n);
+        for (int j = 0; j < n; ++j) P[j] += wp[i] * src[j];
+    }
+}
 
 // A working array of floats left uninitialised (no zero-fill pass): only for arrays whose every element that
 // is read was written first.
@@ -87,6 +195,7 @@ struct Evaluation {
     UninitialisedFloats corner_normal, side_normal;
     // Shared normals whose owner fell back to its control polygon: every face evaluates them (second pass).
     std::vector<uint8_t> sector_fallback, edge_fallback;
+    tbb::enumerable_thread_specific<WeightCache> weight_cache;
 };
 
 // Output indices and normal slots of everything, from prefix sums over the rates.
@@ -186,12 +295,21 @@ struct FaceEvaluation {
     osd::Bfr::Tessellation tess;
     const int ncoords, nb;
     float face_normal[3] = {0, 0, 1};
+    // Regular interior surfaces: the cached weights of every coordinate (null: Bfr evaluates).
+    const float* vtx_weights = nullptr;
+    const float* fvar_weights = nullptr;
 
     FaceEvaluation(Evaluation& ev, size_t f, bool smooth, bool limit_corners, Surface& vtx, Surface& fvar, Scratch& x);
     void control_normal(float* nrm);
-    bool eval_point(const float* uv, float* nrm);
-    void eval_attrs(const float* uv, size_t o);
-    void write_data(size_t o) { std::copy(x.P.begin(), x.P.end(), &ev.data[o * size_t(W)]); }
+    bool eval_point(int i, float* nrm);
+    void eval_attrs(int i, size_t o);
+    void write_data(size_t o) {
+        float* dst = &ev.data[o * size_t(W)];
+        if (W == 3) // positions alone: no library call for 12 bytes
+            dst[0] = x.P[0], dst[1] = x.P[1], dst[2] = x.P[2];
+        else
+            std::copy(x.P.begin(), x.P.end(), dst);
+    }
     void boundary();
     void fallback_normals();
     void interior();
@@ -213,12 +331,17 @@ FaceEvaluation::FaceEvaluation(Evaluation& ev, size_t f, bool smooth, bool limit
     x.w.resize(size_t(n));
     x.corner_data.resize(size_t(n));
     if (smooth) {
-        x.patch_v.resize(size_t(vtx.GetNumPatchPoints()) * size_t(W));
+        x.patch_v.resize(size_t(vtx.GetNumPatchPoints()) * size_t(W) + 1); // + 1: combine3_xyz's 4th lane
+        x.patch_v.back() = 0.0f;
         vtx.PreparePatchPoints(m.refiner_data.data(), W, x.patch_v.data(), W);
         if (K > 0) {
             x.patch_a.resize(size_t(fvar.GetNumPatchPoints()) * size_t(K));
             fvar.PreparePatchPoints(m.refiner_fvar.data(), K, x.patch_a.data(), K);
         }
+        WeightCache& cache = ev.weight_cache.local();
+        if (regular_interior(vtx, param)) vtx_weights = regular_weights_for(cache, vtx, x.rates, x.coords, ncoords);
+        if (K > 0 && regular_interior(fvar, param))
+            fvar_weights = regular_weights_for(cache, fvar, x.rates, x.coords, ncoords);
     } else {
         for (int k = 0; k < n; ++k) {
             const uint32_t c = c0 + uint32_t(k), p = m.corner_point[c];
@@ -246,11 +369,21 @@ void FaceEvaluation::control_normal(float* nrm) {
     normalise(nrm);
 }
 
-// Position (+ vertex data) and unit normal at uv; true if the normal is the control polygon's (no tangent plane).
-bool FaceEvaluation::eval_point(const float* uv, float* nrm) {
+// Position (+ vertex data) and unit normal at coordinate i; true if the normal is the control polygon's (no
+// tangent plane).
+bool FaceEvaluation::eval_point(int i, float* nrm) {
     std::vector<float>&P = x.P, &Du = x.Du, &Dv = x.Dv, &w = x.w;
+    const float* uv = &x.coords[size_t(i) * 2];
     if (smooth) {
-        vtx.Evaluate(uv, x.patch_v.data(), W, P.data(), Du.data(), Dv.data());
+        if (vtx_weights) {
+            const float* wi = vtx_weights + size_t(i) * regular_weights;
+            if (W == 3)
+                combine3_xyz(wi, x.patch_v.data(), P.data(), Du.data(), Dv.data());
+            else
+                combine3(wi, x.patch_v.data(), W, P.data(), Du.data(), Dv.data());
+        } else {
+            vtx.Evaluate(uv, x.patch_v.data(), W, P.data(), Du.data(), Dv.data());
+        }
         nrm[0] = Du[1] * Dv[2] - Du[2] * Dv[1];
         nrm[1] = Du[2] * Dv[0] - Du[0] * Dv[2];
         nrm[2] = Du[0] * Dv[1] - Du[1] * Dv[0];
@@ -268,11 +401,14 @@ bool FaceEvaluation::eval_point(const float* uv, float* nrm) {
     return false;
 }
 
-void FaceEvaluation::eval_attrs(const float* uv, size_t o) {
+void FaceEvaluation::eval_attrs(int i, size_t o) {
     std::vector<float>& w = x.w;
+    const float* uv = &x.coords[size_t(i) * 2];
     if (K > 0) {
         float* a = &ev.attrs[o * size_t(K)];
-        if (smooth) {
+        if (smooth && fvar_weights) {
+            combine1(fvar_weights + size_t(i) * regular_weights, x.patch_a.data(), K, a);
+        } else if (smooth) {
             fvar.Evaluate(uv, x.patch_a.data(), K, a);
         } else {
             linear_weights(param, uv, w.data());
@@ -298,23 +434,21 @@ void FaceEvaluation::eval_attrs(const float* uv, size_t o) {
 // slots, where they are not shared or the face is the one that evaluates the shared normal; bidx, the output
 // index of every boundary coordinate.
 void FaceEvaluation::boundary() {
-    const std::vector<float>& coords = x.coords;
     std::vector<int>& bidx = x.bidx;
     const int* fr = x.rates.data();
     int b = 0;
     for (int k = 0; k < n; ++k) {
         const uint32_t c = c0 + uint32_t(k), g = m.corner_group[c], p = m.corner_point[c];
-        const float* uv = &coords[size_t(b) * 2];
         const uint32_t sector = m.group_sector[g], normal_owner = m.sector_normal_owner[sector];
         if (m.point_owner[p] == c || normal_owner == none || normal_owner == c) {
-            const bool fallback = eval_point(uv, &ev.corner_normal[size_t(c) * 3]);
+            const bool fallback = eval_point(b, &ev.corner_normal[size_t(c) * 3]);
             if (fallback && normal_owner == c) ev.sector_fallback[sector] = 1;
         }
         if (m.point_owner[p] == c)
             for (uint32_t q = m.point_group_begin[p]; q < m.point_group_begin[p + 1]; ++q) write_data(q);
         if (m.group_attr_owner[g] == c && K > 0) {
             // Groups of one (point, value) differ only by normal sector: one evaluation for all of them.
-            eval_attrs(uv, g);
+            eval_attrs(b, g);
             for (uint32_t q = m.point_group_begin[p]; q < m.point_group_begin[p + 1]; ++q)
                 if (q != g && m.group_value[q] == m.group_value[g])
                     std::copy_n(&ev.attrs[size_t(g) * size_t(K)], K, &ev.attrs[size_t(q) * size_t(K)]);
@@ -326,10 +460,9 @@ void FaceEvaluation::boundary() {
         const bool forward = p == m.edges[e][0];
         const bool split = m.edge_split[e] != 0, owner = m.edge_owner[e] == s, shared = m.edge_normal_shared[e] != 0;
         for (int j = 0; j < np; ++j) {
-            const float* puv = &coords[size_t(b + j) * 2];
             const uint32_t q = uint32_t(forward ? j : np - 1 - j);
             if (owner || !shared) {
-                const bool fallback = eval_point(puv, &ev.side_normal[(size_t(L.side_slot[s]) + q) * 3]);
+                const bool fallback = eval_point(b + j, &ev.side_normal[(size_t(L.side_slot[s]) + q) * 3]);
                 if (fallback && shared) ev.edge_fallback[e] = 1;
             }
             if (owner) {
@@ -340,7 +473,7 @@ void FaceEvaluation::boundary() {
                 }
             }
             const uint32_t o = split ? L.side_out[s] + q : L.edge_out[e] + q;
-            if (split || owner) eval_attrs(puv, o);
+            if (split || owner) eval_attrs(b + j, o);
             bidx[size_t(b + j)] = int(o);
         }
         b += np;
@@ -355,14 +488,14 @@ void FaceEvaluation::fallback_normals() {
     for (int k = 0; k < n; ++k) {
         const uint32_t c = c0 + uint32_t(k), e = m.corner_edge[c], s = m.corner_side[c];
         if (ev.sector_fallback[m.group_sector[m.corner_group[c]]])
-            eval_point(&x.coords[size_t(b) * 2], &ev.corner_normal[size_t(c) * 3]);
+            eval_point(b, &ev.corner_normal[size_t(c) * 3]);
         ++b;
         const int np = fr[k] - 1;
         if (np <= 0) continue;
         const bool forward = m.corner_point[c] == m.edges[e][0];
         for (int j = 0; ev.edge_fallback[e] && j < np; ++j) {
             const uint32_t q = uint32_t(forward ? j : np - 1 - j);
-            eval_point(&x.coords[size_t(b + j) * 2], &ev.side_normal[(size_t(L.side_slot[s]) + q) * 3]);
+            eval_point(b + j, &ev.side_normal[(size_t(L.side_slot[s]) + q) * 3]);
         }
         b += np;
     }
@@ -373,11 +506,10 @@ void FaceEvaluation::interior() {
     const uint32_t interior = L.face_out[f];
     float* N = ev.out.normals.data();
     for (int i = nb; i < ncoords; ++i) {
-        const float* uv = &x.coords[size_t(i) * 2];
         const size_t o = interior + uint32_t(i - nb);
-        eval_point(uv, &N[o * 3]);
+        eval_point(i, &N[o * 3]);
         write_data(o);
-        eval_attrs(uv, o);
+        eval_attrs(i, o);
     }
 }
 
@@ -583,7 +715,7 @@ void deinterleave(Evaluation& ev) {
 
 Status evaluate_tessellation(TessellateOutput& out, const PreparedMesh& m, const std::vector<int>& rates,
                              bool keep_parameters) {
-    Evaluation ev{m, rates, out, keep_parameters, m.W, m.K, {}, {}, {}, {}, {}, {}, {}};
+    Evaluation ev{m, rates, out, keep_parameters, m.W, m.K, {}, {}, {}, {}, {}, {}, {}, {}};
     if (Status s = plan_layout(ev.L, m, rates); !s.ok()) return s;
     if (Status s = allocate(ev); !s.ok()) return s;
     evaluate_faces(ev);

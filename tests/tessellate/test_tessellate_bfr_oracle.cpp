@@ -18,6 +18,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <map>
 #include <filesystem>
 
@@ -90,6 +91,78 @@ TEST(tessellate_bfr_oracle, SharedNormalsAreTheFacesAverageOpenGrid) {
 TEST(tessellate_bfr_oracle, SharedNormalsAreTheFacesAverageLoop) {
     const double worst = test::expect_normals_average_faces(shapes::icosphere(1.0f, 2), SubdivisionScheme::loop, 4);
     std::printf("icosphere (loop), rate 4: largest angle %.3g rad\n", worst);
+}
+
+// The cube sphere with one side of the cube left out: regular interior faces (evaluated from basis weights
+// cached per rate, evaluate_tessellation.cpp), faces along the open boundary (regular patches with a boundary
+// mask: Bfr), and faces at the valence-3 corners (irregular: Bfr), in one mesh.
+Primitive open_quad_sphere(int n) {
+    const Primitive closed = load_quad_sphere(n);
+    Primitive p;
+    std::vector<uint32_t> remap(closed.vertex_count(), ~0u);
+    for (size_t f = size_t(n) * size_t(n); f < closed.face_sizes.size(); ++f) {
+        p.face_sizes.push_back(4);
+        for (int k = 0; k < 4; ++k) {
+            const uint32_t v = closed.indices[f * 4 + size_t(k)];
+            if (remap[v] == ~0u) {
+                remap[v] = uint32_t(p.positions.size() / 3);
+                p.positions.insert(p.positions.end(), &closed.positions[v * 3], &closed.positions[v * 3 + 3]);
+            }
+            p.indices.push_back(remap[v]);
+        }
+    }
+    return p;
+}
+
+// The fast path for regular interior faces against plain Bfr (Surface::Evaluate on fresh surfaces): every
+// position bit for bit, and at every interior point of a face (a normal no other face shares or averages)
+// the normal bit for bit too, normalise(Du x Dv) as evaluate_tessellation computes it; so wrong P, Du or Dv
+// weights, a boundary face taken for an interior one, or a sum in another order all fail. Rates 3, 4 and 8
+// (different caches); at rate 8 also with 2 threads, which must give the same bytes.
+TEST(tessellate_bfr_oracle, RegularFastPathEqualsBfrBitForBit) {
+    const Primitive p = open_quad_sphere(6);
+    ASSERT_EQ(p.face_sizes.size(), size_t(5 * 36));
+    for (int rate : {3, 4, 8}) {
+        SCOPED_TRACE("rate " + std::to_string(rate));
+        test::expect_fresh_surfaces_agree(p, SubdivisionScheme::catmark, rate);
+        Tessellator t;
+        SurfaceOptions so;
+        ASSERT_TRUE(t.prepare(test::input_of(p), so).ok());
+        RateOptions r;
+        r.uniform = rate;
+        r.max_rate = rate;
+        TessellateOutput out;
+        ASSERT_TRUE(t.tessellate(out, r, true).ok());
+        test::FreshSurfaces fresh(p, SubdivisionScheme::catmark, so);
+        ASSERT_TRUE(fresh.factory);
+        size_t interior = 0, mismatched = 0;
+        for (size_t tri = 0; tri < out.triangle_patches.size(); ++tri)
+            for (int k = 0; k < 3; ++k) {
+                const float* uv = &out.triangle_coords[tri * 6 + size_t(k) * 2];
+                if (!(uv[0] > 0.0f && uv[0] < 1.0f && uv[1] > 0.0f && uv[1] < 1.0f)) continue;
+                float P[3], Du[3], Dv[3];
+                ASSERT_TRUE(fresh.evaluate(int(out.triangle_patches[tri]), uv, P, Du, Dv));
+                float n[3] = {Du[1] * Dv[2] - Du[2] * Dv[1], Du[2] * Dv[0] - Du[0] * Dv[2], Du[0] * Dv[1] - Du[1] * Dv[0]};
+                const double l = std::sqrt(double(n[0]) * n[0] + double(n[1]) * n[1] + double(n[2]) * n[2]);
+                for (float& x : n) x = float(x / l);
+                const uint32_t v = out.indices[tri * 3 + size_t(k)];
+                ++interior;
+                mismatched += std::memcmp(P, &out.positions[size_t(v) * 3], sizeof P) != 0 ||
+                              std::memcmp(n, &out.normals[size_t(v) * 3], sizeof n) != 0;
+            }
+        EXPECT_GT(interior, 0u);
+        EXPECT_EQ(mismatched, 0u) << "of " << interior << " interior triangle corners";
+        if (rate == 8) {
+            TessellateOutput two;
+            {
+                tbb::global_control g(tbb::global_control::max_allowed_parallelism, 2);
+                ASSERT_TRUE(t.tessellate(two, r, true).ok());
+            }
+            EXPECT_EQ(out.positions, two.positions);
+            EXPECT_EQ(out.normals, two.normals);
+            EXPECT_EQ(out.indices, two.indices);
+        }
+    }
 }
 
 // Shared normals (regular patches: the cube sphere) give the same bytes for 1 and 2 threads.
