@@ -50,6 +50,10 @@ struct Scratch {
     std::vector<uint32_t> count2;
     std::vector<uint8_t> near_source;
     std::vector<int> near_d2, near_rows;
+    std::vector<int16_t> columns16, min16; // the nearest-column search's rows, in 16-bit or 32-bit lanes
+    std::vector<int> columns32, min32;
+    std::vector<float> profile_of;         // the profile per integer squared distance
+    std::vector<int> sum_columns;          // the sums' column indices, per column of the ring
     std::vector<float> ring, ring_tmp;
     std::vector<int> row_of;
     std::vector<double> dist2;
@@ -449,9 +453,10 @@ RingSums ring_sums(Scratch& S, const float* carve, const float* base, size_t str
 // Euclidean distance transform's value, in a few vectorisable steps per texel with no division: the nearest
 // row per column (a sweep down and a sweep up, capped at r + 1), then the nearest column within r columns.
 template <class D>
-void near_columns(const int* rows, int* out, int pw, int r, int ox, int wi, int hi) {
+void near_columns(const int* rows, int* out, int pw, int r, int ox, int wi, int hi, std::vector<D>& sq, std::vector<D>& o) {
     const D far2 = D((r + 1) * (r + 1));
-    std::vector<D> sq(static_cast<size_t>(wi + 2 * r)), o(static_cast<size_t>(wi));
+    sq.resize(size_t(wi + 2 * r));
+    o.resize(size_t(wi));
     for (int j = 0; j < hi; ++j) {
         const int* v = rows + size_t(j) * size_t(pw) + ox; // v[r + i + dx], |dx| <= r, stays within the padded row
         for (int i = 0; i < wi + 2 * r; ++i) sq[size_t(i)] = D(v[i] * v[i]);
@@ -488,8 +493,8 @@ void near_distance(Scratch& S, const uint8_t* mask, int we, int he, int ox, int 
     }
     // The nearest column: the inner loop is a minimum over 2r + 1 shifted rows, in 16-bit lanes (eight to an
     // SSE2 register, which has a 16-bit minimum and no 32-bit one) while every sum fits, dx² + far² < 2^15.
-    if (2 * far * far < 32768) near_columns<int16_t>(rows, S.near_d2.data(), pw, r, ox, wi, hi);
-    else near_columns<int>(rows, S.near_d2.data(), pw, r, ox, wi, hi);
+    if (2 * far * far < 32768) near_columns<int16_t>(rows, S.near_d2.data(), pw, r, ox, wi, hi, S.columns16, S.min16);
+    else near_columns<int>(rows, S.near_d2.data(), pw, r, ox, wi, hi, S.columns32, S.min32);
 }
 
 // The cosmetic rim evaluated only where `out` can read it (snow_field's per-frame cost): the ridge is zero
@@ -529,10 +534,16 @@ void cosmetic_ring(Scratch& S, Window& W, const RimInput& in, const TexelRect& w
     auto receiver = [&](int i, int j) { // (i, j) in I
         return S.near_source[size_t(j + I.y0 - E.y0) * size_t(we) + size_t(i + I.x0 - E.x0)] == 2;
     };
-    // The profile is a function of the integer squared distance: a table of its R² + 1 values (the same bits).
-    std::vector<float> profile_of(size_t(R) * size_t(R) + 1);
-    for (size_t d2 = 0; d2 < profile_of.size(); ++d2) profile_of[d2] = profile_at(double(d2), in.texel, in.width_m);
-    std::vector<int> xs(4 * size_t(wi)); // the sums' column indices, per column of I
+    // The profile is a function of the integer squared distance: for a rim up to 64 texels wide a table of its
+    // R² + 1 values (the same bits), for a wider one (an unbounded table) computed per texel.
+    const bool tabled = R <= 64;
+    if (tabled) {
+        S.profile_of.resize(size_t(R) * size_t(R) + 1);
+        for (size_t d2 = 0; d2 < S.profile_of.size(); ++d2) S.profile_of[d2] = profile_at(double(d2), in.texel, in.width_m);
+    }
+    auto profile_of = [&](int d2) { return tabled ? S.profile_of[size_t(d2)] : profile_at(double(d2), in.texel, in.width_m); };
+    std::vector<int>& xs = S.sum_columns;
+    xs.resize(4 * size_t(wi));
     for (int i = 0; i < wi; ++i) decltype(sums.depth)::terms(i + I.x0, W.w, n, sums.depth.pad, &xs[4 * size_t(i)]);
     for (int j = 0; j < hi; ++j) {
         int ys[4];
@@ -540,7 +551,7 @@ void cosmetic_ring(Scratch& S, Window& W, const RimInput& in, const TexelRect& w
         for (int i = 0; i < wi; ++i) {
             const size_t x = size_t(j) * size_t(wi) + size_t(i);
             const int d2 = S.near_d2[x];
-            const float profile = d2 <= R * R && receiver(i, j) ? profile_of[size_t(d2)] : 0.0f;
+            const float profile = d2 <= R * R && receiver(i, j) ? profile_of(d2) : 0.0f;
             float r = 0.0f;
             if (profile > 0) {
                 const int* xi = &xs[4 * size_t(i)];
