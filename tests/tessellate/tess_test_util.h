@@ -11,6 +11,24 @@
 
 namespace furrow::test {
 
+// Welds a primitive by exact position (OpenSubdiv's Far reference needs the welded topology); a
+// primitive without face sizes gets triangles.
+inline Primitive welded(const Primitive& p) {
+    std::vector<uint32_t> remap(p.vertex_count());
+    weld_positions(remap.data(), p.positions.data(), p.vertex_count());
+    Primitive w;
+    std::vector<uint32_t> id(p.vertex_count(), 0xffffffffu);
+    for (size_t v = 0; v < p.vertex_count(); ++v)
+        if (remap[v] == v) {
+            id[v] = uint32_t(w.positions.size() / 3);
+            w.positions.insert(w.positions.end(), &p.positions[v * 3], &p.positions[v * 3 + 3]);
+        }
+    for (uint32_t i : p.indices) w.indices.push_back(id[remap[i]]);
+    w.face_sizes = p.face_sizes;
+    if (w.face_sizes.empty()) w.face_sizes.assign(p.indices.size() / 3, 3);
+    return w;
+}
+
 // Plain-array view of a primitive (the primitive must outlive it).
 inline TessellateInput input_of(const Primitive& p) {
     TessellateInput in;

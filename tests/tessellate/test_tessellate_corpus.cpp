@@ -133,18 +133,7 @@ TEST(tessellate_corpus, OpenBoundariesScaleWithRate) {
 // refinement + limit projection: the same points within 1e-5 of the diagonal (accuracy 6 near the EVs).
 TEST(tessellate_corpus, SpotCageMatchesFarLimit) {
     Scene s = load("spot/spot_control_mesh.obj");
-    const Primitive& p = s.meshes[0].primitives[0];
-    std::vector<uint32_t> remap(p.vertex_count());
-    weld_positions(remap.data(), p.positions.data(), p.vertex_count());
-    Primitive w;
-    std::vector<uint32_t> id(p.vertex_count(), 0xffffffffu);
-    for (size_t v = 0; v < p.vertex_count(); ++v)
-        if (remap[v] == v) {
-            id[v] = uint32_t(w.positions.size() / 3);
-            w.positions.insert(w.positions.end(), &p.positions[v * 3], &p.positions[v * 3 + 3]);
-        }
-    for (uint32_t i : p.indices) w.indices.push_back(id[remap[i]]);
-    w.face_sizes = p.face_sizes;
+    const Primitive w = welded(s.meshes[0].primitives[0]);
     const double diag = diagonal_of(w.positions);
     for (int level : {1, 2, 3}) {
         TessellateOptions o = uniform_options(SubdivisionScheme::catmark, 1 << level);

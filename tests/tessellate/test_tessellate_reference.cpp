@@ -13,23 +13,6 @@ using namespace furrow::test;
 
 namespace {
 
-// Welds a primitive by exact position (the reference needs the welded topology).
-Primitive welded(const Primitive& p) {
-    std::vector<uint32_t> remap(p.vertex_count());
-    weld_positions(remap.data(), p.positions.data(), p.vertex_count());
-    Primitive w;
-    std::vector<uint32_t> id(p.vertex_count(), 0xffffffffu);
-    for (size_t v = 0; v < p.vertex_count(); ++v)
-        if (remap[v] == v) {
-            id[v] = uint32_t(w.positions.size() / 3);
-            w.positions.insert(w.positions.end(), &p.positions[v * 3], &p.positions[v * 3 + 3]);
-        }
-    for (uint32_t i : p.indices) w.indices.push_back(id[remap[i]]);
-    w.face_sizes = p.face_sizes;
-    if (w.face_sizes.empty()) w.face_sizes.assign(p.indices.size() / 3, 3);
-    return w;
-}
-
 double expect_matches_far(const Primitive& p, SubdivisionScheme scheme, OpenSubdiv::Sdc::SchemeType osd_scheme, int level,
                           int accuracy = 2, int deep_levels = 0) {
     const int rate = 1 << level;
