@@ -369,12 +369,10 @@ template <class T>
 struct SumTable {
     const T* c = nullptr;
     int pad = 0, stride = 0, n = 0, w = 0, h = 0;
-    // The four C2 indices along one axis of length len at x, padded; the two axes' indices are the same for
-    // every table of a window, and for a whole row or column: the ring finds them once.
-    static void terms(int x, int len, int n, int pad, int* at) {
-        const int a = std::max(0, x - n), b = std::min(len - 1, x + n);
-        at[0] = b + n + pad, at[1] = a + n - 1 + pad, at[2] = b - n - 1 + pad, at[3] = a - n - 2 + pad;
-    }
+    // The four C2 indices of window column i (or row j), padded: the same for every table of a window and for a
+    // whole column (row), so the ring finds them once per column and once per row.
+    void column_terms(int i, int* at) const { terms(i, w, at); }
+    void row_terms(int j, int* at) const { terms(j, h, at); }
     T at(const int* xs, const int* ys) const { // smooth()'s value at the texel of those indices
         T r[4];
         for (int k = 0; k < 4; ++k) {
@@ -383,11 +381,11 @@ struct SumTable {
         }
         return T(r[0] - r[1] - r[2] + r[3]);
     }
-    T at(int i, int j) const { // smooth()'s value at window texel (i, j)
-        int xs[4], ys[4];
-        terms(i, w, n, pad, xs);
-        terms(j, h, n, pad, ys);
-        return at(xs, ys);
+
+private:
+    void terms(int x, int len, int* at) const {
+        const int a = std::max(0, x - n), b = std::min(len - 1, x + n);
+        at[0] = b + n + pad, at[1] = a + n - 1 + pad, at[2] = b - n - 1 + pad, at[3] = a - n - 2 + pad;
     }
 };
 
@@ -544,10 +542,10 @@ void cosmetic_ring(Scratch& S, Window& W, const RimInput& in, const TexelRect& w
     auto profile_of = [&](int d2) { return tabled ? S.profile_of[size_t(d2)] : profile_at(double(d2), in.texel, in.width_m); };
     std::vector<int>& xs = S.sum_columns;
     xs.resize(4 * size_t(wi));
-    for (int i = 0; i < wi; ++i) decltype(sums.depth)::terms(i + I.x0, W.w, n, sums.depth.pad, &xs[4 * size_t(i)]);
+    for (int i = 0; i < wi; ++i) sums.depth.column_terms(i + I.x0, &xs[4 * size_t(i)]);
     for (int j = 0; j < hi; ++j) {
         int ys[4];
-        decltype(sums.depth)::terms(j + I.y0, W.h, n, sums.depth.pad, ys);
+        sums.depth.row_terms(j + I.y0, ys);
         for (int i = 0; i < wi; ++i) {
             const size_t x = size_t(j) * size_t(wi) + size_t(i);
             const int d2 = S.near_d2[x];

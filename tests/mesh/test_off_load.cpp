@@ -17,7 +17,7 @@ void expect_same_as_former_reader(const std::string& text) {
     const Status b = load_openmesh_bytes(before, text, ".off", LoadOptions{});
     ASSERT_EQ(a.code, b.code) << a.message << " | " << b.message << "\n" << text;
     if (!a.ok()) return;
-    furrow::test::expect_same_reading(now, before, text);
+    test::expect_same_reading(now, before, text);
 }
 } // namespace
 

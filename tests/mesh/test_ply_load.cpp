@@ -94,7 +94,7 @@ void expect_same_as_former_reader(const std::string& text) {
     std::cerr.rdbuf(cerr);
     ASSERT_EQ(a.code, b.code) << a.message << " | " << b.message << "\n" << shown(text);
     if (!a.ok()) return;
-    furrow::test::expect_same_reading(now, before, shown(text)); // garbage bytes may be NaN
+    test::expect_same_reading(now, before, shown(text)); // garbage bytes may be NaN
 }
 
 // The direct reading of a file with per-corner uvs, through the index buffer: each corner has the position
