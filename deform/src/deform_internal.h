@@ -34,6 +34,46 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 inline int clamped_int(double x, int lo, int hi) { return x >= double(lo) ? (x <= double(hi) ? int(x) : hi) : lo; }
 constexpr double kPi = std::numbers::pi;
 
+// A texel coordinate split into its cell and the fraction within it: t = cell + frac exactly (frac = t −
+// floor(t) is exact below 2^52). Inline, for the per-point loops (DisplacedGround) and Heightmap::sample.
+// Cells are clamped to [−2, 2^31 − 2] first (any finite t: a double outside int's range is undefined
+// behaviour); frac is then 0, and sample_split gives what it gives on the unclamped t on any grid narrower
+// than 2^31 − 2 texels.
+struct SplitTexel {
+    int i = 0, j = 0;
+    double fi = 0, fj = 0;
+};
+inline SplitTexel split_texel(double ti, double tj) {
+    constexpr double lo = -2.0, hi = 2147483646.0;
+    auto one = [&](double t, int& cell, double& frac) {
+        if (!(t >= lo && t < hi)) {
+            cell = t >= lo ? int(hi) : int(lo), frac = 0;
+            return;
+        }
+        cell = int(t); // toward zero, then down: floor without a libm call (baseline x86-64 has no roundsd)
+        cell -= double(cell) > t;
+        frac = t - double(cell);
+    };
+    SplitTexel s;
+    one(ti, s.i, s.fi);
+    one(tj, s.j, s.fj);
+    return s;
+}
+// Bilinear height at a split coordinate, 0 beyond the grid (one texel of ramp to 0 at the border, as
+// Heightmap::sample documents): Heightmap::sample's arithmetic, in one place.
+inline double sample_split(const Heightmap& h, const SplitTexel& s) {
+    const int w = h.frame.width, hh = h.frame.height;
+    if (w <= 0 || hh <= 0 || h.values.size() != size_t(w) * size_t(hh)) return 0.0;
+    // t > −1 and t < size, on cell + frac.
+    if (!(s.i > -1 || (s.i == -1 && s.fi > 0)) || !(s.j > -1 || (s.j == -1 && s.fj > 0)) || s.i >= w || s.j >= hh) return 0.0;
+    auto v = [&](int i, int j) -> double {
+        if (i < 0 || j < 0 || i >= w || j >= hh) return 0.0;
+        return double(h.values[size_t(j) * size_t(w) + size_t(i)]);
+    };
+    const double fi = s.fi, fj = s.fj;
+    return (v(s.i, s.j) * (1 - fi) + v(s.i + 1, s.j) * fi) * (1 - fj) + (v(s.i, s.j + 1) * (1 - fi) + v(s.i + 1, s.j + 1) * fi) * fj;
+}
+
 // The in-plane axes for an up vector: +x/+z for +y up, a stable choice otherwise (axis_v = axis_u × up).
 void frame_axes(const std::array<double, 3>& up, std::array<double, 3>& axis_u, std::array<double, 3>& axis_v,
                 std::array<double, 3>& unit_up);

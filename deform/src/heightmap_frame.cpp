@@ -47,16 +47,7 @@ void TexelRect::unite(const TexelRect& o) {
 }
 
 double Heightmap::sample(double ti, double tj) const {
-    const int w = frame.width, h = frame.height;
-    if (w <= 0 || h <= 0 || values.size() != size_t(w) * size_t(h)) return 0.0;
-    if (!(ti > -1.0 && tj > -1.0 && ti < double(w) && tj < double(h))) return 0.0;
-    const int i0 = int(std::floor(ti)), j0 = int(std::floor(tj));
-    const double fi = ti - i0, fj = tj - j0;
-    auto v = [&](int i, int j) -> double {
-        if (i < 0 || j < 0 || i >= w || j >= h) return 0.0;
-        return double(values[size_t(j) * size_t(w) + size_t(i)]);
-    };
-    return (v(i0, j0) * (1 - fi) + v(i0 + 1, j0) * fi) * (1 - fj) + (v(i0, j0 + 1) * (1 - fi) + v(i0 + 1, j0 + 1) * fi) * fj;
+    return deform_detail::sample_split(*this, deform_detail::split_texel(ti, tj));
 }
 
 double Heightmap::sample_world(const double* p) const {
