@@ -558,13 +558,20 @@ void owned_lengths(double* out, const SurfaceIndex& index, const uint32_t* ring_
             // The triangle that broke ownership last time is the likeliest to break it again along the same
             // ray: tried first, it saves the search on about half of the bisection steps.
             uint32_t witness = UINT32_MAX;
-            auto owned = [&](double t) {
-                const Point x = p + t * d;
+            // ratio² × the squared distance from x to v's own faces: what another face must come within.
+            auto owned_r2 = [&](const Point& x) {
                 double own = std::numeric_limits<double>::infinity();
                 for (uint32_t i = ring_start[v]; i < ring_start[v + 1]; ++i)
                     own = std::min(own, CGAL::squared_distance(x, ix.tris[ring_faces[i]]));
-                const double r2 = ratio * ratio * own;
-                if (witness != UINT32_MAX && CGAL::squared_distance(x, ix.tris[witness]) < r2) return false;
+                return ratio * ratio * own;
+            };
+            auto taken_by_witness = [&](const Point& x, double r2) {
+                return witness != UINT32_MAX && CGAL::squared_distance(x, ix.tris[witness]) < r2;
+            };
+            auto owned = [&](double t) {
+                const Point x = p + t * d;
+                const double r2 = owned_r2(x);
+                if (taken_by_witness(x, r2)) return false;
                 // v's own faces are no nearer than own >= r2 (ratio <= 1): measured above, not searched again.
                 const uint32_t* own_begin = ring_faces + ring_start[v];
                 const uint32_t* own_end = ratio <= 1 ? ring_faces + ring_start[v + 1] : own_begin;
@@ -575,11 +582,29 @@ void owned_lengths(double* out, const SurfaceIndex& index, const uint32_t* ring_
                 out[q] = h;
                 continue;
             }
-            // Ownership is lost once along the ray and (in practice) not regained: bisect the boundary.
+            // Ownership is lost once along the ray and (in practice) not regained: the boundary is bracketed
+            // to 1/4096 of the length, owned at lo (a whole search says so), not at hi (a face comes within).
+            // Bisected against the witness alone (v's own faces and one more distance, no search), then one
+            // search at the bracket's owned end, which confirms it or names an earlier witness to bisect
+            // against in turn: one or two searches per clamped vertex instead of about six (a search at every
+            // step that the witness did not decide). Most searches are the first one, owned(h), of every
+            // vertex: `bench shells` set-up, Stanford bunny (69k triangles, 32 layers, -j 1) 274-280 -> 266-271
+            // ms, every length within the same 1/4096 bracket.
+            const double step = h / 4096;
             double lo = 0, hi = h;
-            for (int i = 0; i < 12; ++i) { // 1/4096 of the length
-                const double mid = 0.5 * (lo + hi);
-                (owned(mid) ? lo : hi) = mid;
+            while (hi - lo > step) {
+                double a = lo, b = hi; // the witness takes x over at b (it broke ownership there), not at a
+                while (b - a > step) {
+                    const double mid = 0.5 * (a + b);
+                    const Point x = p + mid * d;
+                    (taken_by_witness(x, owned_r2(x)) ? b : a) = mid;
+                }
+                hi = b;
+                if (owned(a)) {
+                    lo = a;
+                    break;
+                }
+                hi = a; // another face takes x over before the witness did: it is the witness now
             }
             out[q] = lo;
         }
