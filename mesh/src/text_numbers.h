@@ -12,7 +12,8 @@
 
 namespace furrow::mesh_detail {
 
-inline bool is_space(char c) { return c == ' ' || c == '\t' || c == '\n' || c == '\v' || c == '\f' || c == '\r'; }
+// C's isspace in the "C" locale: ' ' and '\t' '\n' '\v' '\f' '\r' (9 to 13).
+inline bool is_space(char c) { return c == ' ' || static_cast<unsigned char>(c - '\t') <= 4; }
 inline bool is_digit(char c) { return c >= '0' && c <= '9'; }
 
 // The end of the span num_get takes for a floating-point `stream >> value` from p (no whitespace skipped):
