@@ -330,4 +330,19 @@ CLI::Validator non_negative() { return bounded_below(false, "NONNEGATIVE"); }
 CLI::Validator finite_range(int lo, int hi) { return range_then_finite(lo, hi); }
 CLI::Validator finite_range(double lo, double hi) { return range_then_finite(lo, hi); }
 
+int command_named(int argc, const char* const* argv, std::initializer_list<const char*> commands,
+                  std::initializer_list<const char*> valued) {
+    for (int a = 1; a < argc; ++a) {
+        const std::string word = argv[a];
+        int k = 0;
+        for (const char* c : commands) {
+            if (word == c) return k;
+            ++k;
+        }
+        for (const char* v : valued)
+            if (word == v) ++a; // its value
+    }
+    return -1;
+}
+
 } // namespace furrow::cli

@@ -39,6 +39,12 @@ CLI::Validator non_negative(); // finite and >= 0 (NONNEGATIVE)
 CLI::Validator finite_range(int lo, int hi);       // CLI::Range(lo, hi), then finite
 CLI::Validator finite_range(double lo, double hi); // CLI::Range(lo, hi), then finite
 
+// Which of `commands` a command line names: the index of the first argument that is one of them, the word
+// after an option in `valued` (a global option that takes a value: `-j 4`) skipped; -1 when none is named.
+// main() registers only that command.
+int command_named(int argc, const char* const* argv, std::initializer_list<const char*> commands,
+                  std::initializer_list<const char*> valued);
+
 struct GlobalFlags {
     bool quiet = false;
     int threads = 0; // 0 = all cores

@@ -59,3 +59,41 @@ TEST(commands, RunConvertReportsAMissingInputAsAnInputError) {
 
 } // namespace
 } // namespace furrow
+
+namespace furrow {
+namespace {
+
+// main() registers only the command a line names (command_named); the rest of the line is CLI11's as before.
+TEST(commands, CommandNamedSkipsTheThreadCountAndFindsTheFirstCommandWord) {
+    auto named = [](std::vector<const char*> words) {
+        words.insert(words.begin(), "furrow");
+        return cli::command_named(int(words.size()), words.data(), {"check", "convert", "render"}, {"-j", "--threads"});
+    };
+    EXPECT_EQ(named({"convert", "in.obj", "-o", "out.glb"}), 1);
+    EXPECT_EQ(named({"-q", "-j", "2", "render", "x.glb"}), 2);
+    EXPECT_EQ(named({"--threads", "4", "check", "convert.glb"}), 0); // the first command word, not a file's name
+    EXPECT_EQ(named({"-j", "check", "render"}), 2);                  // "check" is -j's value (CLI11 refuses it)
+    EXPECT_EQ(named({"--help"}), -1);                               // none: every command is registered
+    EXPECT_EQ(named({"bogus", "x.glb"}), -1);
+    EXPECT_EQ(named({}), -1);
+}
+
+TEST(commands, TheLineReadsTheSameWithOnlyItsCommandRegistered) {
+    // Help, version and the usage errors that name every command still see all of them.
+    const auto help = run_furrow({"--help"});
+    EXPECT_EQ(help.exit_code, 0);
+    for (const char* c : {"check", "convert", "render", "shells", "stamp", "tessellate", "demo", "bench"})
+        EXPECT_NE(help.out.find(c), std::string::npos) << c;
+    const auto bogus = run_furrow({"bogus"});
+    EXPECT_EQ(bogus.exit_code, 2);
+    EXPECT_NE(bogus.err.find("unknown command 'bogus'"), std::string::npos);
+    const auto sub = run_furrow({"-q", "convert", "--help"});
+    EXPECT_EQ(sub.exit_code, 0);
+    EXPECT_NE(sub.out.find("--output"), std::string::npos);
+    const auto bad = run_furrow({"convert", "--bogus"});
+    EXPECT_EQ(bad.exit_code, 2);
+    EXPECT_EQ(bad.err.rfind("Error: ", 0), 0u);
+}
+
+} // namespace
+} // namespace furrow
