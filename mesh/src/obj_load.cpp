@@ -55,6 +55,7 @@ Status line_error(size_t line, const char* raw, const char* raw_end, const std::
 // A corner's texcoord or normal index into its list, once any corner has one: the list holds -1 (none) for
 // the corners before the first index, so that it runs beside corner_v.
 void add_corner_index(std::vector<int>& list, const std::vector<int>& corner_v, int index) {
+    if (!list.empty() && list.size() + 1 == corner_v.size()) return list.push_back(index); // in step with the corners
     if (index == -1 && list.empty()) return;
     if (list.empty()) kernel::reserve_huge(list, corner_v.capacity());
     list.resize(corner_v.size() - 1, -1);
@@ -79,14 +80,15 @@ Status read_face(ObjText& obj, const char* p, const char* end, size_t line) {
             while (slash < p && *slash != '/') ++slash;
             IntRead r;
             if (slash < p) {
+                r = read_int(q, slash); // a failed read is used as it stands (0, or clamped), as the stream's was
                 int checked = 0;
                 const char* digits = q < slash && *q == '+' ? q + 1 : q;
-                if (component == 0 && (q == slash || std::from_chars(digits, slash, checked).ec != std::errc()))
+                // (a read that succeeded is a number from_chars takes too: asked only when it failed)
+                if (component == 0 && (q == slash || (!r.ok && std::from_chars(digits, slash, checked).ec != std::errc())))
                     return Status::error(StatusCode::invalid_input, "OBJ line " + std::to_string(line) + ": face corner '" +
                                                                         std::string(word, size_t(std::min<ptrdiff_t>(p - word, 24))) +
                                                                         "' has no vertex index");
                 const bool empty = q == slash;
-                r = read_int(q, slash); // a failed read is used as it stands (0, or clamped), as the stream's was
                 q = slash + 1;
                 if (empty) continue;
             } else {

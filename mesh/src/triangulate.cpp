@@ -26,7 +26,8 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <unordered_set>
+#include <bit>
+#include <vector>
 
 namespace furrow {
 namespace {
@@ -49,10 +50,52 @@ uint64_t edge_key(uint32_t a, uint32_t b) {
     return (uint64_t(a) << 32) | b;
 }
 
+// The welded edges made so far, in one open-addressed table (linear probing, Fibonacci hashing): a node per
+// edge in std::unordered_set made triangulation a quarter of a `furrow convert` of a quad mesh.
+class EdgeSet {
+public:
+    explicit EdgeSet(size_t expected = 0) {
+        size_t capacity = 16;
+        while (capacity < 2 * expected) capacity *= 2;
+        slots_.assign(capacity, kEmpty);
+        shift_ = 64 - std::countr_zero(capacity);
+    }
+    bool contains(uint64_t key) const {
+        for (size_t i = slot(key);; i = (i + 1) & (slots_.size() - 1)) {
+            if (slots_[i] == key) return true;
+            if (slots_[i] == kEmpty) return false;
+        }
+    }
+    void insert(uint64_t key) {
+        if (2 * (count_ + 1) > slots_.size()) grow();
+        size_t i = slot(key);
+        for (; slots_[i] != kEmpty; i = (i + 1) & (slots_.size() - 1))
+            if (slots_[i] == key) return;
+        slots_[i] = key;
+        ++count_;
+    }
+
+private:
+    static constexpr uint64_t kEmpty = ~uint64_t(0); // no edge: welded ids are below 2^32 − 1
+    size_t slot(uint64_t key) const { return size_t((key * 0x9E3779B97F4A7C15ull) >> shift_); }
+    void grow() {
+        std::vector<uint64_t> old = std::move(slots_);
+        slots_.assign(2 * old.size(), kEmpty);
+        --shift_;
+        count_ = 0;
+        for (uint64_t k : old)
+            if (k != kEmpty) insert(k);
+    }
+    std::vector<uint64_t> slots_;
+    int shift_ = 60;
+    size_t count_ = 0;
+};
+
 struct Context {
     const float* positions;
-    std::vector<uint32_t> weld;         // vertex -> first vertex at the same position
-    std::unordered_set<uint64_t> edges; // every polygon edge and every diagonal made so far, welded
+    std::vector<uint32_t> weld; // vertex -> first vertex at the same position
+    EdgeSet edges;              // every polygon edge and every diagonal made so far, welded
+    std::vector<uint32_t> prev, next; // clip_ears' corner lists, kept from polygon to polygon
 };
 
 // The polygon's corners in its best-fit plane (Newell's normal); false when the polygon has no area.
@@ -88,12 +131,13 @@ bool project(std::vector<P2>& out, const Context& cx, const uint32_t* corners, u
 // Ear clipping of one polygon (s >= 4) into out; level 0 asks convexity, emptiness and a new diagonal,
 // level 1 drops emptiness, level 2 drops convexity, level 3 takes any corner.
 void clip_ears(std::vector<uint32_t>& out, Context& cx, const uint32_t* corners, uint32_t s, const std::vector<P2>& p) {
-    std::vector<uint32_t> prev(s), next(s);
+    std::vector<uint32_t>&prev = cx.prev, &next = cx.next;
+    prev.resize(s), next.resize(s);
     for (uint32_t i = 0; i < s; ++i) prev[i] = (i + s - 1) % s, next[i] = (i + 1) % s;
     auto welded = [&](uint32_t i) { return cx.weld[corners[i]]; };
     auto is_ear = [&](uint32_t i, int level) {
         const uint32_t a = prev[i], c = next[i];
-        if (level < 3 && cx.edges.count(edge_key(welded(a), welded(c)))) return false;
+        if (level < 3 && cx.edges.contains(edge_key(welded(a), welded(c)))) return false;
         if (level < 3 && welded(a) == welded(c)) return false;
         if (level < 2 && !(cross2(p[a], p[i], p[c]) > 0)) return false;
         if (level < 1)
@@ -132,10 +176,11 @@ void fan(std::vector<uint32_t>& out, const uint32_t* corners, uint32_t s) {
 size_t triangulate_polygons(std::vector<uint32_t>& out, const uint32_t* indices, size_t index_count,
                             const uint32_t* face_sizes, size_t face_count, const float* positions, size_t vertex_count) {
     out.clear();
-    Context cx{positions, std::vector<uint32_t>(vertex_count), {}};
+    Context cx{positions, std::vector<uint32_t>(vertex_count), EdgeSet(), {}, {}};
     bool polygons = false;
     for (size_t f = 0; f < face_count; ++f) polygons |= face_sizes[f] > 3;
     if (polygons) {
+        cx.edges = EdgeSet(index_count / 2 + face_count); // a closed mesh's edges, and a diagonal a corner
         weld_positions(cx.weld.data(), positions, vertex_count);
         size_t at = 0;
         for (size_t f = 0; f < face_count && face_sizes[f] <= index_count - at; at += face_sizes[f], ++f)
