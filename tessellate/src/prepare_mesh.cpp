@@ -419,6 +419,16 @@ void attribute_values(PreparedMesh& m, const TessellateInput& in, const std::vec
                       const std::vector<uint32_t>& attr_class) {
     const size_t C = m.corner_input.size();
     m.corner_value.assign(C, 0);
+    if (m.K == 0 && !m.has_skin && !in.face_groups) {
+        // No attributes, one group: the key is the welded position alone, so the values are the welded
+        // positions that have corners, numbered in order (what the sort below gives, without it).
+        std::vector<uint32_t> rank(m.welded_input.size(), 0);
+        for (size_t c = 0; c < C; ++c) rank[m.corner_welded[c]] = 1;
+        uint32_t next = 0;
+        for (uint32_t& r : rank) r = r ? next++ : none;
+        for (size_t c = 0; c < C; ++c) m.corner_value[c] = rank[m.corner_welded[c]];
+        return;
+    }
     auto key = [&](uint32_t c) {
         return std::array<uint32_t, 3>{m.corner_welded[c], face_group_of[m.corner_face[c]], attr_class[m.corner_input[c]]};
     };
@@ -570,14 +580,15 @@ void split_points(PreparedMesh& m) {
 void creases_and_seams(PreparedMesh& m, const std::vector<uint8_t>& bad_edge) {
     const SurfaceOptions& o = m.options;
     const size_t F = m.face_count(), E = m.edge_side_begin.size() - 1;
-    std::vector<std::array<double, 3>> face_normal(F);
-    for (size_t f = 0; f < F; ++f) {
-        std::vector<const float*> pts;
+    const bool creases = o.crease_angle_degrees < 180.0;
+    std::vector<std::array<double, 3>> face_normal(creases ? F : 0); // only the crease test reads them
+    std::vector<const float*> pts;
+    for (size_t f = 0; f < face_normal.size(); ++f) {
+        pts.clear();
         for (uint32_t c = m.face_offset[f]; c < m.face_offset[f + 1]; ++c)
             pts.push_back(&m.welded_data[size_t(m.corner_welded[c]) * size_t(m.W)]);
         face_normal[f] = newell_normal(pts.data(), pts.size());
     }
-    const bool creases = o.crease_angle_degrees < 180.0;
     const double cos_crease = std::cos(o.crease_angle_degrees * std::numbers::pi / 180.0);
     m.edge_split.assign(E, 0);
     m.edge_crease.assign(E, 0);
