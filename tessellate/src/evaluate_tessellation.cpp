@@ -76,7 +76,6 @@ struct Scratch {
 
 // ---- regular interior faces: basis weights cached per rate signature
 int limit_lanes();
-constexpr int regular_points = 16; // a bicubic B-spline patch
 constexpr int regular_weights = 3 * regular_points; // per coordinate: P, Du, Dv
 
 // The weights of every coordinate of one tessellation (one rate signature) of a regular interior patch.
@@ -136,26 +135,17 @@ const Pattern& pattern_for(FaceCache& cache, const osd::Bfr::Parameterization& p
     return *p;
 }
 
-// True if the surface is a regular B-spline patch with no boundary: at an interior (u, v) every one of the 16
-// basis weights is non-zero, while a boundary folds the phantom points' weights into others and sets them to
-// zero (Far's boundary-adjusted B-spline basis).
-bool regular_interior(const Surface& s, const osd::Bfr::Parameterization& param) {
-    if (!s.IsRegular() || s.GetNumControlPoints() != regular_points ||
-        param.GetType() != osd::Bfr::Parameterization::QUAD)
-        return false;
-    float w[regular_points];
-    const float probe[2] = {0.375f, 0.625f};
-    if (s.EvaluateStencil(probe, w) != regular_points) return false;
-    for (float x : w)
-        if (x == 0.0f) return false;
-    return true;
-}
-
-// The cached weights for this face's rates, computed from its surface if new; null if the cache is full.
-const RegularWeights* regular_weights_for(FaceCache& cache, const Surface& s, const std::vector<int>& rates,
-                                 const std::vector<float>& coords, int ncoords) {
+// The cached weights for this face's rates, null if there are none yet.
+const RegularWeights* cached_weights(const FaceCache& cache, const std::vector<int>& rates) {
     for (const RegularWeights& e : cache.entries)
         if (e.rates == rates) return &e;
+    return nullptr;
+}
+
+// The weights for this face's rates, computed from its surface if new; null if the cache is full.
+const RegularWeights* regular_weights_for(FaceCache& cache, const Surface& s, const std::vector<int>& rates,
+                                 const std::vector<float>& coords, int ncoords) {
+    if (const RegularWeights* e = cached_weights(cache, rates)) return e;
     if (cache.entries.size() >= FaceCache::max_entries) return nullptr;
     RegularWeights e{rates, std::vector<float>(size_t(ncoords) * regular_weights), {}};
     for (int i = 0; i < ncoords; ++i) {
@@ -423,8 +413,12 @@ struct FaceEvaluation {
     const float* vtx_weights = nullptr;
     const float* fvar_weights = nullptr;
     bool has_limit = false; // x.limit holds P and the normal of every coordinate (limit_blocks)
+    bool vtx_ready;         // vtx is this face's surface (else made when needed: prepare_smooth)
 
-    FaceEvaluation(Evaluation& ev, size_t f, bool smooth, bool limit_corners, Surface& vtx, Surface& fvar, Scratch& x);
+    // vtx_ready false: vtx was not made for a face build_surfaces found regular interior.
+    FaceEvaluation(Evaluation& ev, size_t f, bool smooth, bool limit_corners, Surface& vtx, Surface& fvar, Scratch& x,
+                   bool vtx_ready = true);
+    void prepare_smooth();
     void control_normal(float* nrm);
     bool eval_point(int i, float* nrm);
     void eval_attrs(int i, size_t o);
@@ -442,11 +436,11 @@ struct FaceEvaluation {
 };
 
 FaceEvaluation::FaceEvaluation(Evaluation& ev, size_t f, bool smooth, bool limit_corners, Surface& vtx, Surface& fvar,
-                               Scratch& x)
+                               Scratch& x, bool vtx_ready)
     : ev(ev), m(ev.m), L(ev.L), W(ev.W), K(ev.K), f(f), smooth(smooth), vtx(vtx), fvar(fvar), x(x),
       cache(ev.face_cache.local()), c0(m.face_offset[f]), n(int(m.face_size(f))), param(m.parameterization(f)),
       nr(face_rates(m, f, ev.rates, x.rates)), pat(pattern_for(cache, param, n, x.rates)), ncoords(pat.ncoords),
-      nb(pat.nb) {
+      nb(pat.nb), vtx_ready(vtx_ready) {
     x.bidx.resize(size_t(nb));
     x.P.resize(size_t(W));
     x.Du.resize(size_t(W));
@@ -454,25 +448,7 @@ FaceEvaluation::FaceEvaluation(Evaluation& ev, size_t f, bool smooth, bool limit
     x.w.resize(size_t(n));
     x.corner_data.resize(size_t(n));
     if (smooth) {
-        x.patch_v.resize(size_t(vtx.GetNumPatchPoints()) * size_t(W));
-        vtx.PreparePatchPoints(m.refiner_data.data(), W, x.patch_v.data(), W);
-        if (K > 0) {
-            x.patch_a.resize(size_t(fvar.GetNumPatchPoints()) * size_t(K));
-            fvar.PreparePatchPoints(m.refiner_fvar.data(), K, x.patch_a.data(), K);
-        }
-        // (Pointers into the entries' own arrays: those stay put when the cache grows.)
-        const RegularWeights* rw = regular_interior(vtx, param) ? regular_weights_for(cache, vtx, x.rates, pat.coords, ncoords) : nullptr;
-        if (rw) {
-            vtx_weights = rw->w.data();
-            if (W == 3) {
-                const size_t nblocks = rw->blocks.size() / (regular_weights * size_t(limit_lanes()));
-                x.limit.resize(nblocks * 6 * size_t(limit_lanes()));
-                limit_blocks(rw->blocks.data(), nblocks, x.patch_v.data(), x.limit.data());
-                has_limit = true;
-            }
-        }
-        if (K > 0 && regular_interior(fvar, param))
-            if (const RegularWeights* fw = regular_weights_for(cache, fvar, x.rates, pat.coords, ncoords)) fvar_weights = fw->w.data();
+        prepare_smooth();
     } else {
         for (int k = 0; k < n; ++k) {
             const uint32_t c = c0 + uint32_t(k), p = m.corner_point[c];
@@ -486,6 +462,50 @@ FaceEvaluation::FaceEvaluation(Evaluation& ev, size_t f, bool smooth, bool limit
         face_normal[2] = float(nn[2]);
         normalise(face_normal);
     }
+}
+
+// Patch points and cached weights of a smooth face. A regular interior face (build_surfaces) comes without
+// its vertex surface (vtx_ready false): its patch points are its control points, and the surface is made
+// here only if Bfr must evaluate it (a full cache) or its signature's weights are new.
+void FaceEvaluation::prepare_smooth() {
+    auto make_surface = [&] {
+        if (!vtx_ready) vtx_ready = m.factory_of(f).InitVertexSurface(m.face_refiner[f], &vtx);
+        return vtx_ready; // (it was made once in build_surfaces: a failure here would be a bug)
+    };
+    const bool known = !vtx_ready;
+    if (known) {
+        x.patch_v.resize(size_t(regular_points) * size_t(W));
+        for (size_t i = 0; i < size_t(regular_points); ++i)
+            std::copy_n(&m.refiner_data[size_t(m.regular_control[f * regular_points + i]) * size_t(W)], W, &x.patch_v[i * size_t(W)]);
+    } else {
+        x.patch_v.resize(size_t(vtx.GetNumPatchPoints()) * size_t(W));
+        vtx.PreparePatchPoints(m.refiner_data.data(), W, x.patch_v.data(), W);
+    }
+    if (K > 0) {
+        x.patch_a.resize(size_t(fvar.GetNumPatchPoints()) * size_t(K));
+        fvar.PreparePatchPoints(m.refiner_fvar.data(), K, x.patch_a.data(), K);
+    }
+    // (Pointers into the entries' own arrays: those stay put when the cache grows.)
+    const RegularWeights* rw = nullptr;
+    if (known) {
+        rw = cached_weights(cache, x.rates);
+        if (!rw && make_surface()) rw = regular_weights_for(cache, vtx, x.rates, pat.coords, ncoords);
+    } else if (regular_interior(vtx, param)) {
+        rw = regular_weights_for(cache, vtx, x.rates, pat.coords, ncoords);
+    }
+    if (rw) {
+        vtx_weights = rw->w.data();
+        if (W == 3) {
+            const size_t nblocks = rw->blocks.size() / (regular_weights * size_t(limit_lanes()));
+            x.limit.resize(nblocks * 6 * size_t(limit_lanes()));
+            limit_blocks(rw->blocks.data(), nblocks, x.patch_v.data(), x.limit.data());
+            has_limit = true;
+        }
+    } else {
+        make_surface(); // Bfr evaluates
+    }
+    if (K > 0 && regular_interior(fvar, param))
+        if (const RegularWeights* fw = regular_weights_for(cache, fvar, x.rates, pat.coords, ncoords)) fvar_weights = fw->w.data();
 }
 
 // The control polygon's normal: the fallback where the surface's derivatives vanish.
@@ -679,8 +699,9 @@ void FaceEvaluation::triangles() {
 }
 
 // limit_corners: linear faces read their corners' limit positions (only once all smooth faces are done).
-void process(Evaluation& ev, size_t f, bool smooth, bool limit_corners, Surface& vtx, Surface& fvar, Scratch& x) {
-    FaceEvaluation face(ev, f, smooth, limit_corners, vtx, fvar, x);
+void process(Evaluation& ev, size_t f, bool smooth, bool limit_corners, Surface& vtx, Surface& fvar, Scratch& x,
+             bool vtx_ready = true) {
+    FaceEvaluation face(ev, f, smooth, limit_corners, vtx, fvar, x, vtx_ready);
     face.boundary();
     face.interior();
     face.triangles();
@@ -728,9 +749,11 @@ void evaluate_faces(Evaluation& ev) {
                 if (smooth_pass) {
                     // Surfaces were checked in build_surfaces; a failure here would be a bug, but it must not
                     // become a crash or a crack: such a face would keep its (already shared) boundary points.
-                    bool ok = m.factory_of(f).InitVertexSurface(m.face_refiner[f], &vtx);
+                    // Regular interior faces need no vertex surface for most of them (prepare_smooth).
+                    const bool made = !m.face_regular_interior[f];
+                    bool ok = !made || m.factory_of(f).InitVertexSurface(m.face_refiner[f], &vtx);
                     if (ok && K > 0) ok = m.factory_of(f).InitFaceVaryingSurface(m.face_refiner[f], &fvar);
-                    process(ev, f, ok, false, vtx, fvar, scratch);
+                    process(ev, f, ok, false, vtx, fvar, scratch, made);
                 } else {
                     process(ev, f, false, true, vtx, fvar, scratch);
                 }
