@@ -172,7 +172,13 @@ Status build_surfaces(PreparedMesh& m) {
     const size_t unsafe = keep_valence2_faces_off_creases(m, crease_pairs);
     std::vector<uint8_t> failed(F, 0);
     m.face_regular_interior.assign(F, 0);
-    m.regular_control.resize(F * regular_points);
+    // Only quads are regular patches (Catmull-Clark, bilinear): no room kept on a mesh without them.
+    bool quads = m.scheme != osd::Sdc::SCHEME_LOOP;
+    if (quads) {
+        quads = false;
+        for (size_t f = 0; f < F && !quads; ++f) quads = m.face_size(f) == 4;
+    }
+    m.regular_control.assign(quads ? F * regular_points : 0, 0);
     tbb::parallel_for(tbb::blocked_range<size_t>(0, F, 256), [&](const tbb::blocked_range<size_t>& range) {
         Surface vtx, fvar;
         for (size_t f = range.begin(); f != range.end(); ++f) {
@@ -183,7 +189,7 @@ Status build_surfaces(PreparedMesh& m) {
             m.face_regular[f] = ok && vtx.IsRegular() && !vtx.IsLinear();
             // Kept so that the evaluation needs no second InitVertexSurface for them (most faces of a quad mesh).
             int control[regular_points];
-            if (m.face_regular[f] && regular_interior(vtx, m.parameterization(f)) &&
+            if (quads && m.face_regular[f] && regular_interior(vtx, m.parameterization(f)) &&
                 vtx.GetControlPointIndices(control) == regular_points) {
                 m.face_regular_interior[f] = 1;
                 std::copy_n(control, regular_points, &m.regular_control[f * regular_points]);
