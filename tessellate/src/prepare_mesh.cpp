@@ -193,7 +193,9 @@ void build_edges(PreparedMesh& m) {
     const std::vector<uint32_t> half = order_by<uint64_t>(C, [&](uint32_t c) { return keys[c]; });
     auto ekey = [&](uint32_t c) { return keys[c]; };
     m.edge_side_begin.assign(1, 0);
+    m.edge_side_begin.reserve(C / 2 + 2); // (closed manifold meshes: exactly)
     m.side_corner.clear();
+    m.side_corner.reserve(C);
     m.corner_edge.assign(C, none);
     m.corner_side.assign(C, none);
     for (size_t i = 0; i < C; ++i) {
@@ -305,6 +307,12 @@ size_t repair_faces(PreparedMesh& m, std::vector<uint32_t>& face_group_of, const
     st.input_faces = nf_in;
     std::vector<uint32_t> welded_of_index(in.index_count);
     for (size_t i = 0; i < in.index_count; ++i) welded_of_index[i] = welded_of[in.indices[i]];
+    m.face_offset.reserve(nf_in + 1);
+    m.face_source.reserve(nf_in);
+    face_group_of.reserve(nf_in);
+    m.corner_input.reserve(in.index_count);
+    m.corner_welded.reserve(in.index_count);
+    m.corner_face.reserve(in.index_count);
     m.face_offset.push_back(0);
     size_t split_polygons = 0;
     size_t first = 0;
@@ -556,6 +564,7 @@ void split_points(PreparedMesh& m) {
     }
     std::vector<uint32_t> id(C, none);
     std::vector<uint32_t> points_of_welded(m.welded_input.size(), 0);
+    m.point_welded.reserve(m.welded_input.size()); // (a point per welded position, but at bowties)
     m.corner_point.assign(C, none);
     for (uint32_t c = 0; c < C; ++c) {
         uint32_t& p = id[ds.find(c)];
@@ -630,7 +639,38 @@ std::vector<uint32_t> sector_roots(const PreparedMesh& m) {
 }
 
 // ---- groups: output vertices at points, one per (point, value, sector)
+// The common case first: every point's corners have one value and one sector (no seam, crease or
+// non-manifold fan through it). Then the sorts of build_groups give one group and one sector per point, in
+// point order, and each point's corners in index order: the same arrays, from one counting pass. False (and
+// nothing written) if some point has more than one group.
+bool build_groups_per_point(PreparedMesh& m, const std::vector<uint32_t>& sector_root) {
+    const size_t C = m.corner_input.size(), P = m.point_welded.size();
+    std::vector<uint32_t> first(P, none), start(P + 1, 0);
+    for (uint32_t c = 0; c < C; ++c) {
+        const uint32_t p = m.corner_point[c];
+        if (first[p] == none) first[p] = c;
+        else if (m.corner_value[c] != m.corner_value[first[p]] || sector_root[c] != sector_root[first[p]]) return false;
+        ++start[p + 1];
+    }
+    for (size_t p = 0; p < P; ++p) start[p + 1] += start[p];
+    m.corner_group = m.corner_point;
+    m.point_group_begin.resize(P + 1);
+    std::iota(m.point_group_begin.begin(), m.point_group_begin.end(), 0u);
+    m.group_point.resize(P);
+    std::iota(m.group_point.begin(), m.group_point.end(), 0u);
+    m.group_sector = m.group_point;
+    m.group_value.resize(P);
+    for (size_t p = 0; p < P; ++p) m.group_value[p] = m.corner_value[first[p]];
+    m.group_attr_end.resize(P);
+    std::iota(m.group_attr_end.begin(), m.group_attr_end.end(), 1u);
+    m.sector_begin = start;
+    m.sector_corners.resize(C);
+    for (uint32_t c = 0; c < C; ++c) m.sector_corners[start[m.corner_point[c]]++] = c;
+    return true;
+}
+
 void build_groups(PreparedMesh& m, const std::vector<uint32_t>& sector_root) {
+    if (build_groups_per_point(m, sector_root)) return;
     const size_t C = m.corner_input.size(), P = m.point_welded.size();
     auto key = [&](uint32_t c) {
         return std::array<uint32_t, 3>{m.corner_point[c], m.corner_value[c], sector_root[c]};
