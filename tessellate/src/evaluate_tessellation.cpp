@@ -615,9 +615,13 @@ void FaceEvaluation::boundary() {
         const bool split = m.edge_split[e] != 0, owner = m.edge_owner[e] == s, shared = m.edge_normal_shared[e] != 0;
         for (int j = 0; j < np; ++j) {
             const uint32_t q = uint32_t(forward ? j : np - 1 - j);
-            if (owner || !shared) {
-                const bool fallback = eval_point(b + j, &ev.side_normal[(size_t(L.side_slot[s]) + q) * 3]);
-                if (fallback && shared) ev.edge_fallback[e] = 1;
+            const uint32_t o = split ? L.side_out[s] + q : L.edge_out[e] + q;
+            if (owner && shared) {
+                // Straight into the output (average_edge_normals normalises it there): the slots of a shared
+                // edge stay untouched, unless the owner falls back (then every side fills its own).
+                if (eval_point(b + j, &ev.out.normals[size_t(o) * 3])) ev.edge_fallback[e] = 1;
+            } else if (!shared) {
+                eval_point(b + j, &ev.side_normal[(size_t(L.side_slot[s]) + q) * 3]);
             }
             if (owner) {
                 if (split) {
@@ -626,7 +630,6 @@ void FaceEvaluation::boundary() {
                     write_data(L.edge_out[e] + q);
                 }
             }
-            const uint32_t o = split ? L.side_out[s] + q : L.edge_out[e] + q;
             if (split || owner) eval_attrs(b + j, o);
             bidx[size_t(b + j)] = int(o);
         }
@@ -655,13 +658,15 @@ void FaceEvaluation::fallback_normals() {
     }
 }
 
-// The interior points, all the face's own.
+// The interior points, all the face's own (a normal left zero, with no tangent plane nor polygon normal,
+// becomes +z, as average_group_normals and average_edge_normals do for the shared points).
 void FaceEvaluation::interior() {
     const uint32_t interior = L.face_out[f];
     float* N = ev.out.normals.data();
     for (int i = nb; i < ncoords; ++i) {
         const size_t o = interior + uint32_t(i - nb);
         eval_point(i, &N[o * 3]);
+        if (is_zero(&N[o * 3])) N[o * 3 + 2] = 1.0f;
         write_data(o);
         eval_attrs(i, o);
     }
@@ -792,8 +797,8 @@ void average_group_normals(Evaluation& ev) {
     });
 }
 
-// Across the edges that are no crease: the owner side's normals where they are shared, else the sides'
-// normals averaged (the same for every side of a seam).
+// Across the edges that are no crease: the owner side's normals where they are shared (in the output
+// already), else the sides' normals averaged (the same for every side of a seam).
 void average_edge_normals(Evaluation& ev) {
     const PreparedMesh& m = ev.m;
     const Layout& L = ev.L;
@@ -815,13 +820,18 @@ void average_edge_normals(Evaluation& ev) {
                     continue;
                 }
                 float sum[3] = {0, 0, 0};
-                if (m.edge_normal_shared[e] && !ev.edge_fallback[e])
-                    std::copy_n(slot(m.edge_owner[e]), 3, sum);
-                else
+                const float* first = slot(m.edge_side_begin[e]);
+                if (m.edge_normal_shared[e] && !ev.edge_fallback[e]) {
+                    // The owner's normal, written where its side's vertex is (boundary()).
+                    const uint32_t s = m.edge_owner[e];
+                    first = &N[(size_t(m.edge_split[e] ? L.side_out[s] : L.edge_out[e]) + size_t(q)) * 3];
+                    std::copy_n(first, 3, sum);
+                } else {
                     for (uint32_t s = m.edge_side_begin[e]; s < m.edge_side_begin[e + 1]; ++s)
                         for (int k = 0; k < 3; ++k) sum[k] += slot(s)[k];
+                }
                 normalise(sum);
-                if (is_zero(sum)) std::copy_n(slot(m.edge_side_begin[e]), 3, sum);
+                if (is_zero(sum)) std::copy_n(first, 3, sum);
                 if (is_zero(sum)) sum[2] = 1.0f;
                 if (m.edge_split[e]) {
                     for (uint32_t s = m.edge_side_begin[e]; s < m.edge_side_begin[e + 1]; ++s)
@@ -887,9 +897,6 @@ Status evaluate_tessellation(TessellateOutput& out, const PreparedMesh& m, const
     average_group_normals(ev);
     average_edge_normals(ev);
     const size_t V = ev.L.vertices;
-    float* N = out.normals.data();
-    for (size_t i = 0; i < V; ++i)
-        if (is_zero(&N[i * 3])) N[i * 3 + 2] = 1.0f;
 
     deinterleave(ev);
     out.stats.vertices = V;
