@@ -109,13 +109,16 @@ Status check_input(const TessellateInput& in, const SurfaceOptions& o) {
                              str(in.index_count) + " indices do not make whole triangles (give face sizes)");
     }
     if (in.index_count > size_t(0x7fffffff)) return Status::error(StatusCode::out_of_memory, "too many indices");
+    // Every position finite (the common case): the indices need only their range checked.
+    bool finite = true;
+    for (size_t k = 0; k < in.vertex_count * 3; ++k) finite = finite && std::isfinite(in.positions[k]);
     for (size_t i = 0; i < in.index_count; ++i) {
         uint32_t v = in.indices[i];
         if (v >= in.vertex_count)
             return Status::error(StatusCode::invalid_input, "index " + str(i) + " refers to vertex " + str(v) +
                                                                 " but there are " + str(in.vertex_count) + " vertices");
         const float* p = in.positions + size_t(v) * 3;
-        if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2]))
+        if (!finite && (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2])))
             return Status::error(StatusCode::invalid_input, "vertex " + str(v) + " has a non-finite position");
     }
     if (o.scheme == SubdivisionScheme::loop && in.face_sizes) {
@@ -218,6 +221,15 @@ void build_edges(PreparedMesh& m) {
 size_t orient_faces(PreparedMesh& m) {
     const size_t F = m.face_count();
     const size_t E = m.edge_side_begin.size() - 1;
+    // Already consistent (the common case): every edge between two faces is traversed in opposite
+    // directions, so the walk below would keep every face as it is.
+    bool consistent = true;
+    for (size_t e = 0; e < E && consistent; ++e) {
+        if (m.edge_side_begin[e + 1] - m.edge_side_begin[e] != 2) continue;
+        const uint32_t c1 = m.side_corner[m.edge_side_begin[e]], c2 = m.side_corner[m.edge_side_begin[e] + 1];
+        consistent = m.corner_face[c1] == m.corner_face[c2] || m.corner_welded[c1] != m.corner_welded[c2];
+    }
+    if (consistent) return 0;
     std::vector<int8_t> flip(F, -1);
     std::vector<uint32_t> queue, component;
     std::vector<uint8_t> to_flip(F, 0);
