@@ -185,6 +185,34 @@ void split_polygon(std::vector<std::vector<uint32_t>>& pieces, std::vector<uint3
     }
 }
 
+// The corners ordered by edge key (lower end, upper end), ties by index: order_by's order, by a counting pass
+// over the lower ends (a few corners each, placed in index order) and an insertion sort of each run by the
+// upper end that moves a corner only past strictly greater ones (the order_by records, twice the size, cost
+// more than the sorting here). `welded`: the welded positions, above every end.
+std::vector<uint32_t> corners_by_edge(const std::vector<uint64_t>& keys, size_t welded) {
+    const size_t C = keys.size();
+    if (welded > 2 * C + 1024) return order_by<uint64_t>(C, [&](uint32_t c) { return keys[c]; });
+    std::vector<uint32_t> begin(welded + 1, 0), order(C);
+    for (uint64_t k : keys) ++begin[leading_word(k) + 1];
+    for (size_t v = 0; v < welded; ++v) begin[v + 1] += begin[v];
+    std::vector<uint32_t> next(begin.begin(), begin.end() - 1);
+    for (uint32_t c = 0; c < C; ++c) order[next[leading_word(keys[c])]++] = c;
+    for (size_t v = 0; v < welded; ++v) {
+        const uint32_t b = begin[v], e = begin[v + 1];
+        if (e - b > 32) { // a vertex of high valence: no quadratic insertion
+            std::stable_sort(order.begin() + b, order.begin() + e, [&](uint32_t x, uint32_t y) { return keys[x] < keys[y]; });
+            continue;
+        }
+        for (uint32_t i = b + 1; i < e; ++i) {
+            const uint32_t c = order[i];
+            uint32_t j = i;
+            for (; j > b && keys[order[j - 1]] > keys[c]; --j) order[j] = order[j - 1];
+            order[j] = c;
+        }
+    }
+    return order;
+}
+
 // Edges of the welded mesh: sides (corners whose outgoing edge it is) grouped by sorted endpoint pair.
 void build_edges(PreparedMesh& m) {
     const size_t C = m.corner_input.size();
@@ -193,7 +221,7 @@ void build_edges(PreparedMesh& m) {
         const uint32_t a = m.corner_welded[c], b = m.corner_welded[m.next_corner(c)];
         keys[c] = pack(std::min(a, b), std::max(a, b));
     }
-    const std::vector<uint32_t> half = order_by<uint64_t>(C, [&](uint32_t c) { return keys[c]; });
+    const std::vector<uint32_t> half = corners_by_edge(keys, m.welded_input.size());
     auto ekey = [&](uint32_t c) { return keys[c]; };
     m.edge_side_begin.assign(1, 0);
     m.edge_side_begin.reserve(C / 2 + 2); // (closed manifold meshes: exactly)
