@@ -475,8 +475,13 @@ void FaceEvaluation::prepare_smooth() {
     const bool known = !vtx_ready;
     if (known) {
         x.patch_v.resize(size_t(regular_points) * size_t(W));
-        for (size_t i = 0; i < size_t(regular_points); ++i)
-            std::copy_n(&m.refiner_data[size_t(m.regular_control[f * regular_points + i]) * size_t(W)], W, &x.patch_v[i * size_t(W)]);
+        const uint32_t* control = &m.regular_control[f * regular_points];
+        if (W == 3) // positions alone: no library call for 12 bytes
+            for (size_t i = 0; i < size_t(regular_points); ++i)
+                for (size_t d = 0; d < 3; ++d) x.patch_v[i * 3 + d] = m.refiner_data[size_t(control[i]) * 3 + d];
+        else
+            for (size_t i = 0; i < size_t(regular_points); ++i)
+                std::copy_n(&m.refiner_data[size_t(control[i]) * size_t(W)], W, &x.patch_v[i * size_t(W)]);
     } else {
         x.patch_v.resize(size_t(vtx.GetNumPatchPoints()) * size_t(W));
         vtx.PreparePatchPoints(m.refiner_data.data(), W, x.patch_v.data(), W);
