@@ -171,6 +171,14 @@ Status build_surfaces(PreparedMesh& m) {
 
     const size_t unsafe = keep_valence2_faces_off_creases(m, crease_pairs);
     std::vector<uint8_t> failed(F, 0);
+    m.face_regular_interior.assign(F, 0);
+    // Only quads are regular patches (Catmull-Clark, bilinear): no room kept on a mesh without them.
+    bool quads = m.scheme != osd::Sdc::SCHEME_LOOP;
+    if (quads) {
+        quads = false;
+        for (size_t f = 0; f < F && !quads; ++f) quads = m.face_size(f) == 4;
+    }
+    m.regular_control.assign(quads ? F * regular_points : 0, 0);
     tbb::parallel_for(tbb::blocked_range<size_t>(0, F, 256), [&](const tbb::blocked_range<size_t>& range) {
         Surface vtx, fvar;
         for (size_t f = range.begin(); f != range.end(); ++f) {
@@ -179,6 +187,13 @@ Status build_surfaces(PreparedMesh& m) {
             if (ok && m.K > 0) ok = m.factory_of(f).InitFaceVaryingSurface(m.face_refiner[f], &fvar);
             if (!ok) failed[f] = 1;
             m.face_regular[f] = ok && vtx.IsRegular() && !vtx.IsLinear();
+            // Kept so that the evaluation needs no second InitVertexSurface for them (most faces of a quad mesh).
+            int control[regular_points];
+            if (quads && m.face_regular[f] && regular_interior(vtx, m.parameterization(f)) &&
+                vtx.GetControlPointIndices(control) == regular_points) {
+                m.face_regular_interior[f] = 1;
+                std::copy_n(control, regular_points, &m.regular_control[f * regular_points]);
+            }
         }
     });
     for (size_t f = 0; f < F; ++f)
@@ -190,6 +205,21 @@ Status build_surfaces(PreparedMesh& m) {
         m.stats.warnings.push_back(std::to_string(m.stats.failed_faces - unsafe) +
                                    " faces have no limit surface in OpenSubdiv; tessellated linearly");
     return Status::success();
+}
+
+// True if the surface is a regular B-spline patch with no boundary: at an interior (u, v) every one of the 16
+// basis weights is non-zero, while a boundary folds the phantom points' weights into others and sets them to
+// zero (Far's boundary-adjusted B-spline basis).
+bool regular_interior(const Surface& s, const osd::Bfr::Parameterization& param) {
+    if (!s.IsRegular() || s.GetNumControlPoints() != regular_points ||
+        param.GetType() != osd::Bfr::Parameterization::QUAD)
+        return false;
+    float w[regular_points];
+    const float probe[2] = {0.375f, 0.625f};
+    if (s.EvaluateStencil(probe, w) != regular_points) return false;
+    for (float x : w)
+        if (x == 0.0f) return false;
+    return true;
 }
 
 namespace {

@@ -30,6 +30,12 @@
 // bits as Surface::Evaluate. `furrow -j 1 bench tessellate --blender-only --repeat 5` (32k-quad cube sphere,
 // prepare + tessellate, three interleaved rounds against the binary before this path): rate 8 239-286 ->
 // 132-142 ms, rate 4 84-95 -> 56-60 ms (Blender level 2: 191-244 ms, level 3: 688-786 ms in the same runs).
+// With positions alone, a face combines all its coordinates at once, several per vector (limit_blocks), and
+// normalises their normals there too, with the same operations per lane.
+//
+// The tessellation pattern itself (Bfr::Tessellation's coordinates and triangles) is a function of the face
+// size and the rates, so it is cached per signature and thread too (Pattern), and the triangles' corners are
+// mapped to output vertices here as TransformFacetCoordIndices does.
 #include "tessellate_internal.h"
 #include <furrow_kernel/huge_pages.h>
 
@@ -42,6 +48,7 @@
 #include <algorithm>
 #include <array>
 #include <cstring>
+#include <limits>
 
 namespace furrow::tessellate_detail {
 namespace {
@@ -61,56 +68,97 @@ bool is_zero(const float* n) { return n[0] == 0.0f && n[1] == 0.0f && n[2] == 0.
 
 // Per-thread buffers, reused from face to face.
 struct Scratch {
-    std::vector<int> rates, bidx, facets;
-    std::vector<float> coords, patch_v, patch_a, P, Du, Dv, w;
+    std::vector<int> rates, bidx;
+    std::vector<float> patch_v, patch_a, P, Du, Dv, w;
+    std::vector<float> limit; // regular interior faces, positions alone: P and unit normal of every coordinate
     std::vector<const float*> corner_data, control;
 };
 
 // ---- regular interior faces: basis weights cached per rate signature
-constexpr int regular_points = 16; // a bicubic B-spline patch
+int limit_lanes();
 constexpr int regular_weights = 3 * regular_points; // per coordinate: P, Du, Dv
 
 // The weights of every coordinate of one tessellation (one rate signature) of a regular interior patch.
 struct RegularWeights {
     std::vector<int> rates;
     std::vector<float> w; // per coordinate: 16 of P, 16 of Du, 16 of Dv
+    // The same per block of limit_lanes() coordinates, transposed: per weight (16 of P, 16 of Du, 16 of Dv),
+    // the block's coordinates side by side (0 past the last coordinate), for limit_blocks.
+    std::vector<float> blocks;
 };
 
-// One thread's cache (weights are a function of the coordinates alone: which thread computed them changes no
-// bit). A handful of signatures at uniform rates; bounded for adaptive rates, where the rest use Bfr.
-struct WeightCache {
+// The tessellation of one signature (face size and rates): Bfr::Tessellation's coordinates and triangles,
+// which depend on the parameterisation (the scheme and the face size) and the rates alone, so one face
+// computes them for all faces of its signature (a face of the cube sphere at rate 4 built its Tessellation,
+// copied out its coordinates and triangles and remapped them through TransformFacetCoordIndices: 10 % of the
+// evaluation).
+struct Pattern {
+    int n = 0;
+    std::vector<int> rates;
+    int ncoords = 0, nb = 0, nfacets = 0;
+    std::vector<float> coords; // (u, v) of every coordinate, the boundary's first
+    std::vector<int> facets;   // triangles: 3 coordinate indices each
+
+    void build(const osd::Bfr::Parameterization& param, int size, const std::vector<int>& face_rates) {
+        osd::Bfr::Tessellation t(param, int(face_rates.size()), face_rates.data(),
+                                 osd::Bfr::Tessellation::Options().SetFacetSize(3));
+        n = size;
+        rates = face_rates;
+        ncoords = t.GetNumCoords();
+        nb = t.GetNumBoundaryCoords();
+        nfacets = t.GetNumFacets();
+        coords.resize(size_t(ncoords) * 2);
+        t.GetCoords(coords.data());
+        facets.resize(size_t(nfacets) * 3);
+        t.GetFacets(facets.data());
+    }
+};
+
+// One thread's cache of patterns and regular weights (functions of the signature alone: which thread computed
+// them changes no bit). A handful of signatures at uniform rates; bounded for adaptive rates, where the rest
+// are computed per face.
+struct FaceCache {
     static constexpr size_t max_entries = 64;
     std::vector<RegularWeights> entries;
+    std::vector<std::unique_ptr<Pattern>> patterns; // (stable addresses)
+    Pattern spare; // the last pattern asked for once the cache is full
 };
+using FaceCaches = tbb::enumerable_thread_specific<FaceCache>;
 
-// True if the surface is a regular B-spline patch with no boundary: at an interior (u, v) every one of the 16
-// basis weights is non-zero, while a boundary folds the phantom points' weights into others and sets them to
-// zero (Far's boundary-adjusted B-spline basis).
-bool regular_interior(const Surface& s, const osd::Bfr::Parameterization& param) {
-    if (!s.IsRegular() || s.GetNumControlPoints() != regular_points ||
-        param.GetType() != osd::Bfr::Parameterization::QUAD)
-        return false;
-    float w[regular_points];
-    const float probe[2] = {0.375f, 0.625f};
-    if (s.EvaluateStencil(probe, w) != regular_points) return false;
-    for (float x : w)
-        if (x == 0.0f) return false;
-    return true;
+// The pattern of face f's signature (its rates in `rates`, from face_rates); valid until the next call.
+const Pattern& pattern_for(FaceCache& cache, const osd::Bfr::Parameterization& param, int n, const std::vector<int>& rates) {
+    for (const auto& p : cache.patterns)
+        if (p->n == n && p->rates == rates) return *p;
+    Pattern* p = &cache.spare;
+    if (cache.patterns.size() < FaceCache::max_entries) p = cache.patterns.emplace_back(std::make_unique<Pattern>()).get();
+    p->build(param, n, rates);
+    return *p;
 }
 
-// The cached weights for this face's rates, computed from its surface if new; null if the cache is full.
-const float* regular_weights_for(WeightCache& cache, const Surface& s, const std::vector<int>& rates,
-                                 const std::vector<float>& coords, int ncoords) {
+// The cached weights for this face's rates, null if there are none yet.
+const RegularWeights* cached_weights(const FaceCache& cache, const std::vector<int>& rates) {
     for (const RegularWeights& e : cache.entries)
-        if (e.rates == rates) return e.w.data();
-    if (cache.entries.size() >= WeightCache::max_entries) return nullptr;
-    RegularWeights e{rates, std::vector<float>(size_t(ncoords) * regular_weights)};
+        if (e.rates == rates) return &e;
+    return nullptr;
+}
+
+// The weights for this face's rates, computed from its surface if new; null if the cache is full.
+const RegularWeights* regular_weights_for(FaceCache& cache, const Surface& s, const std::vector<int>& rates,
+                                 const std::vector<float>& coords, int ncoords) {
+    if (const RegularWeights* e = cached_weights(cache, rates)) return e;
+    if (cache.entries.size() >= FaceCache::max_entries) return nullptr;
+    RegularWeights e{rates, std::vector<float>(size_t(ncoords) * regular_weights), {}};
     for (int i = 0; i < ncoords; ++i) {
         float* w = &e.w[size_t(i) * regular_weights];
         s.EvaluateStencil(&coords[size_t(i) * 2], w, w + regular_points, w + 2 * regular_points);
     }
+    const size_t L = size_t(limit_lanes());
+    e.blocks.assign((size_t(ncoords) + L - 1) / L * regular_weights * L, 0.0f);
+    for (size_t i = 0; i < size_t(ncoords); ++i)
+        for (size_t k = 0; k < regular_weights; ++k)
+            e.blocks[(i / L * regular_weights + k) * L + i % L] = e.w[i * regular_weights + k];
     cache.entries.push_back(std::move(e));
-    return cache.entries.back().w.data();
+    return &cache.entries.back();
 }
 
 // P, Du, Dv from 16 patch points of any width, as Bfr's points::Combine3 sums them.
@@ -131,25 +179,89 @@ void combine3(const float* w, const float* pts, int n, float* P, float* Du, floa
     }
 }
 
-// The same for positions alone (3 floats): the x, y, z of P, Du and Dv summed as three 4-lane vectors (GCC
-// vector extensions: lane by lane the same float products and sums, in the same order, as Combine3). The
-// 4th lane reads the next point's x, and past the 16th point one float of padding (patch_v has it).
-using float4 = float __attribute__((vector_size(16)));
+// Positions alone (3 floats): P and the unit normal of every coordinate of the face at once, L coordinates
+// side by side in the lanes of a vector (GCC vector extensions). Each lane does the float products and sums
+// of Combine3, in its order (the weight times the point, then added to the running sum), then the cross
+// product and normalise() above, in double as there: the same bits. One coordinate at a time, the sums were
+// 3 chains of 16 dependent additions and the normal a chain of square root and divisions, each waiting on
+// the latency of the last; L coordinates are 9 (then 3) independent chains of L lanes each.
+// The padding coordinates of the last block have zero weights and are never read.
+// weights: RegularWeights::blocks; out, per block of L: x, y, z of P, then of the normal (6 x L floats).
+template <int L>
+struct Lanes; // L floats, L ints, L doubles (GCC takes no vector size that depends on a template argument)
+template <>
+struct Lanes<4> {
+    typedef float F __attribute__((vector_size(16)));
+    typedef int32_t I __attribute__((vector_size(16)));
+    typedef double D __attribute__((vector_size(32)));
+};
+template <>
+struct Lanes<16> {
+    typedef float F __attribute__((vector_size(64)));
+    typedef int32_t I __attribute__((vector_size(64)));
+    typedef double D __attribute__((vector_size(128)));
+};
 
-void combine3_xyz(const float* w, const float* pts, float* P, float* Du, float* Dv) {
-    const float *wp = w, *wu = w + regular_points, *wv = w + 2 * regular_points;
-    float4 s;
-    std::memcpy(&s, pts, sizeof s);
-    float4 p = wp[0] * s, u = wu[0] * s, v = wv[0] * s;
-    for (int i = 1; i < regular_points; ++i) {
-        std::memcpy(&s, pts + size_t(i) * 3, sizeof s);
-        p += wp[i] * s;
-        u += wu[i] * s;
-        v += wv[i] * s;
+template <int L>
+[[gnu::always_inline]] inline void limit_blocks_of(const float* weights, size_t nblocks, const float* pts, float* out) {
+    using F = typename Lanes<L>::F;
+    using I = typename Lanes<L>::I;
+    using D = typename Lanes<L>::D;
+    for (size_t b = 0; b < nblocks; ++b, weights += regular_weights * L, out += 6 * L) {
+        F acc[9];
+        F w;
+        for (int k = 0; k < 3; ++k) {
+            std::memcpy(&w, weights + k * regular_points * L, sizeof w);
+            for (int d = 0; d < 3; ++d) acc[k * 3 + d] = w * pts[d];
+        }
+        for (int i = 1; i < regular_points; ++i) {
+            const float* src = pts + size_t(i) * 3;
+            for (int k = 0; k < 3; ++k) {
+                std::memcpy(&w, weights + (k * regular_points + i) * L, sizeof w);
+                for (int d = 0; d < 3; ++d) acc[k * 3 + d] += w * src[d];
+            }
+        }
+        const F *u = acc + 3, *v = acc + 6;
+        const D n[3] = {__builtin_convertvector(u[1] * v[2] - u[2] * v[1], D),
+                        __builtin_convertvector(u[2] * v[0] - u[0] * v[2], D),
+                        __builtin_convertvector(u[0] * v[1] - u[1] * v[0], D)};
+        const D s = n[0] * n[0] + n[1] * n[1] + n[2] * n[2];
+        D l;
+        for (int j = 0; j < L; ++j) l[j] = std::sqrt(s[j]);
+        const I ok = __builtin_convertvector((l > 0.0) & (l <= std::numeric_limits<double>::max()), I); // -1 or 0
+        for (int d = 0; d < 3; ++d) {
+            std::memcpy(out + d * L, &acc[d], sizeof(F));
+            const F q = (F)((I)__builtin_convertvector(n[d] / l, F) & ok);
+            std::memcpy(out + (3 + d) * L, &q, sizeof(F));
+        }
     }
-    P[0] = p[0], P[1] = p[1], P[2] = p[2];
-    Du[0] = u[0], Du[1] = u[1], Du[2] = u[2];
-    Dv[0] = v[0], Dv[1] = v[1], Dv[2] = v[2];
+}
+
+#if defined(__x86_64__) && defined(__GNUC__)
+// 16 lanes where the processor has AVX-512 (chosen at run time: the build targets baseline x86-64).
+[[gnu::target("avx512f")]] void limit_blocks16(const float* weights, size_t nblocks, const float* pts, float* out) {
+    limit_blocks_of<16>(weights, nblocks, pts, out);
+}
+#endif
+void limit_blocks4(const float* weights, size_t nblocks, const float* pts, float* out) {
+    limit_blocks_of<4>(weights, nblocks, pts, out);
+}
+
+// The lanes of limit_blocks on this processor (which changes no bit: each lane computes alone).
+int limit_lanes() {
+#if defined(__x86_64__) && defined(__GNUC__)
+    static const int lanes = __builtin_cpu_supports("avx512f") ? 16 : 4;
+    return lanes;
+#else
+    return 4;
+#endif
+}
+
+void limit_blocks(const float* weights, size_t nblocks, const float* pts, float* out) {
+#if defined(__x86_64__) && defined(__GNUC__)
+    if (limit_lanes() == 16) return limit_blocks16(weights, nblocks, pts, out);
+#endif
+    limit_blocks4(weights, nblocks, pts, out);
 }
 
 // P alone (face-varying data), as Bfr's points::Combine1 sums them.
@@ -195,21 +307,22 @@ struct Evaluation {
     UninitialisedFloats corner_normal, side_normal;
     // Shared normals whose owner fell back to its control polygon: every face evaluates them (second pass).
     std::vector<uint8_t> sector_fallback, edge_fallback;
-    tbb::enumerable_thread_specific<WeightCache> weight_cache;
+    FaceCaches face_cache;
 };
 
 // Output indices and normal slots of everything, from prefix sums over the rates.
-Status plan_layout(Layout& L, const PreparedMesh& m, const std::vector<int>& rates) {
+Status plan_layout(Layout& L, FaceCaches& caches, const PreparedMesh& m, const std::vector<int>& rates) {
     const size_t F = m.face_count(), E = m.edges.size();
     L.face_interior.resize(F);
     std::vector<uint32_t> face_facets(F);
     tbb::parallel_for(tbb::blocked_range<size_t>(0, F, 512), [&](const tbb::blocked_range<size_t>& range) {
         std::vector<int> r;
+        FaceCache& cache = caches.local();
         for (size_t f = range.begin(); f != range.end(); ++f) {
-            const int nr = face_rates(m, f, rates, r);
-            osd::Bfr::Tessellation t(m.parameterization(f), nr, r.data());
-            L.face_interior[f] = uint32_t(t.GetNumInteriorCoords());
-            face_facets[f] = uint32_t(t.GetNumFacets());
+            face_rates(m, f, rates, r);
+            const Pattern& p = pattern_for(cache, m.parameterization(f), int(m.face_size(f)), r);
+            L.face_interior[f] = uint32_t(p.ncoords - p.nb);
+            face_facets[f] = uint32_t(p.nfacets);
         }
     });
     size_t cursor = m.group_value.size(), slots = 0, tris = 0;
@@ -288,18 +401,24 @@ struct FaceEvaluation {
     const bool smooth;
     Surface &vtx, &fvar;
     Scratch& x;
+    FaceCache& cache;
     const uint32_t c0;
     const int n;
     const osd::Bfr::Parameterization param;
     const int nr;
-    osd::Bfr::Tessellation tess;
+    const Pattern& pat;
     const int ncoords, nb;
     float face_normal[3] = {0, 0, 1};
     // Regular interior surfaces: the cached weights of every coordinate (null: Bfr evaluates).
     const float* vtx_weights = nullptr;
     const float* fvar_weights = nullptr;
+    bool has_limit = false; // x.limit holds P and the normal of every coordinate (limit_blocks)
+    bool vtx_ready;         // vtx is this face's surface (else made when needed: prepare_smooth)
 
-    FaceEvaluation(Evaluation& ev, size_t f, bool smooth, bool limit_corners, Surface& vtx, Surface& fvar, Scratch& x);
+    // vtx_ready false: vtx was not made for a face build_surfaces found regular interior.
+    FaceEvaluation(Evaluation& ev, size_t f, bool smooth, bool limit_corners, Surface& vtx, Surface& fvar, Scratch& x,
+                   bool vtx_ready = true);
+    void prepare_smooth();
     void control_normal(float* nrm);
     bool eval_point(int i, float* nrm);
     void eval_attrs(int i, size_t o);
@@ -317,13 +436,11 @@ struct FaceEvaluation {
 };
 
 FaceEvaluation::FaceEvaluation(Evaluation& ev, size_t f, bool smooth, bool limit_corners, Surface& vtx, Surface& fvar,
-                               Scratch& x)
-    : ev(ev), m(ev.m), L(ev.L), W(ev.W), K(ev.K), f(f), smooth(smooth), vtx(vtx), fvar(fvar), x(x), c0(m.face_offset[f]),
-      n(int(m.face_size(f))), param(m.parameterization(f)), nr(face_rates(m, f, ev.rates, x.rates)),
-      tess(param, nr, x.rates.data(), osd::Bfr::Tessellation::Options().SetFacetSize(3)), ncoords(tess.GetNumCoords()),
-      nb(tess.GetNumBoundaryCoords()) {
-    x.coords.resize(size_t(ncoords) * 2);
-    tess.GetCoords(x.coords.data());
+                               Scratch& x, bool vtx_ready)
+    : ev(ev), m(ev.m), L(ev.L), W(ev.W), K(ev.K), f(f), smooth(smooth), vtx(vtx), fvar(fvar), x(x),
+      cache(ev.face_cache.local()), c0(m.face_offset[f]), n(int(m.face_size(f))), param(m.parameterization(f)),
+      nr(face_rates(m, f, ev.rates, x.rates)), pat(pattern_for(cache, param, n, x.rates)), ncoords(pat.ncoords),
+      nb(pat.nb), vtx_ready(vtx_ready) {
     x.bidx.resize(size_t(nb));
     x.P.resize(size_t(W));
     x.Du.resize(size_t(W));
@@ -331,17 +448,7 @@ FaceEvaluation::FaceEvaluation(Evaluation& ev, size_t f, bool smooth, bool limit
     x.w.resize(size_t(n));
     x.corner_data.resize(size_t(n));
     if (smooth) {
-        x.patch_v.resize(size_t(vtx.GetNumPatchPoints()) * size_t(W) + 1); // + 1: combine3_xyz's 4th lane
-        x.patch_v.back() = 0.0f;
-        vtx.PreparePatchPoints(m.refiner_data.data(), W, x.patch_v.data(), W);
-        if (K > 0) {
-            x.patch_a.resize(size_t(fvar.GetNumPatchPoints()) * size_t(K));
-            fvar.PreparePatchPoints(m.refiner_fvar.data(), K, x.patch_a.data(), K);
-        }
-        WeightCache& cache = ev.weight_cache.local();
-        if (regular_interior(vtx, param)) vtx_weights = regular_weights_for(cache, vtx, x.rates, x.coords, ncoords);
-        if (K > 0 && regular_interior(fvar, param))
-            fvar_weights = regular_weights_for(cache, fvar, x.rates, x.coords, ncoords);
+        prepare_smooth();
     } else {
         for (int k = 0; k < n; ++k) {
             const uint32_t c = c0 + uint32_t(k), p = m.corner_point[c];
@@ -355,6 +462,55 @@ FaceEvaluation::FaceEvaluation(Evaluation& ev, size_t f, bool smooth, bool limit
         face_normal[2] = float(nn[2]);
         normalise(face_normal);
     }
+}
+
+// Patch points and cached weights of a smooth face. A regular interior face (build_surfaces) comes without
+// its vertex surface (vtx_ready false): its patch points are its control points, and the surface is made
+// here only if Bfr must evaluate it (a full cache) or its signature's weights are new.
+void FaceEvaluation::prepare_smooth() {
+    auto make_surface = [&] {
+        if (!vtx_ready) vtx_ready = m.factory_of(f).InitVertexSurface(m.face_refiner[f], &vtx);
+        return vtx_ready; // (it was made once in build_surfaces: a failure here would be a bug)
+    };
+    const bool known = !vtx_ready;
+    if (known) {
+        x.patch_v.resize(size_t(regular_points) * size_t(W));
+        const uint32_t* control = &m.regular_control[f * regular_points];
+        if (W == 3) // positions alone: no library call for 12 bytes
+            for (size_t i = 0; i < size_t(regular_points); ++i)
+                for (size_t d = 0; d < 3; ++d) x.patch_v[i * 3 + d] = m.refiner_data[size_t(control[i]) * 3 + d];
+        else
+            for (size_t i = 0; i < size_t(regular_points); ++i)
+                std::copy_n(&m.refiner_data[size_t(control[i]) * size_t(W)], W, &x.patch_v[i * size_t(W)]);
+    } else {
+        x.patch_v.resize(size_t(vtx.GetNumPatchPoints()) * size_t(W));
+        vtx.PreparePatchPoints(m.refiner_data.data(), W, x.patch_v.data(), W);
+    }
+    if (K > 0) {
+        x.patch_a.resize(size_t(fvar.GetNumPatchPoints()) * size_t(K));
+        fvar.PreparePatchPoints(m.refiner_fvar.data(), K, x.patch_a.data(), K);
+    }
+    // (Pointers into the entries' own arrays: those stay put when the cache grows.)
+    const RegularWeights* rw = nullptr;
+    if (known) {
+        rw = cached_weights(cache, x.rates);
+        if (!rw && make_surface()) rw = regular_weights_for(cache, vtx, x.rates, pat.coords, ncoords);
+    } else if (regular_interior(vtx, param)) {
+        rw = regular_weights_for(cache, vtx, x.rates, pat.coords, ncoords);
+    }
+    if (rw) {
+        vtx_weights = rw->w.data();
+        if (W == 3) {
+            const size_t nblocks = rw->blocks.size() / (regular_weights * size_t(limit_lanes()));
+            x.limit.resize(nblocks * 6 * size_t(limit_lanes()));
+            limit_blocks(rw->blocks.data(), nblocks, x.patch_v.data(), x.limit.data());
+            has_limit = true;
+        }
+    } else {
+        make_surface(); // Bfr evaluates
+    }
+    if (K > 0 && regular_interior(fvar, param))
+        if (const RegularWeights* fw = regular_weights_for(cache, fvar, x.rates, pat.coords, ncoords)) fvar_weights = fw->w.data();
 }
 
 // The control polygon's normal: the fallback where the surface's derivatives vanish.
@@ -373,14 +529,17 @@ void FaceEvaluation::control_normal(float* nrm) {
 // tangent plane).
 bool FaceEvaluation::eval_point(int i, float* nrm) {
     std::vector<float>&P = x.P, &Du = x.Du, &Dv = x.Dv, &w = x.w;
-    const float* uv = &x.coords[size_t(i) * 2];
+    const float* uv = &pat.coords[size_t(i) * 2];
     if (smooth) {
-        if (vtx_weights) {
-            const float* wi = vtx_weights + size_t(i) * regular_weights;
-            if (W == 3)
-                combine3_xyz(wi, x.patch_v.data(), P.data(), Du.data(), Dv.data());
-            else
-                combine3(wi, x.patch_v.data(), W, P.data(), Du.data(), Dv.data());
+        if (has_limit) {
+            const int L = limit_lanes();
+            const float* b = &x.limit[size_t(i / L) * 6 * size_t(L) + size_t(i % L)];
+            for (int d = 0; d < 3; ++d) P[size_t(d)] = b[d * L], nrm[d] = b[(3 + d) * L];
+            if (!is_zero(nrm)) return false;
+            control_normal(nrm);
+            return true;
+        } else if (vtx_weights) {
+            combine3(vtx_weights + size_t(i) * regular_weights, x.patch_v.data(), W, P.data(), Du.data(), Dv.data());
         } else {
             vtx.Evaluate(uv, x.patch_v.data(), W, P.data(), Du.data(), Dv.data());
         }
@@ -403,7 +562,7 @@ bool FaceEvaluation::eval_point(int i, float* nrm) {
 
 void FaceEvaluation::eval_attrs(int i, size_t o) {
     std::vector<float>& w = x.w;
-    const float* uv = &x.coords[size_t(i) * 2];
+    const float* uv = &pat.coords[size_t(i) * 2];
     if (K > 0) {
         float* a = &ev.attrs[o * size_t(K)];
         if (smooth && fvar_weights) {
@@ -461,9 +620,13 @@ void FaceEvaluation::boundary() {
         const bool split = m.edge_split[e] != 0, owner = m.edge_owner[e] == s, shared = m.edge_normal_shared[e] != 0;
         for (int j = 0; j < np; ++j) {
             const uint32_t q = uint32_t(forward ? j : np - 1 - j);
-            if (owner || !shared) {
-                const bool fallback = eval_point(b + j, &ev.side_normal[(size_t(L.side_slot[s]) + q) * 3]);
-                if (fallback && shared) ev.edge_fallback[e] = 1;
+            const uint32_t o = split ? L.side_out[s] + q : L.edge_out[e] + q;
+            if (owner && shared) {
+                // Straight into the output (average_edge_normals normalises it there): the slots of a shared
+                // edge stay untouched, unless the owner falls back (then every side fills its own).
+                if (eval_point(b + j, &ev.out.normals[size_t(o) * 3])) ev.edge_fallback[e] = 1;
+            } else if (!shared) {
+                eval_point(b + j, &ev.side_normal[(size_t(L.side_slot[s]) + q) * 3]);
             }
             if (owner) {
                 if (split) {
@@ -472,7 +635,6 @@ void FaceEvaluation::boundary() {
                     write_data(L.edge_out[e] + q);
                 }
             }
-            const uint32_t o = split ? L.side_out[s] + q : L.edge_out[e] + q;
             if (split || owner) eval_attrs(b + j, o);
             bidx[size_t(b + j)] = int(o);
         }
@@ -501,27 +663,29 @@ void FaceEvaluation::fallback_normals() {
     }
 }
 
-// The interior points, all the face's own.
+// The interior points, all the face's own (a normal left zero, with no tangent plane nor polygon normal,
+// becomes +z, as average_group_normals and average_edge_normals do for the shared points).
 void FaceEvaluation::interior() {
     const uint32_t interior = L.face_out[f];
     float* N = ev.out.normals.data();
     for (int i = nb; i < ncoords; ++i) {
         const size_t o = interior + uint32_t(i - nb);
         eval_point(i, &N[o * 3]);
+        if (is_zero(&N[o * 3])) N[o * 3 + 2] = 1.0f;
         write_data(o);
         eval_attrs(i, o);
     }
 }
 
-// The face's triangles, with their patch coordinates if kept.
+// The face's triangles, with their patch coordinates if kept. Their corners are mapped to output vertices as
+// Bfr's Tessellation::TransformFacetCoordIndices does: a boundary coordinate to its shared point (bidx), an
+// interior one to the face's own interior outputs.
 void FaceEvaluation::triangles() {
     TessellateOutput& out = ev.out;
-    const std::vector<float>& coords = x.coords;
+    const std::vector<float>& coords = pat.coords;
     const uint32_t interior = L.face_out[f];
-    const int nfacets = tess.GetNumFacets();
-    x.facets.resize(size_t(nfacets) * 3);
-    std::vector<int>& facets = x.facets;
-    tess.GetFacets(facets.data());
+    const int nfacets = pat.nfacets;
+    const int* facets = pat.facets.data();
     const size_t t0 = L.face_tri[f];
     if (ev.keep_parameters)
         for (int t = 0; t < nfacets; ++t) {
@@ -532,16 +696,22 @@ void FaceEvaluation::triangles() {
                 out.triangle_coords[(t0 + size_t(t)) * 6 + size_t(k) * 2 + 1] = coords[size_t(local) * 2 + 1];
             }
         }
-    tess.TransformFacetCoordIndices(facets.data(), x.bidx.data(), int(interior) - nb);
+    const uint32_t source = m.face_source[f];
+    const int* bidx = x.bidx.data();
+    uint32_t* indices = &out.indices[t0 * 3];
     for (int t = 0; t < nfacets; ++t) {
-        out.triangle_faces[t0 + size_t(t)] = m.face_source[f];
-        for (int k = 0; k < 3; ++k) out.indices[(t0 + size_t(t)) * 3 + size_t(k)] = uint32_t(facets[size_t(t) * 3 + size_t(k)]);
+        out.triangle_faces[t0 + size_t(t)] = source;
+        for (int k = 0; k < 3; ++k) {
+            const int local = facets[size_t(t) * 3 + size_t(k)];
+            indices[size_t(t) * 3 + size_t(k)] = local < nb ? uint32_t(bidx[local]) : interior + uint32_t(local - nb);
+        }
     }
 }
 
 // limit_corners: linear faces read their corners' limit positions (only once all smooth faces are done).
-void process(Evaluation& ev, size_t f, bool smooth, bool limit_corners, Surface& vtx, Surface& fvar, Scratch& x) {
-    FaceEvaluation face(ev, f, smooth, limit_corners, vtx, fvar, x);
+void process(Evaluation& ev, size_t f, bool smooth, bool limit_corners, Surface& vtx, Surface& fvar, Scratch& x,
+             bool vtx_ready = true) {
+    FaceEvaluation face(ev, f, smooth, limit_corners, vtx, fvar, x, vtx_ready);
     face.boundary();
     face.interior();
     face.triangles();
@@ -589,9 +759,11 @@ void evaluate_faces(Evaluation& ev) {
                 if (smooth_pass) {
                     // Surfaces were checked in build_surfaces; a failure here would be a bug, but it must not
                     // become a crash or a crack: such a face would keep its (already shared) boundary points.
-                    bool ok = m.factory_of(f).InitVertexSurface(m.face_refiner[f], &vtx);
+                    // Regular interior faces need no vertex surface for most of them (prepare_smooth).
+                    const bool made = !m.face_regular_interior[f];
+                    bool ok = !made || m.factory_of(f).InitVertexSurface(m.face_refiner[f], &vtx);
                     if (ok && K > 0) ok = m.factory_of(f).InitFaceVaryingSurface(m.face_refiner[f], &fvar);
-                    process(ev, f, ok, false, vtx, fvar, scratch);
+                    process(ev, f, ok, false, vtx, fvar, scratch, made);
                 } else {
                     process(ev, f, false, true, vtx, fvar, scratch);
                 }
@@ -630,8 +802,8 @@ void average_group_normals(Evaluation& ev) {
     });
 }
 
-// Across the edges that are no crease: the owner side's normals where they are shared, else the sides'
-// normals averaged (the same for every side of a seam).
+// Across the edges that are no crease: the owner side's normals where they are shared (in the output
+// already), else the sides' normals averaged (the same for every side of a seam).
 void average_edge_normals(Evaluation& ev) {
     const PreparedMesh& m = ev.m;
     const Layout& L = ev.L;
@@ -653,13 +825,18 @@ void average_edge_normals(Evaluation& ev) {
                     continue;
                 }
                 float sum[3] = {0, 0, 0};
-                if (m.edge_normal_shared[e] && !ev.edge_fallback[e])
-                    std::copy_n(slot(m.edge_owner[e]), 3, sum);
-                else
+                const float* first = slot(m.edge_side_begin[e]);
+                if (m.edge_normal_shared[e] && !ev.edge_fallback[e]) {
+                    // The owner's normal, written where its side's vertex is (boundary()).
+                    const uint32_t s = m.edge_owner[e];
+                    first = &N[(size_t(m.edge_split[e] ? L.side_out[s] : L.edge_out[e]) + size_t(q)) * 3];
+                    std::copy_n(first, 3, sum);
+                } else {
                     for (uint32_t s = m.edge_side_begin[e]; s < m.edge_side_begin[e + 1]; ++s)
                         for (int k = 0; k < 3; ++k) sum[k] += slot(s)[k];
+                }
                 normalise(sum);
-                if (is_zero(sum)) std::copy_n(slot(m.edge_side_begin[e]), 3, sum);
+                if (is_zero(sum)) std::copy_n(first, 3, sum);
                 if (is_zero(sum)) sum[2] = 1.0f;
                 if (m.edge_split[e]) {
                     for (uint32_t s = m.edge_side_begin[e]; s < m.edge_side_begin[e + 1]; ++s)
@@ -716,7 +893,7 @@ void deinterleave(Evaluation& ev) {
 Status evaluate_tessellation(TessellateOutput& out, const PreparedMesh& m, const std::vector<int>& rates,
                              bool keep_parameters) {
     Evaluation ev{m, rates, out, keep_parameters, m.W, m.K, {}, {}, {}, {}, {}, {}, {}, {}};
-    if (Status s = plan_layout(ev.L, m, rates); !s.ok()) return s;
+    if (Status s = plan_layout(ev.L, ev.face_cache, m, rates); !s.ok()) return s;
     if (Status s = allocate(ev); !s.ok()) return s;
     evaluate_faces(ev);
     evaluate_fallback_normals(ev);
@@ -725,9 +902,6 @@ Status evaluate_tessellation(TessellateOutput& out, const PreparedMesh& m, const
     average_group_normals(ev);
     average_edge_normals(ev);
     const size_t V = ev.L.vertices;
-    float* N = out.normals.data();
-    for (size_t i = 0; i < V; ++i)
-        if (is_zero(&N[i * 3])) N[i * 3 + 2] = 1.0f;
 
     deinterleave(ev);
     out.stats.vertices = V;

@@ -109,13 +109,16 @@ Status check_input(const TessellateInput& in, const SurfaceOptions& o) {
                              str(in.index_count) + " indices do not make whole triangles (give face sizes)");
     }
     if (in.index_count > size_t(0x7fffffff)) return Status::error(StatusCode::out_of_memory, "too many indices");
+    // Every position finite (the common case): the indices need only their range checked.
+    bool finite = true;
+    for (size_t k = 0; k < in.vertex_count * 3; ++k) finite = finite && std::isfinite(in.positions[k]);
     for (size_t i = 0; i < in.index_count; ++i) {
         uint32_t v = in.indices[i];
         if (v >= in.vertex_count)
             return Status::error(StatusCode::invalid_input, "index " + str(i) + " refers to vertex " + str(v) +
                                                                 " but there are " + str(in.vertex_count) + " vertices");
         const float* p = in.positions + size_t(v) * 3;
-        if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2]))
+        if (!finite && (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2])))
             return Status::error(StatusCode::invalid_input, "vertex " + str(v) + " has a non-finite position");
     }
     if (o.scheme == SubdivisionScheme::loop && in.face_sizes) {
@@ -182,6 +185,34 @@ void split_polygon(std::vector<std::vector<uint32_t>>& pieces, std::vector<uint3
     }
 }
 
+// The corners ordered by edge key (lower end, upper end), ties by index: order_by's order, by a counting pass
+// over the lower ends (a few corners each, placed in index order) and an insertion sort of each run by the
+// upper end that moves a corner only past strictly greater ones (the order_by records, twice the size, cost
+// more than the sorting here). `welded`: the welded positions, above every end.
+std::vector<uint32_t> corners_by_edge(const std::vector<uint64_t>& keys, size_t welded) {
+    const size_t C = keys.size();
+    if (welded > 2 * C + 1024) return order_by<uint64_t>(C, [&](uint32_t c) { return keys[c]; });
+    std::vector<uint32_t> begin(welded + 1, 0), order(C);
+    for (uint64_t k : keys) ++begin[leading_word(k) + 1];
+    for (size_t v = 0; v < welded; ++v) begin[v + 1] += begin[v];
+    std::vector<uint32_t> next(begin.begin(), begin.end() - 1);
+    for (uint32_t c = 0; c < C; ++c) order[next[leading_word(keys[c])]++] = c;
+    for (size_t v = 0; v < welded; ++v) {
+        const uint32_t b = begin[v], e = begin[v + 1];
+        if (e - b > 32) { // a vertex of high valence: no quadratic insertion
+            std::stable_sort(order.begin() + b, order.begin() + e, [&](uint32_t x, uint32_t y) { return keys[x] < keys[y]; });
+            continue;
+        }
+        for (uint32_t i = b + 1; i < e; ++i) {
+            const uint32_t c = order[i];
+            uint32_t j = i;
+            for (; j > b && keys[order[j - 1]] > keys[c]; --j) order[j] = order[j - 1];
+            order[j] = c;
+        }
+    }
+    return order;
+}
+
 // Edges of the welded mesh: sides (corners whose outgoing edge it is) grouped by sorted endpoint pair.
 void build_edges(PreparedMesh& m) {
     const size_t C = m.corner_input.size();
@@ -190,10 +221,12 @@ void build_edges(PreparedMesh& m) {
         const uint32_t a = m.corner_welded[c], b = m.corner_welded[m.next_corner(c)];
         keys[c] = pack(std::min(a, b), std::max(a, b));
     }
-    const std::vector<uint32_t> half = order_by<uint64_t>(C, [&](uint32_t c) { return keys[c]; });
+    const std::vector<uint32_t> half = corners_by_edge(keys, m.welded_input.size());
     auto ekey = [&](uint32_t c) { return keys[c]; };
     m.edge_side_begin.assign(1, 0);
+    m.edge_side_begin.reserve(C / 2 + 2); // (closed manifold meshes: exactly)
     m.side_corner.clear();
+    m.side_corner.reserve(C);
     m.corner_edge.assign(C, none);
     m.corner_side.assign(C, none);
     for (size_t i = 0; i < C; ++i) {
@@ -216,6 +249,15 @@ void build_edges(PreparedMesh& m) {
 size_t orient_faces(PreparedMesh& m) {
     const size_t F = m.face_count();
     const size_t E = m.edge_side_begin.size() - 1;
+    // Already consistent (the common case): every edge between two faces is traversed in opposite
+    // directions, so the walk below would keep every face as it is.
+    bool consistent = true;
+    for (size_t e = 0; e < E && consistent; ++e) {
+        if (m.edge_side_begin[e + 1] - m.edge_side_begin[e] != 2) continue;
+        const uint32_t c1 = m.side_corner[m.edge_side_begin[e]], c2 = m.side_corner[m.edge_side_begin[e] + 1];
+        consistent = m.corner_face[c1] == m.corner_face[c2] || m.corner_welded[c1] != m.corner_welded[c2];
+    }
+    if (consistent) return 0;
     std::vector<int8_t> flip(F, -1);
     std::vector<uint32_t> queue, component;
     std::vector<uint8_t> to_flip(F, 0);
@@ -305,6 +347,12 @@ size_t repair_faces(PreparedMesh& m, std::vector<uint32_t>& face_group_of, const
     st.input_faces = nf_in;
     std::vector<uint32_t> welded_of_index(in.index_count);
     for (size_t i = 0; i < in.index_count; ++i) welded_of_index[i] = welded_of[in.indices[i]];
+    m.face_offset.reserve(nf_in + 1);
+    m.face_source.reserve(nf_in);
+    face_group_of.reserve(nf_in);
+    m.corner_input.reserve(in.index_count);
+    m.corner_welded.reserve(in.index_count);
+    m.corner_face.reserve(in.index_count);
     m.face_offset.push_back(0);
     size_t split_polygons = 0;
     size_t first = 0;
@@ -419,6 +467,16 @@ void attribute_values(PreparedMesh& m, const TessellateInput& in, const std::vec
                       const std::vector<uint32_t>& attr_class) {
     const size_t C = m.corner_input.size();
     m.corner_value.assign(C, 0);
+    if (m.K == 0 && !m.has_skin && !in.face_groups) {
+        // No attributes, one group: the key is the welded position alone, so the values are the welded
+        // positions that have corners, numbered in order (what the sort below gives, without it).
+        std::vector<uint32_t> rank(m.welded_input.size(), 0);
+        for (size_t c = 0; c < C; ++c) rank[m.corner_welded[c]] = 1;
+        uint32_t next = 0;
+        for (uint32_t& r : rank) r = r ? next++ : none;
+        for (size_t c = 0; c < C; ++c) m.corner_value[c] = rank[m.corner_welded[c]];
+        return;
+    }
     auto key = [&](uint32_t c) {
         return std::array<uint32_t, 3>{m.corner_welded[c], face_group_of[m.corner_face[c]], attr_class[m.corner_input[c]]};
     };
@@ -546,6 +604,7 @@ void split_points(PreparedMesh& m) {
     }
     std::vector<uint32_t> id(C, none);
     std::vector<uint32_t> points_of_welded(m.welded_input.size(), 0);
+    m.point_welded.reserve(m.welded_input.size()); // (a point per welded position, but at bowties)
     m.corner_point.assign(C, none);
     for (uint32_t c = 0; c < C; ++c) {
         uint32_t& p = id[ds.find(c)];
@@ -570,14 +629,15 @@ void split_points(PreparedMesh& m) {
 void creases_and_seams(PreparedMesh& m, const std::vector<uint8_t>& bad_edge) {
     const SurfaceOptions& o = m.options;
     const size_t F = m.face_count(), E = m.edge_side_begin.size() - 1;
-    std::vector<std::array<double, 3>> face_normal(F);
-    for (size_t f = 0; f < F; ++f) {
-        std::vector<const float*> pts;
+    const bool creases = o.crease_angle_degrees < 180.0;
+    std::vector<std::array<double, 3>> face_normal(creases ? F : 0); // only the crease test reads them
+    std::vector<const float*> pts;
+    for (size_t f = 0; f < face_normal.size(); ++f) {
+        pts.clear();
         for (uint32_t c = m.face_offset[f]; c < m.face_offset[f + 1]; ++c)
             pts.push_back(&m.welded_data[size_t(m.corner_welded[c]) * size_t(m.W)]);
         face_normal[f] = newell_normal(pts.data(), pts.size());
     }
-    const bool creases = o.crease_angle_degrees < 180.0;
     const double cos_crease = std::cos(o.crease_angle_degrees * std::numbers::pi / 180.0);
     m.edge_split.assign(E, 0);
     m.edge_crease.assign(E, 0);
@@ -619,7 +679,38 @@ std::vector<uint32_t> sector_roots(const PreparedMesh& m) {
 }
 
 // ---- groups: output vertices at points, one per (point, value, sector)
+// The common case first: every point's corners have one value and one sector (no seam, crease or
+// non-manifold fan through it). Then the sorts of build_groups give one group and one sector per point, in
+// point order, and each point's corners in index order: the same arrays, from one counting pass. False (and
+// nothing written) if some point has more than one group.
+bool build_groups_per_point(PreparedMesh& m, const std::vector<uint32_t>& sector_root) {
+    const size_t C = m.corner_input.size(), P = m.point_welded.size();
+    std::vector<uint32_t> first(P, none), start(P + 1, 0);
+    for (uint32_t c = 0; c < C; ++c) {
+        const uint32_t p = m.corner_point[c];
+        if (first[p] == none) first[p] = c;
+        else if (m.corner_value[c] != m.corner_value[first[p]] || sector_root[c] != sector_root[first[p]]) return false;
+        ++start[p + 1];
+    }
+    for (size_t p = 0; p < P; ++p) start[p + 1] += start[p];
+    m.corner_group = m.corner_point;
+    m.point_group_begin.resize(P + 1);
+    std::iota(m.point_group_begin.begin(), m.point_group_begin.end(), 0u);
+    m.group_point.resize(P);
+    std::iota(m.group_point.begin(), m.group_point.end(), 0u);
+    m.group_sector = m.group_point;
+    m.group_value.resize(P);
+    for (size_t p = 0; p < P; ++p) m.group_value[p] = m.corner_value[first[p]];
+    m.group_attr_end.resize(P);
+    std::iota(m.group_attr_end.begin(), m.group_attr_end.end(), 1u);
+    m.sector_begin = start;
+    m.sector_corners.resize(C);
+    for (uint32_t c = 0; c < C; ++c) m.sector_corners[start[m.corner_point[c]]++] = c;
+    return true;
+}
+
 void build_groups(PreparedMesh& m, const std::vector<uint32_t>& sector_root) {
+    if (build_groups_per_point(m, sector_root)) return;
     const size_t C = m.corner_input.size(), P = m.point_welded.size();
     auto key = [&](uint32_t c) {
         return std::array<uint32_t, 3>{m.corner_point[c], m.corner_value[c], sector_root[c]};

@@ -51,6 +51,9 @@ struct PreparedMesh {
     std::vector<uint8_t> face_linear;  // 1: tessellated linearly (fallback)
     std::vector<uint8_t> face_uncached; // 1: at an interior valence-2 vertex: surfaces from factory_uncached
     std::vector<uint8_t> face_regular;  // 1: its limit surface is one regular B-spline patch (Bfr IsRegular)
+    std::vector<uint8_t> face_regular_interior; // 1: regular and without boundary (regular_interior): its patch
+                                                // points are its 16 control points, kept in regular_control
+    std::vector<uint32_t> regular_control;      // 16 refiner vertices per face (set for regular interior faces)
     std::vector<int> face_refiner;     // face index in the refiner, -1 for faces left out of it
     std::vector<uint32_t> corner_input, corner_welded, corner_point, corner_value, corner_group;
     std::vector<uint32_t> corner_edge, corner_side; // the edge that starts at the corner, and this face's side
@@ -126,6 +129,9 @@ Status check_surface_options(const SurfaceOptions& options);
 // become linear. Then owners are chosen (they depend on which faces are smooth).
 Status build_surfaces(PreparedMesh& m);
 void choose_owners(PreparedMesh& m);
+// True if the surface is a regular B-spline patch (16 control points) with no boundary.
+constexpr int regular_points = 16;
+bool regular_interior(const Surface& s, const osd::Bfr::Parameterization& param);
 
 // edge_rates.cpp: real-valued rate wanted per edge (before scale, rounding and cap).
 Status validate_rates(const RateOptions& r);
