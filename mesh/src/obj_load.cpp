@@ -62,6 +62,25 @@ void add_corner_index(std::vector<int>& list, const std::vector<int>& corner_v, 
     list.push_back(index);
 }
 
+// A plain corner, read in one pass: v, v/t, v//n or v/t/n with positive indices of at most 9 digits, then a
+// space or the line's end (what nearly every file writes). Sets the 0-based indices (-1: none) and returns
+// the corner's end; nullptr for anything else, which read_face's general path reads.
+const char* plain_corner(const char* p, const char* end, int* index) {
+    for (int component = 0; component < 3; ++component) {
+        if (component > 0) {
+            if (p == end || *p != '/') break;
+            ++p;
+            if (component == 1 && p < end && *p == '/') continue; // v//n: no texcoord
+        }
+        uint32_t v = 0;
+        int n = 0;
+        for (; p < end && is_digit(*p) && n < 9; ++p, ++n) v = v * 10 + uint32_t(*p - '0');
+        if (n == 0) return nullptr;
+        index[component] = int(v) - 1;
+    }
+    return p == end || is_space(*p) ? p : nullptr;
+}
+
 // The words of an `f` line after the keyword: one corner each.
 Status read_face(ObjText& obj, const char* p, const char* end, size_t line) {
     obj.face_start.push_back(uint32_t(obj.corner_v.size()));
@@ -69,6 +88,13 @@ Status read_face(ObjText& obj, const char* p, const char* end, size_t line) {
     const long long so_far[3] = {(long long)(obj.points.size() / 3), (long long)(obj.uvs.size() / 2), (long long)obj.normal_lines};
     while (p < end) {
         while (p < end && is_space(*p)) ++p;
+        if (int index[3] = {-1, -1, -1}; const char* q = plain_corner(p, end, index)) {
+            p = q;
+            obj.corner_v.push_back(index[0]);
+            if (index[1] != -1 || !obj.corner_t.empty()) add_corner_index(obj.corner_t, obj.corner_v, index[1]);
+            if (index[2] != -1 || !obj.corner_n.empty()) add_corner_index(obj.corner_n, obj.corner_v, index[2]);
+            continue;
+        }
         const char* word = p;
         while (p < end && !is_space(*p)) ++p;
         if (word == p) break;

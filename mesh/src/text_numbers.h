@@ -41,45 +41,47 @@ inline const char* integer_span_end(const char* p, const char* end) {
 }
 
 // Clinger's fast path (W. D. Clinger, "How to Read Floating Point Numbers Accurately", PLDI 1990): a span
-// [-] digits [. digits] whose digits, read as one integer m, are exact in T (m <= 2^53 for double, 2^24 for
-// float), with k <= 22 (double) or 10 (float) of them after the point, is m / 10^k, both exact, in one
-// correctly rounded division: the value std::from_chars gives (test mesh_text_numbers), at a tenth of its
-// cost (from_chars was half of reading an OBJ). Anything else (an exponent, more digits) returns false.
-template <class T> bool fast_decimal(const char* b, const char* e, T& value) {
+// [sign] digits [. digits] with no exponent after it, whose digits read as one integer m are exact in T
+// (m <= 2^53 for double, 2^24 for float), with k <= 22 (double) or 10 (float) of them after the point, is
+// m / 10^k, both exact, in one correctly rounded division: the value std::from_chars gives on the span that
+// float_span_end takes (test mesh_text_numbers), at a tenth of the cost (from_chars was half of reading an
+// OBJ), in one scan. Returns the span's end, or nullptr for read_number's general path (an exponent, more
+// digits, no digit).
+template <class T> const char* fast_number(const char* p, const char* end, T& value) {
     static_assert(sizeof(T) == 4 || sizeof(T) == 8);
     constexpr bool wide = sizeof(T) == 8;
     constexpr int max_k = wide ? 22 : 10;
     constexpr uint64_t max_m = wide ? uint64_t(1) << 53 : uint64_t(1) << 24;
     static constexpr T p10[23] = {1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11,
                                   1e12, 1e13, 1e14, 1e15, 1e16, 1e17, 1e18, 1e19, 1e20, 1e21, 1e22}; // exact to max_k
-    const bool negative = b < e && *b == '-';
-    b += negative;
+    bool negative = false;
+    if (p < end && (*p == '+' || *p == '-')) negative = *p++ == '-';
     uint64_t m = 0;
     int digits = 0, k = 0;
-    bool point = false;
-    for (; b < e; ++b) {
-        if (*b == '.' && !point) {
-            point = true;
-            continue;
+    auto run = [&](bool fraction) {
+        for (; p < end && is_digit(*p); ++p) {
+            if (m > max_m / 10) return false;
+            m = m * 10 + uint64_t(*p - '0');
+            ++digits, k += fraction;
         }
-        if (!is_digit(*b) || m > max_m / 10) return false;
-        m = m * 10 + uint64_t(*b - '0');
-        ++digits, k += point;
-    }
-    if (digits == 0 || k > max_k || m > max_m) return false;
+        return true;
+    };
+    if (!run(false)) return nullptr;
+    if (p < end && *p == '.' && (++p, !run(true))) return nullptr;
+    if (digits == 0 || k > max_k || m > max_m || (p < end && (*p == 'e' || *p == 'E'))) return nullptr;
     const T v = T(m) / p10[k];
     value = negative ? -v : v;
-    return true;
+    return p;
 }
 
 // A number as `stream >> value` reads it: the span num_get takes, which must convert whole. Leading
 // whitespace is skipped. Returns the end of the number, nullptr if there is none.
 template <class T> const char* read_number(const char* p, const char* end, T& value) {
     while (p < end && is_space(*p)) ++p;
+    if (const char* fast = fast_number(p, end, value)) return fast;
     const char* b = p;
     p = float_span_end(p, end);
     const char* s = b < p && *b == '+' ? b + 1 : b;
-    if (fast_decimal(s, p, value)) return p;
     const auto r = std::from_chars(s, p, value);
     if (r.ptr != p || s == p) return nullptr;
     if (r.ec == std::errc::result_out_of_range) { // overflow fails the stream; underflow reads as tiny or 0

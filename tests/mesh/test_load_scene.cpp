@@ -522,6 +522,44 @@ TEST(load_scene, ObjMatchesAnIndependentReadingOfRandomText) {
     }
 }
 
+// The reader takes plain corners (v, v/t, v//n, v/t/n, positive indices) in one pass and everything else
+// through its general path: on random faces of every corner form, the same text with a '+' before each index
+// (which only the general path reads) gives the same scene.
+TEST(load_scene, ObjPlainCornersReadAsTheGeneralPathReadsThem) {
+    test::Lcg next(777);
+    for (int round = 0; round < 200; ++round) {
+        const size_t nv = 4 + next(12), nt = 1 + next(5), nn = 1 + next(4);
+        std::string head;
+        for (size_t i = 0; i < nv; ++i) head += "v " + std::to_string(next(100)) + " " + std::to_string(next(100)) + " " + std::to_string(i) + "\n";
+        for (size_t i = 0; i < nt; ++i) head += "vt 0." + std::to_string(next(1000)) + " 0." + std::to_string(next(1000)) + "\n";
+        for (size_t i = 0; i < nn; ++i) head += "vn 0 " + std::to_string(next(2)) + " 1\n";
+        const int form = int(next(4)); // one corner form per file: v, v/t, v//n, v/t/n
+        std::string plain = head, plus = head;
+        for (size_t f = 0, faces = 1 + next(10); f < faces; ++f) {
+            const std::vector<uint32_t> corners = test::distinct_corners(next, nv, 3 + next(2));
+            plain += "f", plus += "f";
+            for (uint32_t c : corners) {
+                const std::string v = std::to_string(c + 1), t = std::to_string(1 + next(nt)), n = std::to_string(1 + next(nn));
+                const std::string a[4] = {v, v + "/" + t, v + "//" + n, v + "/" + t + "/" + n};
+                const std::string b[4] = {"+" + v, "+" + v + "/+" + t, "+" + v + "//+" + n, "+" + v + "/+" + t + "/+" + n};
+                plain += " " + a[form], plus += " " + b[form];
+            }
+            plain += "\n", plus += "\n";
+        }
+        Scene x, y;
+        ASSERT_TRUE(load_text(x, plain, ".obj").ok()) << plain;
+        ASSERT_TRUE(load_text(y, plus, ".obj").ok()) << plus;
+        const Primitive &p = first_primitive(x), &q = first_primitive(y);
+        EXPECT_EQ(p.positions, q.positions) << plain;
+        EXPECT_EQ(p.indices, q.indices) << plain;
+        EXPECT_EQ(p.face_sizes, q.face_sizes) << plain;
+        EXPECT_EQ(p.uv0, q.uv0) << plain;
+        EXPECT_EQ(p.normals, q.normals) << plain;
+        EXPECT_EQ(p.uv0.empty(), form == 0 || form == 2) << plain;
+        EXPECT_EQ(p.normals.empty(), form < 2) << plain;
+    }
+}
+
 // load_scene_from_memory resolves no external URI (mesh.h), but tinygltf opened absolute paths and looked up
 // relative ones in the working directory, so the result depended on where the process ran (found while
 // fuzzing it). A file in the working directory still finds its .bin.
