@@ -75,6 +75,47 @@ size_t keep_valence2_faces_off_creases(PreparedMesh& m, const std::vector<int>& 
     return taken;
 }
 
+// The last stage of build_surfaces: every smooth face's limit surface made once (a face OpenSubdiv cannot
+// make goes linear), the regular interior ones marked, with their 16 control points kept.
+void init_face_surfaces(PreparedMesh& m, const std::vector<int>& crease_pairs) {
+    const size_t F = m.face_count();
+    const size_t unsafe = keep_valence2_faces_off_creases(m, crease_pairs);
+    std::vector<uint8_t> failed(F, 0);
+    m.face_regular_interior.assign(F, 0);
+    // Only quads are regular patches (Catmull-Clark, bilinear): no room kept on a mesh without them.
+    bool quads = m.scheme != osd::Sdc::SCHEME_LOOP;
+    if (quads) {
+        quads = false;
+        for (size_t f = 0; f < F && !quads; ++f) quads = m.face_size(f) == 4;
+    }
+    m.regular_control.assign(quads ? F * regular_points : 0, 0);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, F, 256), [&](const tbb::blocked_range<size_t>& range) {
+        Surface vtx, fvar;
+        for (size_t f = range.begin(); f != range.end(); ++f) {
+            if (m.face_refiner[f] < 0) continue;
+            bool ok = m.factory_of(f).InitVertexSurface(m.face_refiner[f], &vtx);
+            if (ok && m.K > 0) ok = m.factory_of(f).InitFaceVaryingSurface(m.face_refiner[f], &fvar);
+            if (!ok) failed[f] = 1;
+            m.face_regular[f] = ok && vtx.IsRegular() && !vtx.IsLinear();
+            // Kept so that the evaluation needs no second InitVertexSurface for them (most faces of a quad mesh).
+            int control[regular_points];
+            if (quads && m.face_regular[f] && regular_interior(vtx, m.parameterization(f)) &&
+                vtx.GetControlPointIndices(control) == regular_points) {
+                m.face_regular_interior[f] = 1;
+                std::copy_n(control, regular_points, &m.regular_control[f * regular_points]);
+            }
+        }
+    });
+    for (size_t f = 0; f < F; ++f)
+        if (failed[f]) {
+            m.face_linear[f] = 1;
+            ++m.stats.failed_faces;
+        }
+    if (m.stats.failed_faces > unsafe)
+        m.stats.warnings.push_back(std::to_string(m.stats.failed_faces - unsafe) +
+                                   " faces have no limit surface in OpenSubdiv; tessellated linearly");
+}
+
 } // namespace
 
 Status build_surfaces(PreparedMesh& m) {
@@ -169,41 +210,7 @@ Status build_surfaces(PreparedMesh& m) {
     fo.EnableCaching(false);
     m.factory_uncached = std::make_unique<SurfaceFactory>(*m.refiner, fo);
 
-    const size_t unsafe = keep_valence2_faces_off_creases(m, crease_pairs);
-    std::vector<uint8_t> failed(F, 0);
-    m.face_regular_interior.assign(F, 0);
-    // Only quads are regular patches (Catmull-Clark, bilinear): no room kept on a mesh without them.
-    bool quads = m.scheme != osd::Sdc::SCHEME_LOOP;
-    if (quads) {
-        quads = false;
-        for (size_t f = 0; f < F && !quads; ++f) quads = m.face_size(f) == 4;
-    }
-    m.regular_control.assign(quads ? F * regular_points : 0, 0);
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, F, 256), [&](const tbb::blocked_range<size_t>& range) {
-        Surface vtx, fvar;
-        for (size_t f = range.begin(); f != range.end(); ++f) {
-            if (m.face_refiner[f] < 0) continue;
-            bool ok = m.factory_of(f).InitVertexSurface(m.face_refiner[f], &vtx);
-            if (ok && m.K > 0) ok = m.factory_of(f).InitFaceVaryingSurface(m.face_refiner[f], &fvar);
-            if (!ok) failed[f] = 1;
-            m.face_regular[f] = ok && vtx.IsRegular() && !vtx.IsLinear();
-            // Kept so that the evaluation needs no second InitVertexSurface for them (most faces of a quad mesh).
-            int control[regular_points];
-            if (quads && m.face_regular[f] && regular_interior(vtx, m.parameterization(f)) &&
-                vtx.GetControlPointIndices(control) == regular_points) {
-                m.face_regular_interior[f] = 1;
-                std::copy_n(control, regular_points, &m.regular_control[f * regular_points]);
-            }
-        }
-    });
-    for (size_t f = 0; f < F; ++f)
-        if (failed[f]) {
-            m.face_linear[f] = 1;
-            ++m.stats.failed_faces;
-        }
-    if (m.stats.failed_faces > unsafe)
-        m.stats.warnings.push_back(std::to_string(m.stats.failed_faces - unsafe) +
-                                   " faces have no limit surface in OpenSubdiv; tessellated linearly");
+    init_face_surfaces(m, crease_pairs);
     return Status::success();
 }
 
