@@ -180,7 +180,7 @@ size_t triangulate_polygons(std::vector<uint32_t>& out, const uint32_t* indices,
     bool polygons = false;
     for (size_t f = 0; f < face_count; ++f) polygons |= face_sizes[f] > 3;
     if (polygons) {
-        cx.edges = EdgeSet(index_count / 2 + face_count); // a closed mesh's edges, and a diagonal a corner
+        cx.edges = EdgeSet(index_count / 2 + face_count); // a closed mesh's edges and a diagonal a face (it grows)
         weld_positions(cx.weld.data(), positions, vertex_count);
         size_t at = 0;
         for (size_t f = 0; f < face_count && face_sizes[f] <= index_count - at; at += face_sizes[f], ++f)

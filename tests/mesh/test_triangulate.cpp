@@ -81,6 +81,25 @@ TEST(triangulate_polygons, DiagonalNeverDuplicatesAnExistingEdge) {
     EXPECT_EQ(std::vector<uint32_t>(t.begin(), t.begin() + 6), (std::vector<uint32_t>{1, 2, 3, 1, 3, 0}));
 }
 
+// The same after the table of edges has grown (it is sized for a closed mesh): 1000 disjoint quads first,
+// whose edges and diagonals outgrow it, then the quad and the triangle that shares its 0-2 diagonal.
+TEST(triangulate_polygons, DiagonalNeverDuplicatesAnExistingEdgeAfterTheTableGrows) {
+    Polygons g;
+    for (uint32_t q = 0; q < 1000; ++q) {
+        const float x = float(2 * q);
+        g.positions.insert(g.positions.end(), {x, 5, 0, x + 1, 5, 0, x + 1, 6, 0, x, 6, 0});
+        g.face({4 * q, 4 * q + 1, 4 * q + 2, 4 * q + 3});
+    }
+    const uint32_t o = 4000;
+    g.positions.insert(g.positions.end(), {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0, 0.5f, 0.5f, 1});
+    g.face({o, o + 1, o + 2, o + 3});
+    g.face({o, o + 2, o + 4});
+    auto t = g.triangulate();
+    ASSERT_EQ(t.size(), 3u * (2000 + 2 + 1));
+    for (const auto& [e, n] : edge_faces(t)) EXPECT_LE(n, 2) << e.first << "-" << e.second;
+    EXPECT_EQ(std::vector<uint32_t>(t.begin() + 6000, t.begin() + 6006), (std::vector<uint32_t>{o + 1, o + 2, o + 3, o + 1, o + 3, o}));
+}
+
 // The same, with the triangle on split copies of the quad's corners (a UV seam): edges are compared by
 // welded position, so the seam does not hide the conflict.
 TEST(triangulate_polygons, DuplicateEdgesAreFoundAcrossSplitVertices) {
