@@ -468,7 +468,14 @@ void rebuild_primitives(Mesh& mesh, const Gathered& g, const WorkMesh& w, const 
 }
 
 // Deforms one mesh drawn with world matrix M; the field works relative to the world point O.
-Status deform_mesh(Scene& scene, int mesh_index, const Mat& M, const Vec3& O, bool skinned, const SnowField& field,
+// What the displacement reads of the snow field once it has taken every stamp: the field itself (its carve,
+// rim and ray-cast tree) is freed before the ground is displaced, the command's memory peak (bench memory).
+struct SettledSnow {
+    Heightmap heightmap, ground;
+    size_t overhangs = 0;
+};
+
+Status deform_mesh(Scene& scene, int mesh_index, const Mat& M, const Vec3& O, bool skinned, const SettledSnow& field,
                    const StampOptions& o, StampReport& rep) {
     Mesh& mesh = scene.meshes[size_t(mesh_index)];
     Mat inv;
@@ -481,7 +488,7 @@ Status deform_mesh(Scene& scene, int mesh_index, const Mat& M, const Vec3& O, bo
     WorkMesh w = gather_world(mesh, g, M, O);
     rep.triangles_in += w.indices.size() / 3;
 
-    const Heightmap& hm = field.heightmap();
+    const Heightmap& hm = field.heightmap;
     if (g.tess) {
         const auto t0 = Clock::now();
         Status s = tessellate_ground(w, hm, o, rep);
@@ -498,9 +505,9 @@ Status deform_mesh(Scene& scene, int mesh_index, const Mat& M, const Vec3& O, bo
         DisplacedGround dg;
         DisplaceOptions dopt;
         dopt.along_up = o.along_up;
-        dopt.top_only = field.overhang_triangles() > 0;
+        dopt.top_only = field.overhangs > 0;
         dopt.keep_face_terms = false; // one displace_all, no update()
-        Status s = dg.prepare(w.positions.data(), w.positions.size() / 3, w.indices.data(), w.indices.size(), hm.frame, dopt, &field.ground());
+        Status s = dg.prepare(w.positions.data(), w.positions.size() / 3, w.indices.data(), w.indices.size(), hm.frame, dopt, &field.ground);
         if (!s.ok()) return s;
         dg.displace_all(hm, P.data(), N.data());
         rep.welded_points += dg.welded_count();
@@ -629,6 +636,8 @@ Status stamp_scene(Scene& scene, const ColliderSet& colliders, const StampOption
         }
         rep.changed = changed;
         if (changed) {
+            const SettledSnow settled{field.heightmap(), field.ground(), field.overhang_triangles()};
+            field = SnowField(); // hm is not read past here
             const auto world = scene.world_matrices();
             // Each drawing node gets its own mesh (copied from the undeformed original), then each is deformed.
             std::vector<int> mesh_user(scene.meshes.size(), -1);
@@ -650,7 +659,7 @@ Status stamp_scene(Scene& scene, const ColliderSet& colliders, const StampOption
                 work.push_back({n, m});
             }
             for (const auto& [n, m] : work) {
-                s = deform_mesh(scene, m, scene.mesh_placement(n, world), O, scene.nodes[size_t(n)].skin >= 0, field, lo, rep);
+                s = deform_mesh(scene, m, scene.mesh_placement(n, world), O, scene.nodes[size_t(n)].skin >= 0, settled, lo, rep);
                 if (!s.ok()) return s;
             }
         }
