@@ -15,6 +15,7 @@
 #include <malloc.h>
 #endif
 #include <unistd.h>
+#include <tbb/global_control.h>
 #include <spawn.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
@@ -136,6 +137,8 @@ double median_fresh_seconds(int repeat, const std::function<double(int run)>& ru
     }
     return median_of(std::move(t));
 }
+
+int active_threads() { return int(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism)); }
 
 double median_seconds(int repeat, const std::function<void()>& f) {
     f(); // warm-up: page faults, allocator growth

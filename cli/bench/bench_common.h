@@ -19,6 +19,10 @@ struct BenchArgs {
     bool json = false;
 };
 
+// The worker threads a parallel loop may use now: the smallest of every thread limit in force (`furrow -j 1
+// bench ...` caps a row that asks for 2, and the row must say so).
+int active_threads();
+
 // Median wall time in seconds of `repeat` calls of f (one untimed warm-up call first).
 double median_seconds(int repeat, const std::function<void()>& f);
 // The median of `values` (0 for none).

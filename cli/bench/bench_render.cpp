@@ -196,8 +196,9 @@ nlohmann::json run(const RenderBenchArgs& a, const GlobalFlags& g, bool tables) 
              "frame/transform", "identical pixels"});
     nlohmann::json rows = nlohmann::json::array();
     std::vector<uint8_t> reference;
-    for (int n : threads) {
-        tbb::global_control limit(tbb::global_control::max_allowed_parallelism, size_t(n));
+    for (int asked : threads) {
+        tbb::global_control limit(tbb::global_control::max_allowed_parallelism, size_t(asked));
+        const int n = active_threads(); // what the row runs with (a global -j 1 caps it)
         RenderResult r;
         const double s = median_seconds(a.repeat, [&] { require_ok(render_scene(r, scene, ro), input); });
         if (reference.empty()) reference = r.rgba8;

@@ -12,7 +12,6 @@
 
 #include <furrow/shells.h>
 
-#include <tbb/global_control.h>
 
 #include <algorithm>
 #include <cmath>
@@ -263,7 +262,7 @@ nlohmann::json run_bench_shells(const ShellsArgs& a, const GlobalFlags& g, bool 
                     "draws and encodes the strand textures (cached for later calls with the same options); error = | "
                     "distance of a shell face's centroid to the base surface (CGAL) - requested offset | / requested, over unclamped "
                     "vertices\n",
-                    a.base.repeat, int(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism)), a.relative_length);
+                    a.base.repeat, active_threads(), a.relative_length);
         t.print();
     }
     // LOD by simplification on the first model (bench_shells_lod.cpp), at the largest N, 3 levels. The model is
@@ -279,7 +278,7 @@ nlohmann::json run_bench_shells(const ShellsArgs& a, const GlobalFlags& g, bool 
                                  a.base.repeat, tables);
     }
     return {{"bench", "shells"}, {"repeat", a.base.repeat}, {"relative_length", a.relative_length},
-            {"threads", int(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism))}, {"rows", j},
+            {"threads", active_threads()}, {"rows", j},
             {"lod_simplify", lod},
             {"plot", plot_json("max relative offset error", points)}};
 }

@@ -471,10 +471,12 @@ void bench_walker_frame(const Args& a, const DemoGround& d, bool text, nlohmann:
               "full redisplace ms", "us/pt incr", "us/pt full", "incr/full per pt", "full rim ms", "max|incr-full|", "= scratch"});
     for (bool rim : {false, true}) {
         std::vector<float> first;
-        for (int threads : {1, 2}) {
+        for (int asked : {1, 2}) {
             FrameRun r;
+            int threads = 0; // what the row ran with (a global -j 1 caps the second row)
             {
-                tbb::global_control limit(tbb::global_control::max_allowed_parallelism, size_t(threads));
+                tbb::global_control limit(tbb::global_control::max_allowed_parallelism, size_t(asked));
+                threads = active_threads();
                 r = run_walker_frames(a, d, tess, rim);
             }
             if (first.empty()) first = r.heightmap;

@@ -202,6 +202,18 @@ TEST(bench_cli, StampFrameIsConsistentAtOneAndTwoThreads) {
     EXPECT_GT(frame[2]["rim_texels"].get<double>(), 0.0);
 }
 
+// A global -j caps every row: the frame's "2 threads" rows then ran on one and say so (they printed 2 before,
+// and a -j 1 run read as a -j 2 measurement).
+TEST(bench_cli, StampFrameRowsReportTheThreadsTheyRanWith) {
+    RunResult r = run_furrow({"-j", "1", "bench", "stamp", "--quick", "--repeat", "1", "--section", "4", "--json"});
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    nlohmann::json j = nlohmann::json::parse(r.out, nullptr, false);
+    ASSERT_FALSE(j.is_discarded()) << r.out.substr(0, 500);
+    const auto& frame = j["results"]["frame"];
+    ASSERT_EQ(frame.size(), 4u);
+    for (const auto& row : frame) EXPECT_EQ(row["threads"], 1);
+}
+
 // The memory rule (issue 13): every writing command on the bundled models peaks at most 2 x (input + output
 // bytes) + 64 MiB, measured by the kernel for the command as a subprocess. Memory, not time: the figure does
 // not depend on the machine's load. Sanitizer builds are skipped (ASan's shadow memory and quarantine
