@@ -12,7 +12,6 @@
 
 #include <furrow/shells.h>
 
-
 #include <algorithm>
 #include <cmath>
 #include <cstring>

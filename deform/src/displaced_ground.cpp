@@ -227,7 +227,8 @@ struct DisplacedGround::Impl {
     // Returns whether the position changed.
     bool displace(uint32_t p, const Heightmap& h) {
         double d = 0;
-        // Heightmap::sample's arithmetic, inlined (a call per point cost a tenth of a full pass).
+        // Heightmap::sample's arithmetic, inlined (the call, with two libm floors, was about 5 % of a full
+        // pass: bench stamp section 5 at 394k points, displace 37.7 -> 35.1-36.0 ms).
         if (movable.empty() || movable[p]) d = sample_split(h, split_texel(texel[2 * size_t(p)], texel[2 * size_t(p) + 1]));
         bool changed = false;
         for (int k = 0; k < 3; ++k) {

@@ -467,7 +467,6 @@ void rebuild_primitives(Mesh& mesh, const Gathered& g, const WorkMesh& w, const 
         rep.warnings.push_back("mesh '" + mesh.name + "': attributes not present on every primitive (or skin data) were dropped");
 }
 
-// Deforms one mesh drawn with world matrix M; the field works relative to the world point O.
 // What the displacement reads of the snow field once it has taken every stamp: the field itself (its carve,
 // rim and ray-cast tree) is freed before the ground is displaced, the command's memory peak (bench memory).
 struct SettledSnow {
@@ -475,6 +474,7 @@ struct SettledSnow {
     size_t overhangs = 0;
 };
 
+// Deforms one mesh drawn with world matrix M; the field works relative to the world point O.
 Status deform_mesh(Scene& scene, int mesh_index, const Mat& M, const Vec3& O, bool skinned, const SettledSnow& field,
                    const StampOptions& o, StampReport& rep) {
     Mesh& mesh = scene.meshes[size_t(mesh_index)];

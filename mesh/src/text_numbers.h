@@ -44,9 +44,9 @@ inline const char* integer_span_end(const char* p, const char* end) {
 // [sign] digits [. digits] with no exponent after it, whose digits read as one integer m are exact in T
 // (m <= 2^53 for double, 2^24 for float), with k <= 22 (double) or 10 (float) of them after the point, is
 // m / 10^k, both exact, in one correctly rounded division: the value std::from_chars gives on the span that
-// float_span_end takes (test mesh_text_numbers), at a tenth of the cost (from_chars was half of reading an
-// OBJ), in one scan. Returns the span's end, or nullptr for read_number's general path (an exponent, more
-// digits, no digit).
+// float_span_end takes (test mesh_text_numbers), in one scan. The numbers were a third of reading
+// spot_quadrangulated.obj (read_number 5.3 M of 16.0 M instructions, callgrind); with this path 3.4 M.
+// Returns the span's end, or nullptr for read_number's general path (an exponent, more digits, no digit).
 template <class T> const char* fast_number(const char* p, const char* end, T& value) {
     static_assert(sizeof(T) == 4 || sizeof(T) == 8);
     constexpr bool wide = sizeof(T) == 8;
