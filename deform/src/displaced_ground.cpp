@@ -10,23 +10,33 @@
 // angle-weighted normal can change. Each face's part of a normal, and which faces are degenerate, are the
 // kernel's (furrow_kernel/angle_weighted_normal.h), as in compute_vertex_normals.
 // Cost per point. Both passes cache each face's terms (unit normal, three corner angles) once per face, not
-// once per corner. prepare() puts every array in one block (Arena, below; on huge pages from 32 MiB), which a
-// later prepare() of the same object takes over when the new mesh fits: on this project's VM a fresh 4 KiB
-// page costs ~20 us, and prepare used to spend most of its time in page faults (`bench stamp` §5, 394k
-// vertices: 392-624 ms, 17x the 99k mesh's; now 87-99 ms prepared again, 117-141 ms fresh). An update
-// skips the points whose position comes out bit-identical (a dirty tile is rarely dirty everywhere): their
-// faces, normals and buffer entries are already those a full pass writes. The points and faces to redo are
-// found in one cheap sweep and recomputed in parallel; the result bytes do not depend on the thread count.
-// (Numbering the points by heightmap tile and the faces by their lowest point, for locality, made an update
-// 5-10 % faster and prepare() 30 % slower, 82 -> 107 ms at 394k points: not kept.)
+// once per corner, computed several faces to a vector register (furrow_kernel/face_terms.h: 8 with AVX-512,
+// the same bits). On one thread a full pass adds them to their corners in one pass over the faces; on more,
+// each point gathers its own (the same sums in the same order). prepare() puts every array in one block
+// (Arena, below; on huge pages from 32 MiB), which a later prepare() of the same object takes over when the
+// new mesh fits: on this project's VM a fresh 4 KiB page costs ~20 us, and prepare used to spend most of its
+// time in page faults (`bench stamp` §5, 394k vertices: 392-624 ms, 17x the 99k mesh's). The update's
+// indexes (faces per point, points per tile) are built on the first update(): a one-shot displacement needs
+// neither. `furrow -j 1 bench stamp --section 5`, 394k vertices, prepare + displace_all: 83-92 + 37-41 ms
+// before the vector terms, the one-pass sums and the late indexes; 44-48 + 21-24 ms after (2026-11-27).
+// An update skips the points whose position comes out bit-identical (a dirty tile is rarely dirty
+// everywhere): their faces, normals and buffer entries are already those a full pass writes. The points
+// and faces to redo are found in one cheap sweep, collected in index order from their marks (so the
+// arrays are walked forwards: with a 6 cm rim, `bench stamp` section 4 at -j 1, 7.0-7.4 ms a frame against
+// 9.4-10.4 in the order they were found), and recomputed in parallel; the result bytes do not depend on the
+// thread count. (Numbering the points by heightmap tile and the faces by their lowest point, for
+// locality, made an update 5-10 % faster and prepare() 30 % slower, 82 -> 107 ms at 394k points: not kept.)
 #include "deform_internal.h"
 
 #include <furrow_kernel/angle_weighted_normal.h>
+#include <furrow_kernel/face_terms.h>
 #include <furrow_kernel/huge_pages.h>
 #include <furrow_kernel/welded_ids.h>
 #include <furrow_kernel/no_throw.h>
 
 #include <tbb/blocked_range.h>
+#include <tbb/global_control.h>
+#include <tbb/task_arena.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -41,14 +51,11 @@ using namespace deform_detail;
 
 namespace {
 
-// One face's part of its corners' normals: the unit normal and the interior angle at each corner (the
-// kernel's weights). Cached per face, so that a full pass computes each face once rather than once per
-// corner, and an incremental update recomputes only the faces around the points it moves; a point's normal
-// then sums the cached terms of its faces in the same (CSR) order either way, so both give the same bits.
-struct FaceTerm {
-    double unit[3] = {0, 0, 0};
-    double angle[3] = {-1, -1, -1}; // < 0: degenerate (the kernel's rule), contributes nothing
-};
+// One face's part of its corners' normals (the kernel's FaceTerm: unit normal, the angle at each corner).
+// Cached per face, so that a full pass computes each face once rather than once per corner, and an
+// incremental update recomputes only the faces around the points it moves; a point's normal then sums the
+// cached terms of its faces in the same (CSR) order either way, so both give the same bits.
+using kernel::FaceTerm;
 
 // Every array of a prepared ground comes from one block (Arena), advised for huge pages from 32 MiB, sized in
 // prepare() once the welded point and triangle counts are known. The cost is page faults, not bytes: on this project's
@@ -160,22 +167,59 @@ void gather_normal(double* o, uint32_t v, const Term& term, const Indices& off, 
     else o[0] = o[1] = o[2] = 0;
 }
 
-// All faces' terms, then all points' normals. With `keep` false (a one-shot displacement) no term is kept:
+// Whether this call runs on one thread (every limit in force: the arena's and a global_control's).
+bool one_thread() {
+    return std::min(tbb::this_task_arena::max_concurrency(),
+                    int(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism))) <= 1;
+}
+
+// All points' normals on one thread, in one streaming pass over the faces: each block's terms, then each
+// term added to its three corners' sums. A point's row of `faces` lists its corners in increasing order
+// (bucket() is stable), so adding in face order sums each point's terms in gather_normal's order: the same
+// bits, without the per-point walk through the index (a second read of every term, 48 bytes a face).
+void scattered_normals(double* normals, FaceTerm* terms, const double* P, const Indices& tri, size_t points) {
+    std::fill(normals, normals + 3 * points, 0.0);
+    constexpr size_t kBlock = 512;
+    FaceTerm local[kBlock];
+    const size_t T = tri.size() / 3;
+    for (size_t f0 = 0; f0 < T; f0 += kBlock) {
+        const size_t n = std::min(kBlock, T - f0);
+        FaceTerm* t = terms ? terms + f0 : local; // kept, or only for this block
+        kernel::face_terms(t, P, tri.data() + 3 * f0, 0, nullptr, n);
+        for (size_t k = 0; k < n; ++k) {
+            if (t[k].angle[0] < 0) continue; // degenerate: every angle is < 0
+            for (int c = 0; c < 3; ++c) {
+                double* o = normals + 3 * size_t(tri[3 * (f0 + k) + size_t(c)]);
+                const kernel::Vec3 sum = kernel::Vec3{o[0], o[1], o[2]} +
+                                         t[k].angle[c] * kernel::Vec3{t[k].unit[0], t[k].unit[1], t[k].unit[2]};
+                o[0] = sum.x, o[1] = sum.y, o[2] = sum.z;
+            }
+        }
+    }
+    for (size_t p = 0; p < points; ++p) {
+        double* o = normals + 3 * p;
+        const kernel::Vec3 sum{o[0], o[1], o[2]};
+        const double l = kernel::norm(sum);
+        if (l > 0) o[0] = sum.x / l, o[1] = sum.y / l, o[2] = sum.z / l;
+        else o[0] = o[1] = o[2] = 0;
+    }
+}
+
+// All faces' terms, then all points' normals, each point gathering its own (in parallel; the terms as
+// scattered_normals adds them, the same bits). With `keep` false (a one-shot displacement) no term is kept:
 // each point computes its faces' terms itself (each face three times), and the 48 bytes per triangle of the
 // cache, the largest array of a `furrow stamp`, are never allocated.
-void all_normals(double* normals, FaceTerms& terms, bool keep, const double* P, const Indices& tri, const Indices& off,
-                 const Indices& faces) {
+void gathered_normals(double* normals, FaceTerms& terms, bool keep, const double* P, const Indices& tri, const Indices& off,
+                      const Indices& faces) {
     if (!keep) {
-        FaceTerms().swap(terms);
         auto fresh = [&](uint32_t f) { return face_term(P, &tri[3 * size_t(f)]); };
         tbb::parallel_for(tbb::blocked_range<size_t>(0, off.size() - 1, 1024), [&](const tbb::blocked_range<size_t>& r) {
             for (size_t v = r.begin(); v != r.end(); ++v) gather_normal(normals + 3 * v, uint32_t(v), fresh, off, faces);
         });
         return;
     }
-    if (terms.size() != tri.size() / 3) terms.assign(tri.size() / 3, FaceTerm{});
     tbb::parallel_for(tbb::blocked_range<size_t>(0, terms.size(), 1024), [&](const tbb::blocked_range<size_t>& r) {
-        for (size_t f = r.begin(); f != r.end(); ++f) terms[f] = face_term(P, &tri[3 * f]);
+        kernel::face_terms(terms.data(), P, tri.data(), r.begin(), nullptr, r.size());
     });
     auto cached = [&](uint32_t f) -> const FaceTerm& { return terms[f]; };
     tbb::parallel_for(tbb::blocked_range<size_t>(0, off.size() - 1, 1024), [&](const tbb::blocked_range<size_t>& r) {
@@ -196,11 +240,12 @@ struct DisplacedGround::Impl {
     Doubles texel;                        // (ti, tj) per point
     std::vector<uint8_t> movable;         // top_only: on the top surface
     Indices tris;                         // welded, non-degenerate
-    Indices face_off, faces;              // point -> incident corners, 3 × triangle + corner (CSR)
+    Indices face_off, faces;              // point -> incident corners, 3 × triangle + corner (CSR); see face_index()
     Doubles cur, nrm;                     // current displaced positions and normals per point
     // Points bucketed by 16 x 16-texel tiles of their footprint's lower corner.
     int tiles_x = 0, tiles_y = 0;
-    Indices tile_off, tile_pts;
+    Indices tile_off, tile_pts;           // see tile_index()
+    bool face_indexed = false, tile_indexed = false; // built (face_index, tile_index)
     FaceTerms terms;                      // per triangle, as of the last displace_all/update
     Array<uint64_t> mark, face_mark;      // update()'s scratch: a bit per point and per triangle (27 + 55 KB at
                                           // 221k points: in cache, unlike a word each, 2.6 MB)
@@ -208,6 +253,38 @@ struct DisplacedGround::Impl {
     std::vector<uint32_t> redo_faces, redo_points; // the faces and points an update recomputes
     std::vector<uint8_t> shifted;         // per moved point: its position changed
     static constexpr int kTile = 16;
+
+    // The update's indexes, each built when first needed: the faces around each point (update() and the
+    // parallel normals read it) and the points of each texel tile (update()). A one-shot displacement on one
+    // thread reads neither (`bench stamp` section 5, 394k points: 17 ms of a 73 ms prepare).
+    void face_index() {
+        if (face_indexed) return;
+        const size_t points = rest.size() / 3, T = tris.size() / 3;
+        face_off = Indices(points + 1, 0u, ArenaAlloc<uint32_t>(&arena));
+        faces = Indices(3 * T, 0u, ArenaAlloc<uint32_t>(&arena));
+        bucket(face_off, faces, points, 3 * T, [&](size_t c) { return tris[c]; }, [](size_t c) { return uint32_t(c); });
+        face_indexed = true;
+    }
+    void tile_index() {
+        if (tile_indexed) return;
+        const size_t points = rest.size() / 3, tiles = size_t(tiles_x) * size_t(tiles_y);
+        tile_off = Indices(tiles + 1, 0u, ArenaAlloc<uint32_t>(&arena));
+        tile_pts = Indices(points, 0u, ArenaAlloc<uint32_t>(&arena));
+        auto tile_of_point = [this](size_t p) {
+            return uint32_t(tile_of(texel[2 * p + 1], tiles_y) * tiles_x + tile_of(texel[2 * p], tiles_x));
+        };
+        bucket(tile_off, tile_pts, tiles, points, tile_of_point, [](size_t p) { return uint32_t(p); });
+        tile_indexed = true;
+    }
+    // Every point's angle-weighted normal over positions P (rest or current): in one pass over the faces on
+    // one thread, gathered per point in parallel on more (the same bits; the terms kept if asked).
+    void normals(double* out, const double* P) {
+        if (!opt.keep_face_terms) FaceTerms().swap(terms);
+        else if (terms.size() != tris.size() / 3) terms.assign(tris.size() / 3, FaceTerm{});
+        if (one_thread()) return scattered_normals(out, opt.keep_face_terms ? terms.data() : nullptr, P, tris, rest.size() / 3);
+        face_index();
+        gathered_normals(out, terms, opt.keep_face_terms, P, tris, face_off, faces);
+    }
 
     // Clamped before the conversion: a vertex no triangle uses may lie far off the grid, with a texel
     // coordinate beyond int (undefined behaviour, found by fuzz_stamp). The result is unchanged.
@@ -259,26 +336,25 @@ Status DisplacedGround::prepare(const float* positions, size_t vertex_count, con
         if (!(frame.texel > 0) || frame.width <= 0 || frame.height <= 0)
             return Status::error(StatusCode::invalid_argument, "the heightmap frame is empty");
         if (index_count % 3) return Status::error(StatusCode::invalid_input, "indices are not triangles");
-        for (size_t k = 0; k < index_count; ++k)
-            if (indices[k] >= vertex_count) return Status::error(StatusCode::invalid_input, "an index is out of range");
+        // Both checks as one reduction each, without an early exit, which the compiler vectorises (two early-exit
+        // loops were 3.8 ms of a 59 ms prepare at 394k points).
+        uint32_t largest = 0;
+        for (size_t k = 0; k < index_count; ++k) largest = std::max(largest, indices[k]);
+        if (index_count && largest >= vertex_count) return Status::error(StatusCode::invalid_input, "an index is out of range");
         // Every vertex is displaced and bucketed by texel, including those no triangle uses: a NaN among them
-        // reached an int conversion (undefined behaviour, found by fuzz_stamp).
-        for (size_t k = 0; k < 3 * vertex_count; ++k)
-            if (!std::isfinite(positions[k])) return Status::error(StatusCode::invalid_input, "a vertex position is not finite");
+        // reached an int conversion (undefined behaviour, found by fuzz_stamp). Not finite: all exponent bits set.
+        uint32_t not_finite = 0;
+        for (size_t k = 0; k < 3 * vertex_count; ++k) not_finite |= uint32_t((std::bit_cast<uint32_t>(positions[k]) & 0x7f800000u) == 0x7f800000u);
+        if (not_finite) return Status::error(StatusCode::invalid_input, "a vertex position is not finite");
         auto m = std::make_unique<Impl>(), empty = std::make_unique<Impl>();
         m->frame = frame;
         m->opt = opt;
         m->vertex_count = vertex_count;
-        size_t points = 0;
-        std::vector<uint32_t> remap; // vertex -> welded point; freed once the triangles are on welded points
-        {
-            std::vector<uint32_t> first(vertex_count);
-            weld_positions(first.data(), positions, vertex_count);
-            // Welded points numbered in order of first appearance.
-            kernel::WeldedIds welded = kernel::welded_ids(first.data(), vertex_count);
-            points = welded.first.size();
-            remap = std::move(welded.of_vertex);
-        }
+        // vertex -> welded point, numbered in order of first appearance, in one array (welded_ids' two were
+        // three temporary allocations, one of them grown by doubling).
+        std::vector<uint32_t> remap(vertex_count);
+        weld_positions(remap.data(), positions, vertex_count);
+        const size_t points = kernel::number_welded_in_place(remap.data(), vertex_count);
         // Triangles on welded points; degenerate ones carry no normal and no neighbourhood.
         auto welded = [&](size_t t, int k) { return remap[indices[t + size_t(k)]]; };
         auto kept = [&](size_t t) {
@@ -311,14 +387,12 @@ Status DisplacedGround::prepare(const float* positions, size_t vertex_count, con
         array(m->copy_off, points + 1, 0u);
         array(m->copies, vertex_count, 0u);
         bucket(m->copy_off, m->copies, points, vertex_count, [&](size_t v) { return remap[v]; }, [](size_t v) { return uint32_t(v); });
-        m->tris = Indices(ArenaAlloc<uint32_t>(&m->arena));
-        m->tris.reserve(3 * T);
-        for (size_t t = 0; t + 3 <= index_count; t += 3)
-            if (kept(t)) m->tris.insert(m->tris.end(), {welded(t, 0), welded(t, 1), welded(t, 2)});
-        std::vector<uint32_t>().swap(remap);
-        array(m->face_off, points + 1, 0u);
-        array(m->faces, 3 * T, 0u);
-        bucket(m->face_off, m->faces, points, 3 * T, [&](size_t c) { return m->tris[c]; }, [](size_t c) { return uint32_t(c); });
+        array(m->tris, 3 * T, 0u);
+        for (size_t t = 0, o = 0; t + 3 <= index_count; t += 3) {
+            const uint32_t a = welded(t, 0), b = welded(t, 1), c = welded(t, 2);
+            if (a == b || b == c || c == a) continue; // (kept)
+            m->tris[o] = a, m->tris[o + 1] = b, m->tris[o + 2] = c, o += 3;
+        }
         if (terms) array(m->terms, T, FaceTerm{});
         // Undeformed normals give the displacement direction.
         array(m->dir, 3 * points, 0.0);
@@ -328,7 +402,7 @@ Status DisplacedGround::prepare(const float* positions, size_t vertex_count, con
         } else {
             // The rest faces' terms stay cached: an update() before any displace_all() starts from them, and
             // displace_all() overwrites them in place (no second allocation of the largest array).
-            all_normals(m->dir.data(), m->terms, m->opt.keep_face_terms, m->rest.data(), m->tris, m->face_off, m->faces);
+            m->normals(m->dir.data(), m->rest.data());
             for (size_t p = 0; p < points; ++p) {
                 double* o = &m->dir[3 * p];
                 if (o[0] == 0 && o[1] == 0 && o[2] == 0) o[0] = frame.up[0], o[1] = frame.up[1], o[2] = frame.up[2];
@@ -352,13 +426,6 @@ Status DisplacedGround::prepare(const float* positions, size_t vertex_count, con
                 if (!std::isnan(g) && w < double(g) - tol) m->movable[p] = 0;
             }
         }
-        array(m->tile_off, tiles + 1, 0u);
-        array(m->tile_pts, points, 0u);
-        const Impl& c = *m;
-        auto tile_index = [&c](size_t p) {
-            return uint32_t(c.tile_of(c.texel[2 * p + 1], c.tiles_y) * c.tiles_x + c.tile_of(c.texel[2 * p], c.tiles_x));
-        };
-        bucket(m->tile_off, m->tile_pts, tiles, points, tile_index, [](size_t p) { return uint32_t(p); });
         m->cur = Doubles(m->rest, ArenaAlloc<double>(&m->arena));
         array(m->nrm, 3 * points, 0.0);
         array(m->mark, (points + 63) / 64, uint64_t(0));
@@ -372,7 +439,7 @@ size_t DisplacedGround::displace_all(const Heightmap& h, float* pos, float* nor)
     Impl& m = *impl_;
     const size_t P = m.rest.size() / 3;
     tbb::parallel_for(size_t(0), P, [&](size_t p) { m.displace(uint32_t(p), h); });
-    all_normals(m.nrm.data(), m.terms, m.opt.keep_face_terms, m.cur.data(), m.tris, m.face_off, m.faces);
+    m.normals(m.nrm.data(), m.cur.data());
     tbb::parallel_for(size_t(0), P, [&](size_t p) {
         m.fix_normal(uint32_t(p));
         m.write(uint32_t(p), pos, nor);
@@ -388,6 +455,14 @@ size_t DisplacedGround::update(const Heightmap& h, const TexelRect& dirty, float
 // texels floor(ti) .. floor(ti) + 1: it is affected when ti is in (x0 − 1, x1), and it lies in the tile of
 // floor(ti), so only the tiles from floor((x0 − 1) / 16) to (x1 − 1) / 16 are scanned; points of tiles wholly
 // inside the rectangle's span need no test.
+// The marked items in increasing order: the update then walks its arrays forwards, a cache line shared by
+// neighbouring items read once.
+static void marked(std::vector<uint32_t>& out, const Array<uint64_t>& marks) {
+    out.clear();
+    for (size_t w = 0; w < marks.size(); ++w)
+        for (uint64_t b = marks[w]; b; b &= b - 1) out.push_back(uint32_t(64 * w + size_t(std::countr_zero(b))));
+}
+
 static void points_under(DisplacedGround::Impl& m, const std::vector<TexelRect>& rects) {
     constexpr int T = DisplacedGround::Impl::kTile;
     for (const TexelRect& dirty : rects) {
@@ -407,10 +482,8 @@ static void points_under(DisplacedGround::Impl& m, const std::vector<TexelRect>&
                     const uint64_t bit = uint64_t(1) << (p % 64);
                     if (word & bit) continue;
                     const double ti = m.texel[2 * size_t(p)], tj = m.texel[2 * size_t(p) + 1];
-                    if (inside || (ti > double(dirty.x0) - 1 && ti < dirty.x1 && tj > double(dirty.y0) - 1 && tj < dirty.y1)) {
+                    if (inside || (ti > double(dirty.x0) - 1 && ti < dirty.x1 && tj > double(dirty.y0) - 1 && tj < dirty.y1))
                         word |= bit;
-                        m.moved.push_back(p);
-                    }
                 }
             }
     }
@@ -419,14 +492,18 @@ static void points_under(DisplacedGround::Impl& m, const std::vector<TexelRect>&
 size_t DisplacedGround::update(const Heightmap& h, const std::vector<TexelRect>& rects, float* pos, float* nor) {
     Impl& m = *impl_;
     if (m.rest.empty()) return 0;
+    m.face_index();
+    m.tile_index();
     if (m.terms.size() != m.tris.size() / 3) { // along_up, no displace_all yet: the terms of rest
         m.terms.assign(m.tris.size() / 3, FaceTerm{});
-        tbb::parallel_for(size_t(0), m.terms.size(), [&](size_t f) { m.terms[f] = face_term(m.cur.data(), &m.tris[3 * f]); });
+        tbb::parallel_for(tbb::blocked_range<size_t>(0, m.terms.size(), 1024), [&](const tbb::blocked_range<size_t>& r) {
+            kernel::face_terms(m.terms.data(), m.cur.data(), m.tris.data(), r.begin(), nullptr, r.size());
+        });
     }
     std::fill(m.mark.begin(), m.mark.end(), 0); // a bit a point: 27 KB at 221k points, cleared in microseconds
     std::fill(m.face_mark.begin(), m.face_mark.end(), 0);
-    m.moved.clear();
     points_under(m, rects);
+    marked(m.moved, m.mark);
     if (m.moved.empty()) return 0;
     // Re-displaced; a point whose position came out bit-identical (its texels did not change: a dirty tile is
     // rarely dirty everywhere) changes no face, and is already in the buffers.
@@ -447,27 +524,20 @@ size_t DisplacedGround::update(const Heightmap& h, const std::vector<TexelRect>&
         word |= bit;
         return first;
     };
-    m.redo_faces.clear();
-    m.redo_points.clear();
     for (size_t i = 0; i < m.moved.size(); ++i) {
         if (!m.shifted[i]) continue;
         const uint32_t p = m.moved[i];
-        if (first_mark(m.mark, p)) m.redo_points.push_back(p); // (a point without faces too)
+        first_mark(m.mark, p); // (a point without faces too)
         for (uint32_t k = m.face_off[p]; k < m.face_off[size_t(p) + 1]; ++k) {
             const uint32_t f = m.faces[k] / 3;
             if (!first_mark(m.face_mark, f)) continue;
-            m.redo_faces.push_back(f);
-            for (int corner = 0; corner < 3; ++corner) {
-                const uint32_t q = m.tris[3 * size_t(f) + size_t(corner)];
-                if (first_mark(m.mark, q)) m.redo_points.push_back(q);
-            }
+            for (int corner = 0; corner < 3; ++corner) first_mark(m.mark, m.tris[3 * size_t(f) + size_t(corner)]);
         }
     }
+    marked(m.redo_faces, m.face_mark);
+    marked(m.redo_points, m.mark);
     tbb::parallel_for(tbb::blocked_range<size_t>(0, m.redo_faces.size(), 512), [&](const tbb::blocked_range<size_t>& r) {
-        for (size_t k = r.begin(); k != r.end(); ++k) {
-            const uint32_t f = m.redo_faces[k];
-            m.terms[f] = face_term(m.cur.data(), &m.tris[3 * size_t(f)]);
-        }
+        kernel::face_terms(m.terms.data(), m.cur.data(), m.tris.data(), 0, m.redo_faces.data() + r.begin(), r.size());
     });
     tbb::parallel_for(tbb::blocked_range<size_t>(0, m.redo_points.size(), 512), [&](const tbb::blocked_range<size_t>& r) {
         for (size_t k = r.begin(); k != r.end(); ++k) {

@@ -7,6 +7,8 @@
 #include <numeric>
 #include <random>
 
+#include <tbb/global_control.h>
+
 using namespace furrow;
 using namespace furrow::test;
 
@@ -267,4 +269,43 @@ TEST(DisplacedGround, TopOnlyLeavesTheUndersideAlone) {
     std::vector<float> pos(g.positions.size()), nor(g.positions.size());
     p.dg.displace_all(p.field.heightmap(), pos.data(), nor.data());
     for (size_t v = 0; v < b; ++v) EXPECT_EQ(pos[3 * v + 1], 0.0f) << v; // the floor under the roof is untouched
+}
+
+// On one thread the normals are summed in one pass over the faces (scattered_normals), on more each point
+// gathers its faces' terms: the same bits, with and without the face-term cache, in displace_all and in the
+// updates after it, on a ground with a zero-area (collinear) and a sliver triangle added.
+TEST(DisplacedGround, OneThreadAndTwoThreadsGiveTheSameBits) {
+    Primitive g = hill_ground(4, 60);
+    const uint32_t base = uint32_t(g.vertex_count());
+    const float line[] = {0.1f, 0.0f, 0.1f, 0.2f, 0.0f, 0.2f, 0.3f, 0.0f, 0.3f,  // collinear
+                          0.4f, 0.0f, 0.4f, 0.6f, 0.0f, 0.4f, 0.5f, 1e-7f, 0.4f}; // a sliver
+    for (float v : line) g.positions.push_back(v);
+    if (!g.normals.empty()) g.normals.resize(g.positions.size(), 0.0f);
+    if (!g.uv0.empty()) g.uv0.resize(2 * g.vertex_count(), 0.0f);
+    for (uint32_t k = 0; k < 6; ++k) g.indices.push_back(base + k);
+    for (bool keep : {true, false}) {
+        SCOPED_TRACE(keep ? "face terms kept" : "no face-term cache");
+        std::vector<float> pos[2], nor[2];
+        for (int threads : {1, 2}) {
+            tbb::global_control limit(tbb::global_control::max_allowed_parallelism, size_t(threads));
+            Prepared p;
+            p.ground = g;
+            DisplaceOptions o;
+            o.keep_face_terms = keep;
+            prepare(p, o);
+            ASSERT_TRUE(p.field.add_collider(sphere(0.3, {{0.2, hill_height(0.2, 0.1) + 0.1, 0.1}})).ok());
+            p.field.update();
+            std::vector<float>& P = pos[threads - 1];
+            std::vector<float>& N = nor[threads - 1];
+            P.assign(g.positions.size(), 0.0f), N.assign(g.positions.size(), 0.0f);
+            p.dg.displace_all(p.field.heightmap(), P.data(), N.data());
+            ASSERT_TRUE(p.field.stamp(sphere(0.15, {}), ColliderPose{{-0.5, hill_height(-0.5, 0.4) + 0.1, 0.4}, 0, 0}).ok());
+            EXPECT_GT(p.dg.update(p.field.heightmap(), p.field.update(), P.data(), N.data()), 0u);
+        }
+        EXPECT_EQ(pos[0], pos[1]);
+        EXPECT_EQ(nor[0], nor[1]);
+        size_t moved = 0;
+        for (size_t i = 1; i < g.positions.size(); i += 3) moved += pos[0][i] != g.positions[i];
+        EXPECT_GT(moved, 10u);
+    }
 }

@@ -1,6 +1,8 @@
 #include <furrow/mesh.h>
 #include <gtest/gtest.h>
 
+#include "weld_exact.h"
+
 #include <array>
 #include <cmath>
 #include <cstring>
@@ -167,5 +169,15 @@ TEST(weld_positions, ExactMatchesAMapOfTheBits) {
         std::vector<uint32_t> remap(20000);
         EXPECT_EQ(weld_positions(remap.data(), p.data(), 20000), first.size()) << "shape " << shape;
         EXPECT_EQ(remap, want) << "shape " << shape;
+        // Each of the exact weld's two ways alone (weld_positions hashes, and sorts when the probes run out).
+        std::vector<uint32_t> hashed(20000, 0), sorted(20000, 0);
+        size_t unique = 0;
+        ASSERT_TRUE(furrow::mesh_detail::weld_exact_hashed(hashed.data(), unique, p.data(), 20000, 3, 16 * 20000));
+        EXPECT_EQ(unique, first.size());
+        EXPECT_EQ(hashed, want) << "hashed, shape " << shape;
+        EXPECT_EQ(furrow::mesh_detail::weld_exact_sorted(sorted.data(), p.data(), 20000, 3), first.size());
+        EXPECT_EQ(sorted, want) << "sorted, shape " << shape;
+        // Out of probes (the budget crafted collisions would exhaust): the hash gives up, the caller sorts.
+        EXPECT_FALSE(furrow::mesh_detail::weld_exact_hashed(hashed.data(), unique, p.data(), 20000, 3, 10));
     }
 }

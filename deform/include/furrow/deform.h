@@ -277,8 +277,9 @@ public:
     DisplacedGround(DisplacedGround&&) noexcept;
     DisplacedGround& operator=(DisplacedGround&&) noexcept;
 
-    // World-space triangles of the (tessellated) ground, undeformed. Welds by exact position, computes the
-    // undeformed normals and buckets the vertices by texel. `ground` (SnowField::ground()) is needed only
+    // World-space triangles of the (tessellated) ground, undeformed. Welds by exact position and computes the
+    // undeformed normals. The update's indexes (faces per point, points per texel tile) are built by the first
+    // update() (or a displace_all() on more than one thread): a one-shot displacement does not need them. `ground` (SnowField::ground()) is needed only
     // for top_only. Errors: an empty frame (invalid_argument); indices that are not triangles or out of range,
     // a NaN or infinite position (invalid_input).
     Status prepare(const float* positions, size_t vertex_count, const uint32_t* indices, size_t index_count,
@@ -290,7 +291,8 @@ public:
     // Re-displaces only the points whose bilinear footprint meets a dirty rectangle and renormalises the points
     // of the faces around them (exactly those whose normal can change);
     // other entries of the buffers are not touched (they must hold a previous displace_all/update result).
-    // Returns the number of welded points moved.
+    // Returns the number of welded points moved. The first call after prepare() builds the indexes (an update
+    // with no rectangle builds them alone: an engine can do so at load time).
     size_t update(const Heightmap& heightmap, const std::vector<TexelRect>& dirty, float* positions_out, float* normals_out);
     size_t update(const Heightmap& heightmap, const TexelRect& dirty, float* positions_out, float* normals_out);
 

@@ -32,4 +32,13 @@ inline WeldedIds welded_ids(const uint32_t* remap, size_t vertex_count) {
     return w;
 }
 
+// welded_ids' numbering in place, when the caller needs only the ids and their count: remap (as
+// weld_positions writes it) becomes vertex -> welded id. A representative (remap[v] == v) takes the next id;
+// any other vertex takes its representative's, already renumbered (it comes first). Returns the count.
+inline size_t number_welded_in_place(uint32_t* remap, size_t vertex_count) {
+    uint32_t next = 0;
+    for (size_t v = 0; v < vertex_count; ++v) remap[v] = remap[v] == v ? next++ : remap[remap[v]];
+    return next;
+}
+
 } // namespace furrow::kernel

@@ -1,0 +1,34 @@
+// furrow's private geometry kernel: the angle-weighted normal terms of many triangles at once, several
+// triangles to a vector register. Each lane computes what face_normal and corner_angle compute for one
+// triangle (angle_weighted_normal.h), the same operations in the same order, and IEEE arithmetic rounds a
+// lane as it rounds a scalar, so the terms are the same bits whichever width runs (tested against the scalar
+// functions, degenerate and sliver faces included). The width is chosen at run time: 8 lanes with AVX-512,
+// 4 with AVX2, else 2 (SSE2); the build targets baseline x86-64. Implemented in mesh/src/face_terms.cpp.
+//
+// Why: a triangle's terms are ten divisions and a square root, latency-bound one face at a time. The
+// displaced snow ground recomputes them for every face in a full pass and for the faces around each moved
+// point in an update (deform/src/displaced_ground.cpp); they were its largest cost.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+
+namespace furrow::kernel {
+
+// One face's part of its corners' normals: the unit normal and the interior angle at each corner.
+struct FaceTerm {
+    double unit[3] = {0, 0, 0};
+    double angle[3] = {-1, -1, -1}; // < 0: degenerate (face_normal gives nothing), contributes nothing
+};
+
+// The terms of `count` triangles of `tris` (three point indices each) over points P (xyz triples): with
+// `faces` null, triangles first .. first + count − 1 into out[first ..]; else triangles faces[0 .. count − 1]
+// into out[faces[k]]. `lanes` 0 picks the widest this processor runs; 2, 4 or 8 force one (tests; a width
+// the processor lacks falls back to 2).
+void face_terms(FaceTerm* out, const double* P, const uint32_t* tris, size_t first, const uint32_t* faces, size_t count,
+                int lanes = 0);
+
+// The widest lane count face_terms runs here.
+int face_term_lanes();
+
+} // namespace furrow::kernel
