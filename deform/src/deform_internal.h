@@ -156,6 +156,7 @@ struct RimInput {
     bool parallel = true;           // false: one thread per window (the caller runs windows in parallel)
     bool full_window = false;       // cosmetic: every step over the whole window (the reference the ring-only
                                     // evaluation must equal byte for byte; tests), not only around `out`
+    bool baseline_ring = false;     // cosmetic: the ring's baseline x86-64 build even where AVX-512 runs (tests)
 };
 // The texels a rim computation owns: the tiles of one connected dirty region. It counts only the imprints
 // inside them and writes only them.

@@ -109,37 +109,6 @@ void box_pass(uint64_t* v, uint64_t* tmp, int w, int h, int n, bool par) {
     });
 }
 
-// Box sum of radius r in float, each texel's terms added in one fixed order (rows j − r .. j + r, then
-// columns i − r .. i + r; zero outside the window): the same bits in any window that holds the neighbourhood.
-void box_pass_ordered(float* v, float* tmp, int w, int h, int r, bool par) {
-    for_range(par, tbb::blocked_range<int>(0, h, 16), [&](const tbb::blocked_range<int>& rows) {
-        for (int j = rows.begin(); j != rows.end(); ++j) {
-            float* o = tmp + size_t(j) * size_t(w);
-            std::fill(o, o + w, 0.0f);
-            for (int k = std::max(0, j - r); k <= std::min(h - 1, j + r); ++k) {
-                const float* in = v + size_t(k) * size_t(w);
-                for (int i = 0; i < w; ++i) o[i] += in[i];
-            }
-        }
-    });
-    for_range(par, tbb::blocked_range<int>(0, h, 16), [&](const tbb::blocked_range<int>& rows) {
-        for (int j = rows.begin(); j != rows.end(); ++j) {
-            const float* in = tmp + size_t(j) * size_t(w);
-            float* o = v + size_t(j) * size_t(w);
-            auto clipped = [&](int i) { // near the window's edges
-                float acc = 0.0f;
-                for (int k = std::max(0, i - r); k <= std::min(w - 1, i + r); ++k) acc += in[k];
-                o[i] = acc;
-            };
-            const int a = std::min(r, w), b = std::max(a, w - r); // [a, b): all 2r + 1 terms inside
-            for (int i = 0; i < a; ++i) clipped(i);
-            std::fill(o + a, o + b, 0.0f);
-            for (int k = -r; k <= r; ++k) // the same terms in the same order, one column offset at a time
-                for (int i = a; i < b; ++i) o[i] += in[i + k];
-            for (int i = b; i < w; ++i) clipped(i);
-        }
-    });
-}
 
 // Running maximum over a (2n + 1)² box (zero outside), separable, O(N) with a monotone queue per line.
 void max_pass(float* v, float* tmp, int w, int h, int n, bool par) {
@@ -173,11 +142,6 @@ void smooth(uint64_t* v, uint64_t* tmp, int w, int h, int n, bool par) {
     box_pass(v, tmp, w, h, n, par);
 }
 
-// The same kernel in float with each texel's sum in a fixed order, O(r) per texel: the blur of the ridge.
-void blur(float* v, float* tmp, int w, int h, int r, bool par) {
-    box_pass_ordered(v, tmp, w, h, r, par);
-    box_pass_ordered(v, tmp, w, h, r, par);
-}
 
 // Squared distance (texels, exact Euclidean) to the nearest texel of a mask for every texel of a w × h window,
 // infinite when the mask is empty (S.dist2).
@@ -314,6 +278,33 @@ double quantum_cap(int n) {
 // emulation of one cost a branch per texel in the rim's sums.
 uint64_t quantized(double x, double cap) { return x > 0 ? uint64_t(int64_t(std::min(x / kQuantum, cap) + 0.5)) : 0; }
 
+
+// The ring's two builds (snow_rim_ring.inc). Clang (the fuzzing build) and other targets get the baseline one.
+namespace ring {
+#include "snow_rim_ring.inc"
+} // namespace ring
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+#define FURROW_RIM_AVX512 1
+#pragma GCC push_options
+#pragma GCC target("avx512f,avx512bw,avx512dq,avx512vl")
+namespace ring_avx512 {
+#include "snow_rim_ring.inc"
+} // namespace ring_avx512
+#pragma GCC pop_options
+#endif
+
+// Whether the AVX-512 build of the ring runs here (unless a test asks for the baseline one).
+bool ring_avx512_here(const RimInput& in) {
+#ifdef FURROW_RIM_AVX512
+    static const bool here = __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
+                             __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512vl");
+    return here && !in.baseline_ring;
+#else
+    (void)in;
+    return false;
+#endif
+}
+
 // The rim for one width: local amplitude (ratio of two smoothed fields) × profile, blurred, kept on owned
 // receivers, scaled (conserve: to the removed volume × (1 − compaction); cosmetic: by rim_height). Returns
 // the volume that could not be placed.
@@ -336,7 +327,7 @@ double rim_amplitude(Window& W, const RimInput& in, const TexelRect& win, const 
     }
     // Staircase noise of the texel-centre distances, blurred away (over a radius that grows with a widened
     // rim: its stripes are as long as it is wide); imprinted texels stay untouched.
-    blur(W.result, W.tmp, W.w, W.h, in.conserve ? clamped_int(width_m / (6 * in.texel), 1, 16) : 1, in.parallel);
+    ring::blur(W.result, W.tmp, W.w, W.h, in.conserve ? clamped_int(width_m / (6 * in.texel), 1, 16) : 1, in.parallel);
     if (!in.conserve) { // kept on receivers (the caller writes only its owned texels)
         const float k = float(in.height_ratio / 81.0); // the blur kernel sums to 81 (two 3 x 3 box passes)
         for (size_t x = 0; x < N; ++x) W.result[x] = W.receiver[x] ? W.result[x] * k : 0.0f;
@@ -358,213 +349,6 @@ double rim_amplitude(Window& W, const RimInput& in, const TexelRect& win, const 
     return 0.0;
 }
 
-// Second-order prefix sums (zero outside the window) of quantized values: smooth()'s result at any texel in
-// O(1). smooth() is a box of radius n applied twice, each time zero outside the window; per axis (the passes
-// are separable and commute), with C1 the prefix sum of f and C2 that of C1, the second box at x sums
-// B(y) = C1(y + n) − C1(y − n − 1) over y in [a, b] = [max(0, x − n), min(w − 1, x + n)]:
-// C2(b + n) − C2(a + n − 1) − C2(b − n − 1) + C2(a − n − 2). The table is padded by n + 2 texels before the
-// window and n after it. Unsigned arithmetic wraps, and the true sums fit (kRimMaxGather): the result is
-// exactly smooth()'s.
-template <class T>
-struct SumTable {
-    const T* c = nullptr;
-    int pad = 0, stride = 0, n = 0, w = 0, h = 0;
-    // The four C2 indices of window column i (or row j), padded: the same for every table of a window and for a
-    // whole column (row), so the ring finds them once per column and once per row.
-    void column_terms(int i, int* at) const { terms(i, w, at); }
-    void row_terms(int j, int* at) const { terms(j, h, at); }
-    T at(const int* xs, const int* ys) const { // smooth()'s value at the texel of those indices
-        T r[4];
-        for (int k = 0; k < 4; ++k) {
-            const T* row = c + size_t(ys[k]) * size_t(stride);
-            r[k] = T(row[xs[0]] - row[xs[1]] - row[xs[2]] + row[xs[3]]);
-        }
-        return T(r[0] - r[1] - r[2] + r[3]);
-    }
-
-private:
-    void terms(int x, int len, int* at) const {
-        const int a = std::max(0, x - n), b = std::min(len - 1, x + n);
-        at[0] = b + n + pad, at[1] = a + n - 1 + pad, at[2] = b - n - 1 + pad, at[3] = a - n - 2 + pad;
-    }
-};
-
-// The cosmetic rim's two gathered sums, built in one sweep of the window: the quantized imprint depth
-// (64-bit) and the imprint count (32-bit: its smoothed sum, at most (2n + 1)^4 < 2^32 for n <= kRimMaxGather,
-// is exact in wrapping 32-bit arithmetic; times the quantum of a depth of 1 it is the 64-bit sum of quantized
-// ones the whole-window path forms, the same integer). `carve` and `base` (may be null) point at the window's
-// first texel, rows `stride` apart; the imprint depth is base − carve, as gather_sources forms it.
-struct RingSums {
-    SumTable<uint64_t> depth;
-    SumTable<uint32_t> count;
-};
-RingSums ring_sums(Scratch& S, const float* carve, const float* base, size_t stride, int w, int h, int n, bool par) {
-    const double cap = quantum_cap(n);
-    const int pad = n + 2, W2 = w + 2 * n + 2, H2 = h + 2 * n + 2;
-    fit(S.num2, size_t(W2) * size_t(H2));
-    fit(S.count2, size_t(W2) * size_t(H2));
-    uint64_t* q = S.num2.data();
-    uint32_t* c = S.count2.data();
-    for_range(par, tbb::blocked_range<int>(0, H2, 32), [&](const tbb::blocked_range<int>& r) { // along rows, twice
-        for (int j = r.begin(); j != r.end(); ++j) {
-            uint64_t* qr = q + size_t(j) * size_t(W2);
-            uint32_t* cr = c + size_t(j) * size_t(W2);
-            uint64_t q1 = 0, q2 = 0;
-            uint32_t c1 = 0, c2 = 0;
-            const bool inside = j >= pad && j < pad + h;
-            int i = 0;
-            auto step = [&](int to) {
-                for (; i < to; ++i) q2 += q1, c2 += c1, qr[i] = q2, cr[i] = c2;
-            };
-            step(inside ? pad : W2);
-            if (inside) {
-                const float* carve_row = carve + size_t(j - pad) * stride; // texel (i - pad, j - pad)
-                const float* base_row = base ? base + size_t(j - pad) * stride : nullptr;
-                for (; i < pad + w; ++i) {
-                    const float s = (base_row ? base_row[i - pad] : 0.0f) - carve_row[i - pad];
-                    q1 += quantized(s, cap), c1 += s > 0 ? 1u : 0u;
-                    q2 += q1, c2 += c1, qr[i] = q2, cr[i] = c2;
-                }
-            }
-            step(W2);
-        }
-    });
-    for_range(par, tbb::blocked_range<int>(0, W2, 256), [&](const tbb::blocked_range<int>& r) { // down columns, twice
-        const int i0 = r.begin(), i1 = r.end();
-        std::vector<uint64_t> q1(size_t(i1 - i0), 0), q2(size_t(i1 - i0), 0);
-        std::vector<uint32_t> c1(size_t(i1 - i0), 0), c2(size_t(i1 - i0), 0);
-        for (int j = 0; j < H2; ++j) {
-            uint64_t* qr = q + size_t(j) * size_t(W2) + i0;
-            uint32_t* cr = c + size_t(j) * size_t(W2) + i0;
-            for (int i = 0; i < i1 - i0; ++i) {
-                q1[size_t(i)] += qr[i], q2[size_t(i)] += q1[size_t(i)], qr[i] = q2[size_t(i)];
-                c1[size_t(i)] += cr[i], c2[size_t(i)] += c1[size_t(i)], cr[i] = c2[size_t(i)];
-            }
-        }
-    });
-    return {{q, pad, W2, n, w, h}, {c, pad, W2, n, w, h}};
-}
-
-// Squared distance (texels) from each texel of a wi × hi block at (ox, oy) of a we × he mask to the nearest
-// texel with bit 1 set at most r away along each axis (S.near_d2): exact wherever it is below (r + 1)², and
-// at least that elsewhere. The rim's profile reads it only below (width + ½)² <= r², so there it is the exact
-// Euclidean distance transform's value, in a few vectorisable steps per texel with no division: the nearest
-// row per column (a sweep down and a sweep up, capped at r + 1), then the nearest column within r columns.
-template <class D>
-void near_columns(const int* rows, int* out, int pw, int r, int ox, int wi, int hi, std::vector<D>& sq, std::vector<D>& o) {
-    const D far2 = D((r + 1) * (r + 1));
-    sq.resize(size_t(wi + 2 * r));
-    o.resize(size_t(wi));
-    for (int j = 0; j < hi; ++j) {
-        const int* v = rows + size_t(j) * size_t(pw) + ox; // v[r + i + dx], |dx| <= r, stays within the padded row
-        for (int i = 0; i < wi + 2 * r; ++i) sq[size_t(i)] = D(v[i] * v[i]);
-        std::fill(o.begin(), o.end(), far2);
-        for (int dx = -r; dx <= r; ++dx) {
-            const D dd = D(dx * dx);
-            const D* s = sq.data() + r + dx;
-            for (int i = 0; i < wi; ++i) o[size_t(i)] = std::min(o[size_t(i)], D(dd + s[i]));
-        }
-        std::copy(o.begin(), o.end(), out + size_t(j) * size_t(wi));
-    }
-}
-void near_distance(Scratch& S, const uint8_t* mask, int we, int he, int ox, int oy, int wi, int hi, int r) {
-    const int far = r + 1, pw = we + 2 * r; // the columns' rows, padded by r columns of `far` on each side
-    fit(S.near_d2, size_t(wi) * size_t(hi));
-    fit(S.near_rows, size_t(pw) * size_t(hi));
-    std::vector<int> run(size_t(we), far);
-    int* rows = S.near_rows.data();
-    for (int y = 0; y < std::min(he, oy + hi); ++y) { // down: rows since the last marked one above
-        const uint8_t* m = mask + size_t(y) * size_t(we);
-        for (int i = 0; i < we; ++i) run[size_t(i)] = m[i] & 1 ? 0 : std::min(run[size_t(i)] + 1, far);
-        if (y < oy) continue;
-        int* o = rows + size_t(y - oy) * size_t(pw);
-        std::fill(o, o + r, far), std::fill(o + r + we, o + pw, far);
-        std::copy(run.begin(), run.end(), o + r);
-    }
-    std::fill(run.begin(), run.end(), far);
-    for (int y = he - 1; y >= oy; --y) { // up: the nearer of the two
-        const uint8_t* m = mask + size_t(y) * size_t(we);
-        for (int i = 0; i < we; ++i) run[size_t(i)] = m[i] & 1 ? 0 : std::min(run[size_t(i)] + 1, far);
-        if (y >= oy + hi) continue;
-        int* o = rows + size_t(y - oy) * size_t(pw) + r;
-        for (int i = 0; i < we; ++i) o[i] = std::min(o[i], run[size_t(i)]);
-    }
-    // The nearest column: the inner loop is a minimum over 2r + 1 shifted rows, in 16-bit lanes (eight to an
-    // SSE2 register, which has a 16-bit minimum and no 32-bit one) while every sum fits, dx² + far² < 2^15.
-    if (2 * far * far < 32768) near_columns<int16_t>(rows, S.near_d2.data(), pw, r, ox, wi, hi, S.columns16, S.min16);
-    else near_columns<int>(rows, S.near_d2.data(), pw, r, ox, wi, hi, S.columns32, S.min32);
-}
-
-// The cosmetic rim evaluated only where `out` can read it (snow_field's per-frame cost): the ridge is zero
-// farther than its profile radius from an imprint, so past the window-wide sums (prefix tables, O(1) per
-// texel, read straight from the layers) every step runs on `out` grown by the blur's reach (2), the
-// distances within the profile radius of that. Each value is computed as the whole-window path computes it
-// (the same integer distances and exact sums, the blur's terms in the same order), so the bits equal it
-// (tested). Fills W.result on `out` grown by 2.
-void cosmetic_ring(Scratch& S, Window& W, const RimInput& in, const TexelRect& win, const TexelRect& out) {
-    const int n = rim_gather_radius(in.width_m, in.gather_m, in.texel), R = rim_profile_radius(in.width_m, in.texel);
-    const size_t origin = size_t(win.y0) * size_t(in.width) + size_t(win.x0); // the window's first texel
-    const RingSums sums = ring_sums(S, in.carve + origin, in.base ? in.base + origin : nullptr, size_t(in.width), W.w, W.h, n, in.parallel);
-    const uint64_t one = quantized(1.0, quantum_cap(n)); // an imprint texel's term of the whole-window count
-    auto grown = [&](int m) { // `out` in window coordinates, grown by m, clipped to the window
-        return TexelRect{std::max(0, out.x0 - win.x0 - m), std::max(0, out.y0 - win.y0 - m), std::min(W.w, out.x1 - win.x0 + m),
-                         std::min(W.h, out.y1 - win.y0 + m)};
-    };
-    const TexelRect I = grown(2), E = grown(2 + R);
-    if (I.empty()) return;
-    const int wi = I.x1 - I.x0, hi = I.y1 - I.y0, we = E.x1 - E.x0, he = E.y1 - E.y0;
-    // Per texel of E: 1 imprinted, 2 receiver (ground, not imprinted), as gather_sources classifies them.
-    fit(S.near_source, size_t(we) * size_t(he));
-    for (int j = 0; j < he; ++j) {
-        const size_t g = origin + size_t(j + E.y0) * size_t(in.width) + size_t(E.x0);
-        const float *carve = in.carve + g, *base = in.base ? in.base + g : nullptr, *ground = in.ground + g;
-        uint8_t* m = S.near_source.data() + size_t(j) * size_t(we);
-        for (int i = 0; i < we; ++i) {
-            const float s = (base ? base[i] : 0.0f) - carve[i];
-            const uint8_t imprinted = s > 0, on_ground = ground[i] == ground[i]; // (not NaN), without a branch
-            m[i] = uint8_t(imprinted | ((on_ground & (imprinted ^ 1)) << 1));
-        }
-    }
-    near_distance(S, S.near_source.data(), we, he, I.x0 - E.x0, I.y0 - E.y0, wi, hi, R);
-    fit(S.ring, size_t(wi) * size_t(hi));
-    fit(S.ring_tmp, size_t(wi) * size_t(hi));
-    float* ring = S.ring.data();
-    auto receiver = [&](int i, int j) { // (i, j) in I
-        return S.near_source[size_t(j + I.y0 - E.y0) * size_t(we) + size_t(i + I.x0 - E.x0)] == 2;
-    };
-    // The profile is a function of the integer squared distance: for a rim up to 64 texels wide a table of its
-    // R² + 1 values (the same bits), for a wider one (an unbounded table) computed per texel.
-    const bool tabled = R <= 64;
-    if (tabled) {
-        S.profile_of.resize(size_t(R) * size_t(R) + 1);
-        for (size_t d2 = 0; d2 < S.profile_of.size(); ++d2) S.profile_of[d2] = profile_at(double(d2), in.texel, in.width_m);
-    }
-    auto profile_of = [&](int d2) { return tabled ? S.profile_of[size_t(d2)] : profile_at(double(d2), in.texel, in.width_m); };
-    std::vector<int>& xs = S.sum_columns;
-    xs.resize(4 * size_t(wi));
-    for (int i = 0; i < wi; ++i) sums.depth.column_terms(i + I.x0, &xs[4 * size_t(i)]);
-    for (int j = 0; j < hi; ++j) {
-        int ys[4];
-        sums.depth.row_terms(j + I.y0, ys);
-        for (int i = 0; i < wi; ++i) {
-            const size_t x = size_t(j) * size_t(wi) + size_t(i);
-            const int d2 = S.near_d2[x];
-            const float profile = d2 <= R * R && receiver(i, j) ? profile_of(d2) : 0.0f;
-            float r = 0.0f;
-            if (profile > 0) {
-                const int* xi = &xs[4 * size_t(i)];
-                const double d = double(int64_t(uint64_t(sums.count.at(xi, ys)) * one));
-                if (d > 0) r = float(double(profile) * double(int64_t(sums.depth.at(xi, ys))) / d);
-            }
-            ring[x] = r;
-        }
-    }
-    blur(ring, S.ring_tmp.data(), wi, hi, 1, in.parallel);
-    const float k = float(in.height_ratio / 81.0); // the blur kernel sums to 81 (two 3 x 3 box passes)
-    for (int j = 0; j < hi; ++j)
-        for (int i = 0; i < wi; ++i)
-            W.result[size_t(j + I.y0) * size_t(W.w) + size_t(i + I.x0)] = receiver(i, j) ? ring[size_t(j) * size_t(wi) + size_t(i)] * k : 0.0f;
-}
 
 // How far the rim breaks its limits: max over rim texels of height / (max_height × the local print depth) and of (slope / tan(repose))^½ (height goes as 1/width at a fixed volume, slope as 1/width²). <= 1:
 // within both.
@@ -623,7 +407,13 @@ double compute_rim(float* rim, const RimInput& in, const TexelRect& win, const R
         return 0.0;
     }
     if (!in.conserve && !in.full_window) { // (a window without imprints comes out zero here too)
-        cosmetic_ring(S, W, in, win, out);
+        if (ring_avx512_here(in)) {
+#ifdef FURROW_RIM_AVX512
+            ring_avx512::cosmetic_ring(S, W, in, win, out);
+#endif
+        } else {
+            ring::cosmetic_ring(S, W, in, win, out);
+        }
         write(W.result);
         return 0.0;
     }

@@ -80,14 +80,23 @@ TEST(SnowRim, RingOnlyCosmeticRimEqualsTheWholeWindowPathByteForByte) {
             std::vector<float> ref(size_t(w) * size_t(h), -1.0f);
             compute_rim(ref.data(), input_of(f, width_m, true, true), grid, RimOwner{all.data(), TX, T}, grid);
             ASSERT_GT(*std::max_element(ref.begin(), ref.end()), 0.0f); // a rim rose
-            for (int threads : {1, 2}) {
+            // The ring's AVX-512 build (where it runs) and its baseline one, at one and two threads.
+            for (int run = 0; run < 4; ++run) {
+                const int threads = 1 + run % 2;
+                const bool baseline = run >= 2;
+                SCOPED_TRACE(baseline ? "baseline ring" : "widest ring");
+                auto ring_input = [&](bool parallel) {
+                    RimInput in = input_of(f, width_m, false, parallel);
+                    in.baseline_ring = baseline;
+                    return in;
+                };
                 tbb::global_control limit(tbb::global_control::max_allowed_parallelism, size_t(threads));
                 // Whole grid in one window.
                 std::vector<float> ring(ref.size(), -1.0f);
-                compute_rim(ring.data(), input_of(f, width_m, false, true), grid, RimOwner{all.data(), TX, T}, grid);
+                compute_rim(ring.data(), ring_input(true), grid, RimOwner{all.data(), TX, T}, grid);
                 EXPECT_EQ(std::memcmp(ring.data(), ref.data(), ref.size() * sizeof(float)), 0) << threads << " threads, whole";
                 // Random tile-aligned output rectangles, each in a window holding its reach (as SnowField::update).
-                std::mt19937 rng(seed * 31 + unsigned(threads));
+                std::mt19937 rng(seed * 31 + unsigned(run));
                 const int reach = rim_reach(width_m, 0.12, 0.02);
                 for (int k = 0; k < 8; ++k) {
                     const int tx0 = int(rng() % unsigned(TX)), ty0 = int(rng() % unsigned(TY));
@@ -96,7 +105,7 @@ TEST(SnowRim, RingOnlyCosmeticRimEqualsTheWholeWindowPathByteForByte) {
                     const TexelRect win{std::max(0, out.x0 - reach), std::max(0, out.y0 - reach), std::min(w, out.x1 + reach),
                                         std::min(h, out.y1 + reach)};
                     std::vector<float> part(ref.size(), -1.0f);
-                    compute_rim(part.data(), input_of(f, width_m, false, threads == 2), win, RimOwner{all.data(), TX, T}, out);
+                    compute_rim(part.data(), ring_input(threads == 2), win, RimOwner{all.data(), TX, T}, out);
                     for (int j = out.y0; j < out.y1; ++j)
                         ASSERT_EQ(std::memcmp(&part[size_t(j) * size_t(w) + size_t(out.x0)], &ref[size_t(j) * size_t(w) + size_t(out.x0)],
                                               size_t(out.x1 - out.x0) * sizeof(float)),
