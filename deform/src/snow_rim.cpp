@@ -27,7 +27,9 @@
 // a bounded search, nearest row per column then nearest column, gives the same integers); the gathered sums
 // are fixed point (2^-20 m) added in 64-bit integers, where a running sum is exact wherever it starts
 // (floating-point running sums round differently from different starts); the blur adds its few terms in one
-// fixed order per texel.
+// fixed order per texel. That evaluation (snow_rim_ring.inc) is built twice, for baseline x86-64 and for
+// AVX-512, and chosen at run time: per-texel arithmetic with no fused multiply-add gives both builds the same
+// bits (`furrow -j 1 bench stamp --section 4`, rim 6 cm: rim 8.85-9.29 -> 7.33-7.41 ms a frame).
 #include "deform_internal.h"
 
 #include <tbb/blocked_range.h>
@@ -277,7 +279,6 @@ double quantum_cap(int n) {
 // Half up. Through int64 (the capped value is below 2^62): SSE2 has no unsigned conversion, and the compiler's
 // emulation of one cost a branch per texel in the rim's sums.
 uint64_t quantized(double x, double cap) { return x > 0 ? uint64_t(int64_t(std::min(x / kQuantum, cap) + 0.5)) : 0; }
-
 
 // The ring's two builds (snow_rim_ring.inc). Clang (the fuzzing build) and other targets get the baseline one.
 namespace ring {
