@@ -37,6 +37,7 @@
 
 #include <algorithm>
 #include <bit>
+#include <cstring>
 #include <numbers>
 
 namespace furrow::deform_detail {
@@ -57,6 +58,7 @@ struct Scratch {
     std::vector<float> profile_of;         // the profile per integer squared distance
     std::vector<int> sum_columns;          // the sums' column indices, per column of the ring
     std::vector<float> ring, ring_tmp;
+    std::vector<float> zeros;              // a run of zeros for compute_rim's writes
     std::vector<int> row_of;
     std::vector<double> dist2;
 };
@@ -382,7 +384,10 @@ double compute_rim(float* rim, const RimInput& in, const TexelRect& win, const R
     fit(S.result, N);
     Window W{w, h, N};
     W.result = S.result.data();
-    // The owned texels of `out`, a tile's run of columns at a time (its owner and changed flag looked up once).
+    // The owned texels of `out`, a tile's run of columns at a time (its owner and changed flag looked up once):
+    // a run that is already those bits (most of a frame's) is only compared; else its first and last changed
+    // texels are found from its two ends and the run is copied.
+    fit(S.zeros, size_t(own.tile)); // (never written: zero)
     auto write = [&](const float* result) {
         const int i0 = std::max(0, out.x0 - win.x0), i1 = std::min(w, out.x1 - win.x0);
         for (int j = std::max(0, out.y0 - win.y0); j < std::min(h, out.y1 - win.y0); ++j)
@@ -390,15 +395,17 @@ double compute_rim(float* rim, const RimInput& in, const TexelRect& win, const R
                 const int b = std::min(i1, ((a + win.x0) / own.tile + 1) * own.tile - win.x0); // end of this tile's run
                 const size_t t = own.tile_of(a + win.x0, j + win.y0);
                 if (own.tiles[t]) {
-                    int first = b, last = a - 1; // the run's texels whose value changes (in bits)
-                    for (int i = a; i < b; ++i) {
-                        const float v = result ? result[size_t(j) * size_t(w) + size_t(i)] : 0.0f;
-                        float& dst = rim[size_t(j + win.y0) * size_t(in.width) + size_t(i + win.x0)];
-                        if (std::bit_cast<uint32_t>(dst) != std::bit_cast<uint32_t>(v)) first = std::min(first, i), last = i;
-                        dst = v;
+                    const float* src = result ? result + size_t(j) * size_t(w) + size_t(a) : S.zeros.data();
+                    float* dst = rim + size_t(j + win.y0) * size_t(in.width) + size_t(a + win.x0);
+                    const size_t n = size_t(b - a);
+                    if (std::memcmp(dst, src, n * sizeof(float)) != 0) { // bits differ somewhere in the run
+                        size_t first = 0, last = n - 1;
+                        while (std::memcmp(dst + first, src + first, sizeof(float)) == 0) ++first;
+                        while (std::memcmp(dst + last, src + last, sizeof(float)) == 0) --last;
+                        std::memcpy(dst, src, n * sizeof(float));
+                        if (own.changed_box)
+                            own.changed_box[t].unite({a + int(first) + win.x0, j + win.y0, a + int(last) + 1 + win.x0, j + 1 + win.y0});
                     }
-                    if (last >= first && own.changed_box)
-                        own.changed_box[t].unite({first + win.x0, j + win.y0, last + 1 + win.x0, j + 1 + win.y0});
                 }
                 a = b;
             }
