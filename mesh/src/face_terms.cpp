@@ -58,8 +58,10 @@ template <int L>
 
 // The triangles of items k0 .. k0 + L − 1 (the last repeated past `count`), written for the items < count.
 // (GCC 12 warns that lanes set one at a time may be read uninitialised; every lane is set first.)
+#if defined(__GNUC__) && !defined(__clang__)
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#endif
 template <int L, class FaceOf>
 [[gnu::always_inline]] inline void block(FaceTerm* out, const double* P, const uint32_t* tris, FaceOf face_of, size_t k0, size_t count) {
     D<L> x[3] = {}, y[3] = {}, z[3] = {};
@@ -99,7 +101,9 @@ template <int L, class FaceOf>
         for (int c = 0; c < 3; ++c) o.angle[c] = angle[c][j];
     }
 }
+#if defined(__GNUC__) && !defined(__clang__)
 #pragma GCC diagnostic pop
+#endif
 
 template <int L>
 [[gnu::always_inline]] inline void terms_of(FaceTerm* out, const double* P, const uint32_t* tris, size_t first, const uint32_t* faces, size_t count) {
