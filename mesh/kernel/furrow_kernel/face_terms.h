@@ -5,9 +5,11 @@
 // functions, degenerate and sliver faces included). The width is chosen at run time: 8 lanes with AVX-512,
 // 4 with AVX2, else 2 (SSE2); the build targets baseline x86-64. Implemented in mesh/src/face_terms.cpp.
 //
-// Why: a triangle's terms are ten divisions and a square root, latency-bound one face at a time. The
+// Why: a triangle's terms are nine divisions and a square root, latency-bound one face at a time. The
 // displaced snow ground recomputes them for every face in a full pass and for the faces around each moved
-// point in an update (deform/src/displaced_ground.cpp); they were its largest cost.
+// point in an update (deform/src/displaced_ground.cpp); they were its largest cost. 800k triangles of
+// nearby points, one thread, on the project's AVX-512 machine: 40 ns a face scalar, 18-19 ns at 2 lanes,
+// 15-17 at 4, 13-14 at 8.
 #pragma once
 
 #include <cstddef>
