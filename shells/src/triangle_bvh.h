@@ -139,6 +139,8 @@ public:
     }
 
     bool empty() const { return prims_.empty(); }
+    // The primitives in leaf order (left to right): neighbours in it are neighbours in space.
+    const std::vector<uint32_t>& leaf_order() const { return prims_; }
 
     // f(prim) for every primitive whose (grown) box overlaps q.
     template <class F>

@@ -10,6 +10,8 @@
 
 #include <gtest/gtest.h>
 
+#include <CGAL/Simple_cartesian.h>
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -209,4 +211,112 @@ TEST(crossing_halvings, FourWallEdgesCrossAtEveryScale) {
         EXPECT_EQ(halvings[v], 7) << v;
     }
     EXPECT_GT(blamed, 0u);
+}
+
+// The medial-axis clamp's bisection test (shells_detail::witness_takes) answers as its definition does: the
+// witness face's squared distance below ratio² × the smallest of the own faces' (CGAL's Simple_cartesian
+// distances), whichever own face it tries first and however early it stops. Random fans of own faces around a
+// corner, a random witness face, points around them; both answers occur.
+TEST(witness_takes, AnswersAsTheDefinition) {
+    using K = CGAL::Simple_cartesian<double>;
+    uint64_t seed = 2026;
+    size_t taken = 0, trials = 20000;
+    for (size_t trial = 0; trial < trials; ++trial) {
+        const uint32_t own_count = uint32_t(1 + trial % 7);
+        std::vector<double> pts{0, 0, 0};
+        std::vector<std::array<uint32_t, 3>> tris;
+        for (uint32_t k = 0; k < own_count; ++k) {
+            for (int c = 0; c < 6; ++c) pts.push_back(2 * uniform(seed) - 1);
+            tris.push_back({0, 1 + 2 * k, 2 + 2 * k});
+        }
+        const uint32_t witness = uint32_t(tris.size());
+        for (int c = 0; c < 9; ++c) pts.push_back(2 * uniform(seed) - 1 + 0.5);
+        tris.push_back({uint32_t(pts.size() / 3 - 3), uint32_t(pts.size() / 3 - 2), uint32_t(pts.size() / 3 - 1)});
+        std::vector<uint32_t> own(own_count);
+        for (uint32_t k = 0; k < own_count; ++k) own[k] = k;
+        const double x[3] = {2 * uniform(seed) - 0.5, 2 * uniform(seed) - 0.5, 2 * uniform(seed) - 0.5};
+        const double ratio = trial % 5 == 0 ? 1.0 : 0.98;
+        auto tri = [&](uint32_t f) {
+            auto p = [&](uint32_t v) { return K::Point_3(pts[3 * v], pts[3 * v + 1], pts[3 * v + 2]); };
+            return K::Triangle_3(p(tris[f][0]), p(tris[f][1]), p(tris[f][2]));
+        };
+        const K::Point_3 px(x[0], x[1], x[2]);
+        double nearest = std::numeric_limits<double>::infinity();
+        for (uint32_t f : own) nearest = std::min(nearest, CGAL::squared_distance(px, tri(f)));
+        const bool expected = CGAL::squared_distance(px, tri(witness)) < ratio * ratio * nearest;
+        uint32_t hint = uint32_t(trial % own_count);
+        ASSERT_EQ(shells_detail::witness_takes(pts, tris, x, witness, own, ratio, &hint), expected) << "trial " << trial;
+        ASSERT_LT(hint, own_count);
+        taken += expected;
+    }
+    EXPECT_GT(taken, trials / 10);
+    EXPECT_LT(taken, trials - trials / 10);
+}
+
+// The crossing test's shortcut (shells_detail::planes_rule_out): the pair's planes alone rule a crossing out
+// only where the full pair test finds none, and they do so for most pairs that do not cross. Random triangle
+// pairs sharing 0, 1 or 2 corners, crossing and not, some exactly coplanar (a wall and its translated shell).
+TEST(crossing_planes, RuleOutOnlyPairsThatDoNotCross) {
+    uint64_t seed = 99;
+    size_t ruled_out = 0, apart = 0, crossing = 0;
+    for (int trial = 0; trial < 30000; ++trial) {
+        std::vector<double> pts(18);
+        for (double& x : pts) x = 2 * uniform(seed) - 1;
+        if (trial % 7 == 0) // all six corners in the plane z = 0.25
+            for (size_t v = 0; v < 6; ++v) pts[3 * v + 2] = 0.25;
+        std::array<uint32_t, 3> a{0, 1, 2}, b{3, 4, 5};
+        const int shared = trial % 3;
+        if (shared >= 1) b[0] = 0;
+        if (shared == 2) b[1] = 1;
+        bool crosses = false;
+        const bool out = shells_detail::planes_rule_out(pts, a, b, &crosses);
+        ASSERT_FALSE(out && crosses) << "trial " << trial << ": ruled out a crossing pair";
+        ruled_out += out;
+        apart += !crosses;
+        crossing += crosses;
+    }
+    EXPECT_GT(crossing, 1000u);
+    EXPECT_GT(ruled_out, apart / 2); // the shortcut must also work, not only be safe
+}
+
+// The per-vertex queries answer in a spatially coherent order (coherent_order): a batch answers every query as
+// that query alone does.
+TEST(coherent_order, ABatchAnswersEachQueryAsAlone) {
+    const TriSoup m = from_primitive(shapes::torus(1.0f, 0.3f, 48, 24));
+    const shells_detail::SurfaceIndex index(m.points, m.triangles);
+    const size_t W = m.points.size() / 3;
+    std::vector<uint32_t> start(W + 1, 0), faces;
+    for (const auto& t : m.triangles)
+        for (uint32_t v : t) ++start[v + 1];
+    for (size_t v = 0; v < W; ++v) start[v + 1] += start[v];
+    faces.resize(start[W]);
+    std::vector<uint32_t> fill(start.begin(), start.end() - 1);
+    for (size_t f = 0; f < m.triangles.size(); ++f)
+        for (uint32_t v : m.triangles[f]) faces[fill[v]++] = uint32_t(f);
+    // Every vertex (in reverse, so that query order and vertex order differ), along a random direction.
+    uint64_t seed = 5;
+    std::vector<uint32_t> qv;
+    std::vector<double> dirs, lengths;
+    for (uint32_t v = uint32_t(W); v-- > 0;) {
+        double d[3], len = 0;
+        for (double& x : d) x = 2 * uniform(seed) - 1, len += x * x;
+        len = std::sqrt(len);
+        qv.push_back(v);
+        dirs.insert(dirs.end(), {d[0] / len, d[1] / len, d[2] / len});
+        lengths.push_back(0.8 * uniform(seed));
+    }
+    const size_t n = qv.size();
+    std::vector<double> owned(n, -1), rays(n, -1);
+    shells_detail::owned_lengths(owned.data(), index, start.data(), faces.data(), qv.data(), dirs.data(), lengths.data(), 0.98, n);
+    shells_detail::free_distances(rays.data(), index, qv.data(), dirs.data(), n);
+    size_t clamped = 0;
+    for (size_t q = 0; q < n; ++q) {
+        double one = -1, ray = -1;
+        shells_detail::owned_lengths(&one, index, start.data(), faces.data(), &qv[q], &dirs[3 * q], &lengths[q], 0.98, 1);
+        shells_detail::free_distances(&ray, index, &qv[q], &dirs[3 * q], 1);
+        ASSERT_EQ(owned[q], one) << "query " << q;
+        ASSERT_EQ(rays[q], ray) << "query " << q;
+        clamped += one < lengths[q];
+    }
+    EXPECT_GT(clamped, n / 20); // the bisection ran, not only the first test
 }
