@@ -92,12 +92,16 @@ public:
         for (int k = 0; k < 3; ++k) reach = std::max({reach, all.hi[k] - all.lo[k], std::abs(all.lo[k]), std::abs(all.hi[k])});
         const double margin = 1e-9 * reach + 1e-300;
         // Boxes in leaf order, grown by the margin, so that a leaf reads them contiguously.
-        std::vector<double> centre(3 * boxes.size());
-        for (uint32_t i : prims_)
-            for (int k = 0; k < 3; ++k) centre[3 * i + k] = 0.5 * (boxes[i].lo[k] + boxes[i].hi[k]);
+        std::vector<Keyed> keyed(prims_.size());
+        for (size_t j = 0; j < prims_.size(); ++j) {
+            const uint32_t i = prims_[j];
+            keyed[j].id = i;
+            for (int k = 0; k < 3; ++k) keyed[j].centre[k] = 0.5 * (boxes[i].lo[k] + boxes[i].hi[k]);
+        }
         nodes_.reserve(2 * (prims_.size() / kLeaf + 1));
         nodes_.emplace_back();
-        build_node(0, 0, uint32_t(prims_.size()), boxes, centre);
+        build_node(0, 0, uint32_t(prims_.size()), boxes, keyed);
+        for (size_t j = 0; j < prims_.size(); ++j) prims_[j] = keyed[j].id;
         boxes_.resize(prims_.size());
         for (size_t j = 0; j < prims_.size(); ++j) {
             boxes_[j] = boxes[prims_[j]];
@@ -256,8 +260,10 @@ public:
             }
             const double da = nodes_[n.first].box.squared_distance(p), db = nodes_[n.first + 1].box.squared_distance(p);
             const bool a_first = da <= db;
-            stack[top] = a_first ? n.first + 1 : n.first, dist[top++] = a_first ? db : da;
-            stack[top] = a_first ? n.first : n.first + 1, dist[top++] = a_first ? da : db;
+            // A child already out of reach stays out (r2 only shrinks): not pushed, the same visits.
+            const double d_far = a_first ? db : da, d_near = a_first ? da : db;
+            if (d_far < r2) stack[top] = a_first ? n.first + 1 : n.first, dist[top++] = d_far;
+            if (d_near < r2) stack[top] = a_first ? n.first : n.first + 1, dist[top++] = d_near;
         }
         return false;
     }
@@ -308,34 +314,47 @@ private:
         return true;
     }
 
-    void build_node(uint32_t node, uint32_t begin, uint32_t end, const std::vector<Box3>& boxes, const std::vector<double>& centre) {
-        Box3 box, centres;
-        for (uint32_t j = begin; j < end; ++j) {
-            box.add(boxes[prims_[j]]);
-            centres.add(&centre[3 * size_t(prims_[j])]);
-        }
-        nodes_[node].box = box;
+    // A primitive's box centre and id, moved with it by the split: the partition reads its keys in order instead
+    // of gathering them (on the 69k-triangle bunny, `perf record furrow -j 1 shells`, the split and the boxes
+    // went from 5.0 % of the samples to 3.5 %).
+    // nth_element's moves depend only on its comparisons, so the tree is the one the ids alone gave.
+    struct Keyed {
+        double centre[3];
+        uint32_t id;
+    };
+    void build_node(uint32_t node, uint32_t begin, uint32_t end, const std::vector<Box3>& boxes, std::vector<Keyed>& keyed) {
         if (end - begin <= kLeaf) {
+            Box3 box;
+            for (uint32_t j = begin; j < end; ++j) box.add(boxes[keyed[j].id]);
+            nodes_[node].box = box;
             nodes_[node].first = begin;
             nodes_[node].count = end - begin;
             return;
         }
+        Box3 centres;
+        for (uint32_t j = begin; j < end; ++j) centres.add(keyed[j].centre);
         int axis = 0;
         for (int k = 1; k < 3; ++k)
             if (centres.hi[k] - centres.lo[k] > centres.hi[axis] - centres.lo[axis]) axis = k;
         const uint32_t mid = begin + (end - begin) / 2;
         // Ties broken by primitive index: the split, hence the tree, depends on nothing but the input.
-        std::nth_element(prims_.begin() + begin, prims_.begin() + mid, prims_.begin() + end, [&](uint32_t a, uint32_t b) {
-            const double ca = centre[3 * size_t(a) + size_t(axis)], cb = centre[3 * size_t(b) + size_t(axis)];
-            return ca < cb || (ca == cb && a < b);
+        std::nth_element(keyed.begin() + begin, keyed.begin() + mid, keyed.begin() + end, [axis](const Keyed& a, const Keyed& b) {
+            const double ca = a.centre[axis], cb = b.centre[axis];
+            return ca < cb || (ca == cb && a.id < b.id);
         });
         const uint32_t left = uint32_t(nodes_.size());
         nodes_.emplace_back();
         nodes_.emplace_back();
         nodes_[node].first = left;
         nodes_[node].count = 0;
-        build_node(left, begin, mid, boxes, centre);
-        build_node(left + 1, mid, end, boxes, centre);
+        build_node(left, begin, mid, boxes, keyed);
+        build_node(left + 1, mid, end, boxes, keyed);
+        // The box bottom-up: the union of the children's (min and max are exact, so it is the box of the
+        // primitives below, as a pass over them would give).
+        Box3 box;
+        box.add(nodes_[left].box);
+        box.add(nodes_[left + 1].box);
+        nodes_[node].box = box;
     }
 
     std::vector<Node> nodes_;

@@ -4,6 +4,7 @@
 // the same distance); and the clamp compute_shell_frame derives from it (min(H, safe_fraction · distance /
 // need) with reach = 2 · H · need / safe_fraction) identical.
 #include "../../shells/src/shells_internal.h"
+#include "../../shells/src/triangle_bvh.h"
 #include "../../models/lattice.h"
 
 #include <furrow/shapes.h>
@@ -15,6 +16,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <vector>
 
@@ -319,4 +321,51 @@ TEST(coherent_order, ABatchAnswersEachQueryAsAlone) {
         clamped += one < lengths[q];
     }
     EXPECT_GT(clamped, n / 20); // the bisection ran, not only the first test
+}
+
+// BoxBvh::build splits on an array of (box centre, id) instead of on the ids with their centres looked up:
+// the same tree, leaf for leaf (the clamps' searches report the first face they meet, so the tree's order is
+// part of their answer). Held to the split on ids alone (the previous build, as a reference), on random boxes
+// with many ties (centres on a coarse grid).
+TEST(box_bvh, BuildsTheTreeTheIdsAloneGave) {
+    using shells_detail::Box3;
+    uint64_t seed = 31;
+    for (size_t n : {1u, 3u, 4u, 5u, 17u, 1000u, 4099u}) {
+        std::vector<Box3> boxes(n);
+        for (Box3& b : boxes) {
+            double lo[3], hi[3];
+            for (int k = 0; k < 3; ++k) lo[k] = double(next(seed) % 16), hi[k] = lo[k] + double(next(seed) % 3);
+            b.add(lo), b.add(hi);
+        }
+        shells_detail::BoxBvh bvh;
+        bvh.build(boxes);
+        // The reference: median split along the longest extent of the centres, ties by id, leaves of 4.
+        std::vector<uint32_t> ids(n);
+        for (uint32_t i = 0; i < n; ++i) ids[i] = i;
+        auto centre = [&](uint32_t i, int k) { return 0.5 * (boxes[i].lo[k] + boxes[i].hi[k]); };
+        std::function<void(uint32_t, uint32_t)> split = [&](uint32_t begin, uint32_t end) {
+            if (end - begin <= 4) return;
+            double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
+            for (uint32_t j = begin; j < end; ++j)
+                for (int k = 0; k < 3; ++k) lo[k] = std::min(lo[k], centre(ids[j], k)), hi[k] = std::max(hi[k], centre(ids[j], k));
+            int axis = 0;
+            for (int k = 1; k < 3; ++k)
+                if (hi[k] - lo[k] > hi[axis] - lo[axis]) axis = k;
+            const uint32_t mid = begin + (end - begin) / 2;
+            std::nth_element(ids.begin() + begin, ids.begin() + mid, ids.begin() + end, [&](uint32_t a, uint32_t b) {
+                const double ca = centre(a, axis), cb = centre(b, axis);
+                return ca < cb || (ca == cb && a < b);
+            });
+            split(begin, mid);
+            split(mid, end);
+        };
+        split(0, uint32_t(n));
+        EXPECT_EQ(bvh.leaf_order(), ids) << n << " boxes";
+        // Every box is found by a query on itself (the bottom-up node boxes hold their leaves).
+        for (uint32_t i = 0; i < n; ++i) {
+            bool found = false;
+            bvh.for_overlapping(boxes[i], [&](uint32_t f) { found = found || f == i; });
+            ASSERT_TRUE(found) << i;
+        }
+    }
 }
