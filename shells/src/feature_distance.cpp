@@ -205,6 +205,9 @@ bool witness_takes(const std::vector<double>& points, const std::vector<std::arr
     return witness_takes(tris, Point(x[0], x[1], x[2]), witness, own.data(), uint32_t(own.size()), ratio, hint);
 }
 
+// Nodes of at most this many triangles get a slab (BoxBvh::add_slabs): larger ones are seldom flat.
+constexpr uint32_t kSlabPrims = 256;
+
 struct SurfaceIndex::Impl {
     const std::vector<double>& points;
     const std::vector<std::array<uint32_t, 3>>& triangles;
@@ -240,6 +243,10 @@ struct SurfaceIndex::Impl {
             pl.slack = len > 0 && std::isfinite(len) ? 1e-14 * (l1 * l2 / len + 1) : HUGE_VAL;
         }
         bvh.build(std::move(boxes));
+        bvh.add_slabs([&](uint32_t f, double* out) {
+            for (int c = 0; c < 3; ++c)
+                for (int k = 0; k < 3; ++k) out[3 * c + k] = p[3 * size_t(t[f][size_t(c)]) + size_t(k)];
+        }, kSlabPrims);
     }
     Point pt(uint32_t v) const { return Point(points[3 * size_t(v)], points[3 * size_t(v) + 1], points[3 * size_t(v) + 2]); }
 

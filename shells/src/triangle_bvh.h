@@ -15,6 +15,12 @@
 // (the medial-axis test only needs that). Measured on the 69k-triangle Stanford bunny, the three trees and
 // their queries took 1.0 s of a 2.3 s add_fur_shells.
 //
+// Slabs (add_slabs, for_near only): the medial-axis clamp asks whether any face comes within a ball that sits
+// just above the surface and nearly touches it; the axis-aligned boxes of a tilted patch reach up into such a
+// ball though its faces do not, and the search descended into them. A node of roughly coplanar faces also keeps
+// the slab between two planes that holds them; a node whose slab is out of reach is skipped (on the bunny,
+// `bench shells` set-up about 20 ms less, for the same instruction count: the skipped nodes were cache misses).
+//
 // Robustness: every box is grown by a margin (1e-9 of the larger of the extent and the largest coordinate)
 // so that rounding in the slab and box-distance tests can only let an extra box through, never drop one;
 // the leaf test decides.
@@ -91,6 +97,8 @@ public:
         }
         for (int k = 0; k < 3; ++k) reach = std::max({reach, all.hi[k] - all.lo[k], std::abs(all.lo[k]), std::abs(all.hi[k])});
         const double margin = 1e-9 * reach + 1e-300;
+        margin_ = margin;
+        slabs_.clear();
         // Boxes in leaf order, grown by the margin, so that a leaf reads them contiguously.
         std::vector<Keyed> keyed(prims_.size());
         for (size_t j = 0; j < prims_.size(); ++j) {
@@ -120,6 +128,7 @@ public:
     }
     // The same, keeping this tree's own shape (boxes[i] for primitive i, as at the build).
     void refit(const std::vector<Box3>& boxes) {
+        slabs_.clear(); // they held the old primitives
         boxes_.resize(prims_.size());
         double reach = 0;
         for (size_t j = 0; j < prims_.size(); ++j) {
@@ -139,6 +148,51 @@ public:
                 for (uint32_t j = n.first; j < n.first + n.count; ++j) n.box.add(boxes_[j]);
             else
                 n.box.add(nodes_[n.first].box), n.box.add(nodes_[n.first + 1].box);
+        }
+    }
+
+    // Slabs for for_near (triangles only): for each node of at most max_prims primitives whose faces roughly
+    // agree on a normal n (the area-weighted sum at least half the area), the slab lo <= n·x <= hi that holds
+    // all their corners, widened by the boxes' margin. corners(prim, out) writes a primitive's 3 corners (9
+    // doubles). A box that comes within reach can still lie wholly outside reach of a flat patch it holds
+    // (a query point above a surface, whose boxes reach up toward it): for_near then skips the node.
+    template <class Corners>
+    void add_slabs(Corners&& corners, uint32_t max_prims) {
+        const size_t N = nodes_.size();
+        slabs_.assign(N, Slab{{0, 0, 0}, -HUGE_VAL, HUGE_VAL});
+        std::vector<std::pair<uint32_t, uint32_t>> range(N);
+        for (size_t i = N; i-- > 0;) {
+            const Node& n = nodes_[i];
+            range[i] = n.count > 0 ? std::make_pair(n.first, n.first + n.count) : std::make_pair(range[n.first].first, range[n.first + 1].second);
+        }
+        std::vector<double> c(9 * prims_.size());
+        std::vector<double> sum(4 * N, 0.0); // area-weighted normal (twice the area) and twice the area
+        for (size_t j = 0; j < prims_.size(); ++j) corners(prims_[j], &c[9 * j]);
+        for (size_t i = N; i-- > 0;) {
+            const Node& n = nodes_[i];
+            double* si = &sum[4 * i];
+            if (n.count > 0) {
+                for (uint32_t j = n.first; j < n.first + n.count; ++j) {
+                    const double* t = &c[9 * size_t(j)];
+                    const double e1[3] = {t[3] - t[0], t[4] - t[1], t[5] - t[2]}, e2[3] = {t[6] - t[0], t[7] - t[1], t[8] - t[2]};
+                    const double m[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]};
+                    for (int k = 0; k < 3; ++k) si[k] += m[k];
+                    si[3] += std::sqrt(m[0] * m[0] + m[1] * m[1] + m[2] * m[2]);
+                }
+            } else {
+                for (int k = 0; k < 4; ++k) si[k] = sum[4 * size_t(n.first) + size_t(k)] + sum[4 * size_t(n.first + 1) + size_t(k)];
+            }
+            const auto [begin, end] = range[i];
+            const double len = std::sqrt(si[0] * si[0] + si[1] * si[1] + si[2] * si[2]);
+            if (end - begin > max_prims || !(len >= 0.5 * si[3]) || !(len > 0) || !std::isfinite(len)) continue;
+            Slab& sl = slabs_[i];
+            for (int k = 0; k < 3; ++k) sl.n[k] = si[k] / len;
+            double lo = HUGE_VAL, hi = -HUGE_VAL;
+            for (size_t q = 9 * size_t(begin); q < 9 * size_t(end); q += 3) {
+                const double d = sl.n[0] * c[q] + sl.n[1] * c[q + 1] + sl.n[2] * c[q + 2];
+                lo = std::min(lo, d), hi = std::max(hi, d);
+            }
+            sl.lo = lo - margin_, sl.hi = hi + margin_;
         }
     }
 
@@ -249,9 +303,20 @@ public:
         double dist[kStack];
         int top = 0;
         stack[top] = 0, dist[top++] = nodes_[0].box.squared_distance(p);
+        // A node whose slab lies out of reach holds nothing within reach: skipped, the other visits in the same
+        // order. The slab distance |n·p − lo or hi| is rounded by at most 4e-16 Σ|n_k p_k| (|n| = 1 within
+        // 1e-15), and what is skipped is at least that much farther than reach by a factor 1 + 5e-7.
+        auto out_of_reach = [&](uint32_t node) {
+            if (slabs_.empty()) return false;
+            const Slab& sl = slabs_[node];
+            const double d = sl.n[0] * p[0] + sl.n[1] * p[1] + sl.n[2] * p[2];
+            const double err = 4e-16 * (std::abs(sl.n[0] * p[0]) + std::abs(sl.n[1] * p[1]) + std::abs(sl.n[2] * p[2]));
+            const double gap = std::max(d - sl.hi, sl.lo - d) - err;
+            return gap > 0 && gap * gap * (1 - 1e-6) >= r2;
+        };
         while (top > 0) {
             --top;
-            if (!(dist[top] < r2)) continue;
+            if (!(dist[top] < r2) || out_of_reach(stack[top])) continue;
             const Node& n = nodes_[stack[top]];
             if (n.count > 0) {
                 for (uint32_t j = n.first; j < n.first + n.count; ++j)
@@ -357,7 +422,12 @@ private:
         nodes_[node].box = box;
     }
 
+    struct Slab {
+        double n[3], lo, hi;
+    };
     std::vector<Node> nodes_;
+    std::vector<Slab> slabs_;     // per node, or none (add_slabs)
+    double margin_ = 0;           // the boxes' growth at the build
     std::vector<uint32_t> prims_; // primitive ids in leaf order
     std::vector<Box3> boxes_;     // their grown boxes, same order
 };

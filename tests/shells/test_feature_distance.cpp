@@ -369,3 +369,56 @@ TEST(box_bvh, BuildsTheTreeTheIdsAloneGave) {
         }
     }
 }
+
+// BoxBvh::add_slabs: for_near skips nodes whose slab lies out of reach; every primitive within reach is still
+// met, in the same order (the clamps' searches report the first face they meet), and the slabs do skip
+// nodes. Queries above the torus's surface (the medial-axis clamp's kind) and anywhere around it.
+TEST(box_bvh, SlabsSkipOnlyWhatIsOutOfReach) {
+    using K = CGAL::Simple_cartesian<double>;
+    using shells_detail::Box3;
+    const TriSoup m = from_primitive(shapes::torus(1.0f, 0.3f, 96, 48));
+    std::vector<Box3> boxes(m.triangles.size());
+    std::vector<K::Triangle_3> tris;
+    for (size_t f = 0; f < m.triangles.size(); ++f) {
+        std::array<K::Point_3, 3> c;
+        for (size_t k = 0; k < 3; ++k) {
+            const double* x = &m.points[3 * size_t(m.triangles[f][k])];
+            boxes[f].add(x);
+            c[k] = K::Point_3(x[0], x[1], x[2]);
+        }
+        tris.emplace_back(c[0], c[1], c[2]);
+    }
+    shells_detail::BoxBvh plain, slabbed;
+    plain.build(boxes);
+    slabbed.build(boxes);
+    slabbed.add_slabs([&](uint32_t f, double* out) {
+        for (size_t c = 0; c < 3; ++c)
+            for (size_t k = 0; k < 3; ++k) out[3 * c + k] = m.points[3 * size_t(m.triangles[f][c]) + k];
+    }, 256);
+    uint64_t seed = 8;
+    size_t plain_visits = 0, slab_visits = 0, found = 0;
+    for (int trial = 0; trial < 3000; ++trial) {
+        // A surface point lifted along its face's normal by h, reach r just short of h (or anything).
+        const size_t f = next(seed) % tris.size();
+        const K::Vector_3 n = CGAL::unit_normal(tris[f][0], tris[f][1], tris[f][2]);
+        const double h = 0.02 + 0.2 * uniform(seed);
+        const K::Point_3 x = CGAL::centroid(tris[f]) + h * n;
+        const double p[3] = {x.x(), x.y(), x.z()};
+        const double r = trial % 4 == 0 ? 0.5 * uniform(seed) : h * (0.9 + 0.1 * uniform(seed));
+        std::vector<uint32_t> near_plain, near_slab;
+        auto run = [&](const shells_detail::BoxBvh& bvh, std::vector<uint32_t>& within, size_t& visits) {
+            double r2 = r * r;
+            bvh.for_near(p, r2, [&](uint32_t g, double&) {
+                ++visits;
+                if (CGAL::squared_distance(x, tris[g]) < r * r) within.push_back(g);
+                return false;
+            });
+        };
+        run(plain, near_plain, plain_visits);
+        run(slabbed, near_slab, slab_visits);
+        ASSERT_EQ(near_slab, near_plain) << "trial " << trial;
+        found += !near_plain.empty();
+    }
+    EXPECT_GT(found, 300u);
+    EXPECT_LT(slab_visits, plain_visits - plain_visits / 200); // the slabs prune
+}
