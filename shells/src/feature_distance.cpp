@@ -39,6 +39,7 @@
 #include <initializer_list>
 #include <limits>
 #include <numeric>
+#include <optional>
 
 namespace furrow {
 namespace {
@@ -505,6 +506,10 @@ size_t CrossingTest::run(uint8_t* hit, const std::vector<double>& shell, const s
     }
     std::vector<uint8_t> crossing(cand.size(), 0);
     tbb::parallel_for(tbb::blocked_range<size_t>(0, cand.size(), 256), [&](const tbb::blocked_range<size_t>& r) {
+        // The shell triangle's plane, kept while consecutive candidates share it (a leaf pair's candidates come
+        // together).
+        uint32_t plane_of = UINT32_MAX;
+        std::optional<kernel::CertainSide> side_f;
         for (size_t k = r.begin(); k != r.end(); ++k) {
             const Candidate& c = cand[k];
             const bool base = c.other < T;
@@ -513,8 +518,8 @@ size_t CrossingTest::run(uint8_t* hit, const std::vector<double>& shell, const s
             // shell_meets_base starts with the pair test of the shell triangle and the other face: apart there,
             // apart.
             const auto& sf = st.stri[c.f];
-            const kernel::CertainSide side_f(st.pts[sf[0]], st.pts[sf[1]], st.pts[sf[2]]);
-            if (certainly_apart_by_planes(st.pts, sf, side_f, other)) continue;
+            if (plane_of != c.f) side_f.emplace(st.pts[sf[0]], st.pts[sf[1]], st.pts[sf[2]]), plane_of = c.f;
+            if (certainly_apart_by_planes(st.pts, sf, *side_f, other)) continue;
             crossing[k] = base ? shell_meets_base(st.pts, W, triangles[c.f], other, st.stri[c.f]) : pair_intersects(st.pts, st.stri[c.f], other);
         }
     });
