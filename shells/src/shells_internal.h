@@ -94,6 +94,18 @@ void owned_lengths(double* out, const SurfaceIndex& index, const uint32_t* ring_
 void bend_limits(double* out, const SurfaceIndex& index, const uint32_t* ring_start, const uint32_t* ring_faces,
                  const uint32_t* query_vertex, const double* straight, const double* bent, double clearance, size_t query_count);
 
+// The crossing test's shortcut for one candidate pair (triangles a and b: ids into points, xyz each): whether
+// the two planes alone rule a crossing out; *crosses (if given) receives the full pair test's answer, which
+// must then be false. Exposed for the test that holds the shortcut to the full test.
+bool planes_rule_out(const std::vector<double>& points, const std::array<uint32_t, 3>& a, const std::array<uint32_t, 3>& b,
+                     bool* crosses = nullptr);
+
+// owned_lengths' bisection test for one point x (xyz): is the witness face (an index into triangles) nearer
+// to x than `ratio` × x's distance to the faces `own`, with distances as CGAL's Simple_cartesian computes
+// them? *hint: where in `own` to start (updated). Exposed for the test that holds it to that definition.
+bool witness_takes(const std::vector<double>& points, const std::vector<std::array<uint32_t, 3>>& triangles, const double* x,
+                   uint32_t witness, const std::vector<uint32_t>& own, double ratio, uint32_t* hint);
+
 // Intersections of an offset shell with itself and with its base (the index's points and triangles), for
 // the repair rounds of compute_shell_frame. run(): `shell` holds one xyz point per welded vertex,
 // `moving[v]` says whether the shell point differs from the base point (a vertex that does not move is

@@ -4,15 +4,19 @@
 // the same distance); and the clamp compute_shell_frame derives from it (min(H, safe_fraction · distance /
 // need) with reach = 2 · H · need / safe_fraction) identical.
 #include "../../shells/src/shells_internal.h"
+#include "../../shells/src/triangle_bvh.h"
 #include "../../models/lattice.h"
 
 #include <furrow/shapes.h>
 
 #include <gtest/gtest.h>
 
+#include <CGAL/Simple_cartesian.h>
+
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <vector>
 
@@ -209,4 +213,212 @@ TEST(crossing_halvings, FourWallEdgesCrossAtEveryScale) {
         EXPECT_EQ(halvings[v], 7) << v;
     }
     EXPECT_GT(blamed, 0u);
+}
+
+// The medial-axis clamp's bisection test (shells_detail::witness_takes) answers as its definition does: the
+// witness face's squared distance below ratio² × the smallest of the own faces' (CGAL's Simple_cartesian
+// distances), whichever own face it tries first and however early it stops. Random fans of own faces around a
+// corner, a random witness face, points around them; both answers occur.
+TEST(witness_takes, AnswersAsTheDefinition) {
+    using K = CGAL::Simple_cartesian<double>;
+    uint64_t seed = 2026;
+    size_t taken = 0, trials = 20000;
+    for (size_t trial = 0; trial < trials; ++trial) {
+        const uint32_t own_count = uint32_t(1 + trial % 7);
+        std::vector<double> pts{0, 0, 0};
+        std::vector<std::array<uint32_t, 3>> tris;
+        for (uint32_t k = 0; k < own_count; ++k) {
+            for (int c = 0; c < 6; ++c) pts.push_back(2 * uniform(seed) - 1);
+            tris.push_back({0, 1 + 2 * k, 2 + 2 * k});
+        }
+        const uint32_t witness = uint32_t(tris.size());
+        for (int c = 0; c < 9; ++c) pts.push_back(2 * uniform(seed) - 1 + 0.5);
+        tris.push_back({uint32_t(pts.size() / 3 - 3), uint32_t(pts.size() / 3 - 2), uint32_t(pts.size() / 3 - 1)});
+        std::vector<uint32_t> own(own_count);
+        for (uint32_t k = 0; k < own_count; ++k) own[k] = k;
+        const double x[3] = {2 * uniform(seed) - 0.5, 2 * uniform(seed) - 0.5, 2 * uniform(seed) - 0.5};
+        const double ratio = trial % 5 == 0 ? 1.0 : 0.98;
+        auto tri = [&](uint32_t f) {
+            auto p = [&](uint32_t v) { return K::Point_3(pts[3 * v], pts[3 * v + 1], pts[3 * v + 2]); };
+            return K::Triangle_3(p(tris[f][0]), p(tris[f][1]), p(tris[f][2]));
+        };
+        const K::Point_3 px(x[0], x[1], x[2]);
+        double nearest = std::numeric_limits<double>::infinity();
+        for (uint32_t f : own) nearest = std::min(nearest, CGAL::squared_distance(px, tri(f)));
+        const bool expected = CGAL::squared_distance(px, tri(witness)) < ratio * ratio * nearest;
+        uint32_t hint = uint32_t(trial % own_count);
+        ASSERT_EQ(shells_detail::witness_takes(pts, tris, x, witness, own, ratio, &hint), expected) << "trial " << trial;
+        ASSERT_LT(hint, own_count);
+        taken += expected;
+    }
+    EXPECT_GT(taken, trials / 10);
+    EXPECT_LT(taken, trials - trials / 10);
+}
+
+// The crossing test's shortcut (shells_detail::planes_rule_out): the pair's planes alone rule a crossing out
+// only where the full pair test finds none, and they do so for most pairs that do not cross. Random triangle
+// pairs sharing 0, 1 or 2 corners, crossing and not, some exactly coplanar (a wall and its translated shell).
+TEST(crossing_planes, RuleOutOnlyPairsThatDoNotCross) {
+    uint64_t seed = 99;
+    size_t ruled_out = 0, apart = 0, crossing = 0;
+    for (int trial = 0; trial < 30000; ++trial) {
+        std::vector<double> pts(18);
+        for (double& x : pts) x = 2 * uniform(seed) - 1;
+        if (trial % 7 == 0) // all six corners in the plane z = 0.25
+            for (size_t v = 0; v < 6; ++v) pts[3 * v + 2] = 0.25;
+        std::array<uint32_t, 3> a{0, 1, 2}, b{3, 4, 5};
+        const int shared = trial % 3;
+        if (shared >= 1) b[0] = 0;
+        if (shared == 2) b[1] = 1;
+        bool crosses = false;
+        const bool out = shells_detail::planes_rule_out(pts, a, b, &crosses);
+        ASSERT_FALSE(out && crosses) << "trial " << trial << ": ruled out a crossing pair";
+        ruled_out += out;
+        apart += !crosses;
+        crossing += crosses;
+    }
+    EXPECT_GT(crossing, 1000u);
+    EXPECT_GT(ruled_out, apart / 2); // the shortcut must also work, not only be safe
+}
+
+// The per-vertex queries answer in a spatially coherent order (coherent_order): a batch answers every query as
+// that query alone does.
+TEST(coherent_order, ABatchAnswersEachQueryAsAlone) {
+    const TriSoup m = from_primitive(shapes::torus(1.0f, 0.3f, 48, 24));
+    const shells_detail::SurfaceIndex index(m.points, m.triangles);
+    const size_t W = m.points.size() / 3;
+    std::vector<uint32_t> start(W + 1, 0), faces;
+    for (const auto& t : m.triangles)
+        for (uint32_t v : t) ++start[v + 1];
+    for (size_t v = 0; v < W; ++v) start[v + 1] += start[v];
+    faces.resize(start[W]);
+    std::vector<uint32_t> fill(start.begin(), start.end() - 1);
+    for (size_t f = 0; f < m.triangles.size(); ++f)
+        for (uint32_t v : m.triangles[f]) faces[fill[v]++] = uint32_t(f);
+    // Every vertex (in reverse, so that query order and vertex order differ), along a random direction.
+    uint64_t seed = 5;
+    std::vector<uint32_t> qv;
+    std::vector<double> dirs, lengths;
+    for (uint32_t v = uint32_t(W); v-- > 0;) {
+        double d[3], len = 0;
+        for (double& x : d) x = 2 * uniform(seed) - 1, len += x * x;
+        len = std::sqrt(len);
+        qv.push_back(v);
+        dirs.insert(dirs.end(), {d[0] / len, d[1] / len, d[2] / len});
+        lengths.push_back(0.8 * uniform(seed));
+    }
+    const size_t n = qv.size();
+    std::vector<double> owned(n, -1), rays(n, -1);
+    shells_detail::owned_lengths(owned.data(), index, start.data(), faces.data(), qv.data(), dirs.data(), lengths.data(), 0.98, n);
+    shells_detail::free_distances(rays.data(), index, qv.data(), dirs.data(), n);
+    size_t clamped = 0;
+    for (size_t q = 0; q < n; ++q) {
+        double one = -1, ray = -1;
+        shells_detail::owned_lengths(&one, index, start.data(), faces.data(), &qv[q], &dirs[3 * q], &lengths[q], 0.98, 1);
+        shells_detail::free_distances(&ray, index, &qv[q], &dirs[3 * q], 1);
+        ASSERT_EQ(owned[q], one) << "query " << q;
+        ASSERT_EQ(rays[q], ray) << "query " << q;
+        clamped += one < lengths[q];
+    }
+    EXPECT_GT(clamped, n / 20); // the bisection ran, not only the first test
+}
+
+// BoxBvh::build splits on an array of (box centre, id) instead of on the ids with their centres looked up:
+// the same tree, leaf for leaf (the clamps' searches report the first face they meet, so the tree's order is
+// part of their answer). Held to the split on ids alone (the previous build, as a reference), on random boxes
+// with many ties (centres on a coarse grid).
+TEST(box_bvh, BuildsTheTreeTheIdsAloneGave) {
+    using shells_detail::Box3;
+    uint64_t seed = 31;
+    for (size_t n : {1u, 3u, 4u, 5u, 17u, 1000u, 4099u}) {
+        std::vector<Box3> boxes(n);
+        for (Box3& b : boxes) {
+            double lo[3], hi[3];
+            for (int k = 0; k < 3; ++k) lo[k] = double(next(seed) % 16), hi[k] = lo[k] + double(next(seed) % 3);
+            b.add(lo), b.add(hi);
+        }
+        shells_detail::BoxBvh bvh;
+        bvh.build(boxes);
+        // The reference: median split along the longest extent of the centres, ties by id, leaves of 4.
+        std::vector<uint32_t> ids(n);
+        for (uint32_t i = 0; i < n; ++i) ids[i] = i;
+        auto centre = [&](uint32_t i, int k) { return 0.5 * (boxes[i].lo[k] + boxes[i].hi[k]); };
+        std::function<void(uint32_t, uint32_t)> split = [&](uint32_t begin, uint32_t end) {
+            if (end - begin <= 4) return;
+            double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
+            for (uint32_t j = begin; j < end; ++j)
+                for (int k = 0; k < 3; ++k) lo[k] = std::min(lo[k], centre(ids[j], k)), hi[k] = std::max(hi[k], centre(ids[j], k));
+            int axis = 0;
+            for (int k = 1; k < 3; ++k)
+                if (hi[k] - lo[k] > hi[axis] - lo[axis]) axis = k;
+            const uint32_t mid = begin + (end - begin) / 2;
+            std::nth_element(ids.begin() + begin, ids.begin() + mid, ids.begin() + end, [&](uint32_t a, uint32_t b) {
+                const double ca = centre(a, axis), cb = centre(b, axis);
+                return ca < cb || (ca == cb && a < b);
+            });
+            split(begin, mid);
+            split(mid, end);
+        };
+        split(0, uint32_t(n));
+        EXPECT_EQ(bvh.leaf_order(), ids) << n << " boxes";
+        // Every box is found by a query on itself (the bottom-up node boxes hold their leaves).
+        for (uint32_t i = 0; i < n; ++i) {
+            bool found = false;
+            bvh.for_overlapping(boxes[i], [&](uint32_t f) { found = found || f == i; });
+            ASSERT_TRUE(found) << i;
+        }
+    }
+}
+
+// BoxBvh::add_slabs: for_near skips nodes whose slab lies out of reach; every primitive within reach is still
+// met, in the same order (the clamps' searches report the first face they meet), and the slabs do skip
+// nodes. Queries above the torus's surface (the medial-axis clamp's kind) and anywhere around it.
+TEST(box_bvh, SlabsSkipOnlyWhatIsOutOfReach) {
+    using K = CGAL::Simple_cartesian<double>;
+    using shells_detail::Box3;
+    const TriSoup m = from_primitive(shapes::torus(1.0f, 0.3f, 96, 48));
+    std::vector<Box3> boxes(m.triangles.size());
+    std::vector<K::Triangle_3> tris;
+    for (size_t f = 0; f < m.triangles.size(); ++f) {
+        std::array<K::Point_3, 3> c;
+        for (size_t k = 0; k < 3; ++k) {
+            const double* x = &m.points[3 * size_t(m.triangles[f][k])];
+            boxes[f].add(x);
+            c[k] = K::Point_3(x[0], x[1], x[2]);
+        }
+        tris.emplace_back(c[0], c[1], c[2]);
+    }
+    shells_detail::BoxBvh plain, slabbed;
+    plain.build(boxes);
+    slabbed.build(boxes);
+    slabbed.add_slabs([&](uint32_t f, double* out) {
+        for (size_t c = 0; c < 3; ++c)
+            for (size_t k = 0; k < 3; ++k) out[3 * c + k] = m.points[3 * size_t(m.triangles[f][c]) + k];
+    }, 256);
+    uint64_t seed = 8;
+    size_t plain_visits = 0, slab_visits = 0, found = 0;
+    for (int trial = 0; trial < 3000; ++trial) {
+        // A surface point lifted along its face's normal by h, reach r just short of h (or anything).
+        const size_t f = next(seed) % tris.size();
+        const K::Vector_3 n = CGAL::unit_normal(tris[f][0], tris[f][1], tris[f][2]);
+        const double h = 0.02 + 0.2 * uniform(seed);
+        const K::Point_3 x = CGAL::centroid(tris[f]) + h * n;
+        const double p[3] = {x.x(), x.y(), x.z()};
+        const double r = trial % 4 == 0 ? 0.5 * uniform(seed) : h * (0.9 + 0.1 * uniform(seed));
+        std::vector<uint32_t> near_plain, near_slab;
+        auto run = [&](const shells_detail::BoxBvh& bvh, std::vector<uint32_t>& within, size_t& visits) {
+            double r2 = r * r;
+            bvh.for_near(p, r2, [&](uint32_t g, double&) {
+                ++visits;
+                if (CGAL::squared_distance(x, tris[g]) < r * r) within.push_back(g);
+                return false;
+            });
+        };
+        run(plain, near_plain, plain_visits);
+        run(slabbed, near_slab, slab_visits);
+        ASSERT_EQ(near_slab, near_plain) << "trial " << trial;
+        found += !near_plain.empty();
+    }
+    EXPECT_GT(found, 300u);
+    EXPECT_LT(slab_visits, plain_visits - plain_visits / 200); // the slabs prune
 }
