@@ -94,7 +94,7 @@ template <int L, class FaceOf>
     for (int j = 0; j < L && k0 + size_t(j) < count; ++j) {
         FaceTerm& o = out[f[j]];
         if (!ok[j]) {
-            o = FaceTerm{};
+            o = FaceTerm::none();
             continue;
         }
         o.unit[0] = ux[j], o.unit[1] = uy[j], o.unit[2] = uz[j];

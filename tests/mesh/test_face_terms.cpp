@@ -16,7 +16,7 @@ using namespace furrow::kernel;
 namespace {
 
 FaceTerm scalar_term(const double* P, const uint32_t* t) {
-    FaceTerm f;
+    FaceTerm f = FaceTerm::none();
     const Vec3 p[3] = {point_at(P, t[0]), point_at(P, t[1]), point_at(P, t[2])};
     const auto face = face_normal(p[0], p[1], p[2]);
     if (!face) return f;
