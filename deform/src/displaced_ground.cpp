@@ -17,8 +17,9 @@
 // new mesh fits: on this project's VM a fresh 4 KiB page costs ~20 us, and prepare used to spend most of its
 // time in page faults (`bench stamp` §5, 394k vertices: 392-624 ms, 17x the 99k mesh's). The update's
 // indexes (faces per point, points per tile) are built on the first update(): a one-shot displacement needs
-// neither. `furrow -j 1 bench stamp --section 5`, 394k vertices, prepare + displace_all: 83-92 + 37-41 ms
-// before the vector terms, the one-pass sums and the late indexes; 44-48 + 21-24 ms after (2026-11-27).
+// neither; nor are the arrays it writes whole filled first. `furrow -j 1 bench stamp --section 5`, 394k
+// vertices, prepare + displace_all: 83-92 + 37-41 ms before the vector terms, the one-pass sums, the late
+// indexes and the unfilled arrays; 37.7-38.7 + 21.1-21.4 ms after (2026-11-27).
 // An update skips the points whose position comes out bit-identical (a dirty tile is rarely dirty
 // everywhere): their faces, normals and buffer entries are already those a full pass writes. The points
 // and faces to redo are found in one cheap sweep, collected in index order from their marks (so the
