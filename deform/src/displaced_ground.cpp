@@ -216,6 +216,13 @@ void scattered_normals(double* normals, FaceTerm* terms, const double* P, const 
     }
 }
 
+// Every face's term over positions P, in parallel (terms sized to the faces).
+void every_face_term(FaceTerms& terms, const double* P, const Indices& tri) {
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, terms.size(), 1024), [&](const tbb::blocked_range<size_t>& r) {
+        kernel::face_terms(terms.data(), P, tri.data(), r.begin(), nullptr, r.size());
+    });
+}
+
 // All faces' terms, then all points' normals, each point gathering its own (in parallel; the terms as
 // scattered_normals adds them, the same bits). With `keep` false (a one-shot displacement) no term is kept:
 // each point computes its faces' terms itself (each face three times), and the 48 bytes per triangle of the
@@ -229,9 +236,7 @@ void gathered_normals(double* normals, FaceTerms& terms, bool keep, const double
         });
         return;
     }
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, terms.size(), 1024), [&](const tbb::blocked_range<size_t>& r) {
-        kernel::face_terms(terms.data(), P, tri.data(), r.begin(), nullptr, r.size());
-    });
+    every_face_term(terms, P, tri);
     auto cached = [&](uint32_t f) -> const FaceTerm& { return terms[f]; };
     tbb::parallel_for(tbb::blocked_range<size_t>(0, off.size() - 1, 1024), [&](const tbb::blocked_range<size_t>& r) {
         for (size_t v = r.begin(); v != r.end(); ++v) gather_normal(normals + 3 * v, uint32_t(v), cached, off, faces);
@@ -410,11 +415,8 @@ Status DisplacedGround::prepare(const float* positions, size_t vertex_count, con
         unfilled(m->copies, vertex_count);
         bucket(m->copy_off, m->copies, points, vertex_count, [&](size_t v) { return remap[v]; }, [](size_t v) { return uint32_t(v); });
         unfilled(m->tris, 3 * T);
-        for (size_t t = 0, o = 0; t + 3 <= index_count; t += 3) {
-            const uint32_t a = welded(t, 0), b = welded(t, 1), c = welded(t, 2);
-            if (a == b || b == c || c == a) continue; // (kept)
-            m->tris[o] = a, m->tris[o + 1] = b, m->tris[o + 2] = c, o += 3;
-        }
+        for (size_t t = 0, o = 0; t + 3 <= index_count; t += 3)
+            if (kept(t)) m->tris[o] = welded(t, 0), m->tris[o + 1] = welded(t, 1), m->tris[o + 2] = welded(t, 2), o += 3;
         // (The face terms are allocated where they are first computed: normals() below, or the first update()
         // with along_up; the block holds room for them.)
         // Undeformed normals give the displacement direction.
@@ -519,9 +521,7 @@ size_t DisplacedGround::update(const Heightmap& h, const std::vector<TexelRect>&
     m.tile_index();
     if (m.terms.size() != m.tris.size() / 3) { // along_up, no displace_all yet: the terms of rest
         m.terms.resize(m.tris.size() / 3); // (written whole below)
-        tbb::parallel_for(tbb::blocked_range<size_t>(0, m.terms.size(), 1024), [&](const tbb::blocked_range<size_t>& r) {
-            kernel::face_terms(m.terms.data(), m.cur.data(), m.tris.data(), r.begin(), nullptr, r.size());
-        });
+        every_face_term(m.terms, m.cur.data(), m.tris);
     }
     std::fill(m.mark.begin(), m.mark.end(), 0); // a bit a point: 27 KB at 221k points, cleared in microseconds
     std::fill(m.face_mark.begin(), m.face_mark.end(), 0);

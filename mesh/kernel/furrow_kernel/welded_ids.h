@@ -16,29 +16,24 @@ struct WeldedIds {
     std::vector<uint32_t> first;     // welded id -> its first vertex (the weld's representative); k entries
 };
 
-// Dense ids for a remap as weld_positions (furrow/mesh.h) writes it: remap[v] is the first vertex with v's
-// position, so remap[v] <= v and remap[remap[v]] == remap[v]. Ids follow the order of first appearance.
-inline WeldedIds welded_ids(const uint32_t* remap, size_t vertex_count) {
-    WeldedIds w;
-    w.of_vertex.resize(vertex_count);
-    for (size_t v = 0; v < vertex_count; ++v) {
-        if (remap[v] == v) {
-            w.of_vertex[v] = uint32_t(w.first.size());
-            w.first.push_back(uint32_t(v));
-        } else {
-            w.of_vertex[v] = w.of_vertex[remap[v]];
-        }
-    }
-    return w;
-}
-
 // welded_ids' numbering in place, when the caller needs only the ids and their count: remap (as
-// weld_positions writes it) becomes vertex -> welded id. A representative (remap[v] == v) takes the next id;
-// any other vertex takes its representative's, already renumbered (it comes first). Returns the count.
+// weld_positions writes it: remap[v] is the first vertex with v's position, so remap[v] <= v and
+// remap[remap[v]] == remap[v]) becomes vertex -> welded id. A representative (remap[v] == v) takes the next
+// id; any other vertex takes its representative's, already renumbered (it comes first). Returns the count.
 inline size_t number_welded_in_place(uint32_t* remap, size_t vertex_count) {
     uint32_t next = 0;
     for (size_t v = 0; v < vertex_count; ++v) remap[v] = remap[v] == v ? next++ : remap[remap[v]];
     return next;
+}
+
+// Dense ids for such a remap, in order of first appearance, and each id's representative.
+inline WeldedIds welded_ids(const uint32_t* remap, size_t vertex_count) {
+    WeldedIds w;
+    for (size_t v = 0; v < vertex_count; ++v)
+        if (remap[v] == v) w.first.push_back(uint32_t(v));
+    w.of_vertex.assign(remap, remap + vertex_count);
+    number_welded_in_place(w.of_vertex.data(), vertex_count);
+    return w;
 }
 
 } // namespace furrow::kernel
