@@ -28,6 +28,14 @@ inline std::array<double, 3> arr(const Vec3& a) { return kernel::array_of(a); }
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
+// HeightmapFrame::to_texel's (i, j) texel coordinates of world point p, inline for the per-point loop of
+// DisplacedGround::prepare (an out-of-line call per point was 2.3 ms at 394k points); `inverse` is
+// 1 / frame.texel (0 for an empty frame). The same operations, so the same bits, as to_texel.
+inline std::array<double, 2> texel_of(const HeightmapFrame& frame, double inverse, const double* p) {
+    const Vec3 d = Vec3{p[0], p[1], p[2]} - d3(frame.origin);
+    return {dot(d, d3(frame.axis_u)) * inverse, dot(d, d3(frame.axis_v)) * inverse};
+}
+
 // double -> int with the value clamped to [lo, hi] first (NaN gives lo). Converting a double outside int's
 // range is undefined behaviour, and collider sizes and positions may be anything up to 1e308: texel ranges
 // and step counts derived from them go through here (found by fuzz_colliders).

@@ -19,7 +19,10 @@
 // indexes (faces per point, points per tile) are built on the first update(): a one-shot displacement needs
 // neither; nor are the arrays it writes whole filled first. `furrow -j 1 bench stamp --section 5`, 394k
 // vertices, prepare + displace_all: 83-92 + 37-41 ms before the vector terms, the one-pass sums, the late
-// indexes and the unfilled arrays; 37.7-38.7 + 21.1-21.4 ms after (2026-11-27).
+// indexes and the unfilled arrays; 37.7-38.7 + 21.1-21.4 ms after (2026-11-27); 25.9-26.2 + 16.9-17.7 ms
+// once the face terms sat in the block (size_terms), were built for their instruction set (face_terms.h),
+// derived their third angle (face_term), and the checks, triangle copy and texel coordinates each took one
+// vectorisable pass (2026-11-28).
 // An update skips the points whose position comes out bit-identical (a dirty tile is rarely dirty
 // everywhere): their faces, normals and buffer entries are already those a full pass writes. The points
 // and faces to redo are found in one cheap sweep, collected in index order from their marks (so the
@@ -150,13 +153,15 @@ void bucket(Indices& off, Indices& items, size_t rows, size_t n, RowOf row_of, I
 }
 
 FaceTerm face_term(const double* P, const uint32_t* t) {
-    FaceTerm f = FaceTerm::none();
-    const kernel::Vec3 p[3] = {kernel::point_at(P, t[0]), kernel::point_at(P, t[1]), kernel::point_at(P, t[2])};
-    const auto face = kernel::face_normal(p[0], p[1], p[2]);
-    if (!face) return f;
-    f.unit[0] = face->unit.x, f.unit[1] = face->unit.y, f.unit[2] = face->unit.z;
-    for (int c = 0; c < 3; ++c) f.angle[c] = kernel::corner_angle(p[c], p[(c + 1) % 3], p[(c + 2) % 3], face->double_area);
-    return f;
+    return kernel::face_term(kernel::point_at(P, t[0]), kernel::point_at(P, t[1]), kernel::point_at(P, t[2]));
+}
+
+// A point's normal from the sum of its faces' terms: the sum over its length, or zero (no face with an
+// area). One division and three products (not three divisions), in both passes (gather_normal,
+// scattered_normals: the same bits).
+inline void unit_or_zero(double* o, const kernel::Vec3& sum) {
+    const double l = kernel::norm(sum), inverse = 1.0 / l;
+    o[0] = l > 0 ? sum.x * inverse : 0.0, o[1] = l > 0 ? sum.y * inverse : 0.0, o[2] = l > 0 ? sum.z * inverse : 0.0;
 }
 
 // Angle-weighted normal (Thürmer & Wüthrich) of welded point v from the terms of its faces: `term(f)` is the
@@ -173,9 +178,7 @@ void gather_normal(double* o, uint32_t v, const Term& term, const Indices& off, 
         if (ft.angle[c] < 0) continue;
         sum = sum + ft.angle[c] * kernel::Vec3{ft.unit[0], ft.unit[1], ft.unit[2]};
     }
-    const double l = kernel::norm(sum);
-    if (l > 0) o[0] = sum.x / l, o[1] = sum.y / l, o[2] = sum.z / l;
-    else o[0] = o[1] = o[2] = 0;
+    unit_or_zero(o, sum);
 }
 
 // Whether this call runs on one thread (every limit in force: the arena's and a global_control's).
@@ -209,10 +212,7 @@ void scattered_normals(double* normals, FaceTerm* terms, const double* P, const 
     }
     for (size_t p = 0; p < points; ++p) {
         double* o = normals + 3 * p;
-        const kernel::Vec3 sum{o[0], o[1], o[2]};
-        const double l = kernel::norm(sum);
-        if (l > 0) o[0] = sum.x / l, o[1] = sum.y / l, o[2] = sum.z / l;
-        else o[0] = o[1] = o[2] = 0;
+        unit_or_zero(o, kernel::Vec3{o[0], o[1], o[2]});
     }
 }
 
@@ -294,11 +294,17 @@ struct DisplacedGround::Impl {
         bucket(tile_off, tile_pts, tiles, points, tile_of_point, [](size_t p) { return uint32_t(p); });
         tile_indexed = true;
     }
+    // The face terms' array, one per triangle, in the block (room for it was counted in prepare()), unfilled:
+    // its caller writes it whole. A default-constructed array has no arena: sized by resize(), the 38 MB of a
+    // 394k-point ground came from a fresh mapping at every prepare(), 19 huge-page faults of ~1.1 ms each.
+    void size_terms() {
+        if (terms.size() != tris.size() / 3) terms = FaceTerms(tris.size() / 3, ArenaAlloc<FaceTerm>(&arena));
+    }
     // Every point's angle-weighted normal over positions P (rest or current): in one pass over the faces on
     // one thread, gathered per point in parallel on more (the same bits; the terms kept if asked).
     void normals(double* out, const double* P) {
         if (!opt.keep_face_terms) FaceTerms().swap(terms);
-        else if (terms.size() != tris.size() / 3) terms.resize(tris.size() / 3); // (written whole below)
+        else size_terms();
         if (one_thread()) return scattered_normals(out, opt.keep_face_terms ? terms.data() : nullptr, P, tris, rest.size() / 3);
         face_index();
         gathered_normals(out, terms, opt.keep_face_terms, P, tris, face_off, faces);
@@ -363,10 +369,14 @@ Status DisplacedGround::prepare(const float* positions, size_t vertex_count, con
             return Status::error(StatusCode::invalid_argument, "the heightmap frame is empty");
         if (index_count % 3) return Status::error(StatusCode::invalid_input, "indices are not triangles");
         // Both checks as one reduction each, without an early exit, which the compiler vectorises (two early-exit
-        // loops were 3.8 ms of a 59 ms prepare at 394k points).
-        uint32_t largest = 0;
-        for (size_t k = 0; k < index_count; ++k) largest = std::max(largest, indices[k]);
-        if (index_count && largest >= vertex_count) return Status::error(StatusCode::invalid_input, "an index is out of range");
+        // loops were 3.8 ms of a 59 ms prepare at 394k points). An OR of comparisons, not a maximum: baseline
+        // x86-64 (SSE2) has no unsigned 32-bit maximum, but compares (0.65 -> 0.33 ms for 2.4 M indices).
+        if (vertex_count <= UINT32_MAX) {
+            const uint32_t n = uint32_t(vertex_count);
+            uint32_t out_of_range = 0;
+            for (size_t k = 0; k < index_count; ++k) out_of_range |= uint32_t(indices[k] >= n);
+            if (out_of_range) return Status::error(StatusCode::invalid_input, "an index is out of range");
+        }
         // Every vertex is displaced and bucketed by texel, including those no triangle uses: a NaN among them
         // reached an int conversion (undefined behaviour, found by fuzz_stamp). Not finite: all exponent bits set.
         uint32_t not_finite = 0;
@@ -381,25 +391,19 @@ Status DisplacedGround::prepare(const float* positions, size_t vertex_count, con
         std::vector<uint32_t> remap(vertex_count);
         weld_positions(remap.data(), positions, vertex_count);
         const size_t points = kernel::number_welded_in_place(remap.data(), vertex_count);
-        // Triangles on welded points; degenerate ones carry no normal and no neighbourhood.
-        auto welded = [&](size_t t, int k) { return remap[indices[t + size_t(k)]]; };
-        auto kept = [&](size_t t) {
-            const uint32_t a = welded(t, 0), b = welded(t, 1), c = welded(t, 2);
-            return a != b && b != c && c != a;
-        };
-        size_t T = 0;
-        for (size_t t = 0; t + 3 <= index_count; t += 3) T += kept(t);
-        if (3 * T > size_t(UINT32_MAX)) return Status::error(StatusCode::invalid_input, "more than 1.4 billion triangles");
+        // The block holds room for every triangle (F); the degenerate ones' room stays unused (see below).
+        const size_t F = index_count / 3;
+        if (3 * F > size_t(UINT32_MAX)) return Status::error(StatusCode::invalid_input, "more than 1.4 billion triangles");
         m->tiles_x = (frame.width + Impl::kTile - 1) / Impl::kTile + 1;
         m->tiles_y = (frame.height + Impl::kTile - 1) / Impl::kTile + 1;
         const size_t tiles = size_t(m->tiles_x) * size_t(m->tiles_y);
         const bool terms = opt.keep_face_terms;
         // One block for every array below (see Arena); the terms only when kept.
         const size_t bytes = 4 * Arena::padded(24 * points) + Arena::padded(16 * points) + 2 * Arena::padded(4 * (points + 1)) +
-                        Arena::padded(4 * points) + Arena::padded(4 * vertex_count) + 2 * Arena::padded(12 * T) +
+                        Arena::padded(4 * points) + Arena::padded(4 * vertex_count) + 2 * Arena::padded(12 * F) +
                         Arena::padded(4 * (tiles + 1)) +
-                        Arena::padded(8 * ((points + 63) / 64)) + Arena::padded(8 * ((T + 63) / 64)) +
-                        (terms ? Arena::padded(sizeof(FaceTerm) * T) : 0);
+                        Arena::padded(8 * ((points + 63) / 64)) + Arena::padded(8 * ((F + 63) / 64)) +
+                        (terms ? Arena::padded(sizeof(FaceTerm) * F) : 0);
         {
             // The old state goes now (a failure past this point, out of memory, leaves the ground empty): its
             // arrays point into the block this one may take over.
@@ -414,9 +418,17 @@ Status DisplacedGround::prepare(const float* positions, size_t vertex_count, con
         unfilled(m->copy_off, points + 1);
         unfilled(m->copies, vertex_count);
         bucket(m->copy_off, m->copies, points, vertex_count, [&](size_t v) { return remap[v]; }, [](size_t v) { return uint32_t(v); });
-        unfilled(m->tris, 3 * T);
-        for (size_t t = 0, o = 0; t + 3 <= index_count; t += 3)
-            if (kept(t)) m->tris[o] = welded(t, 0), m->tris[o + 1] = welded(t, 1), m->tris[o + 2] = welded(t, 2), o += 3;
+        // Triangles on welded points, in one pass: each is written, and kept (T grows) when its three points
+        // differ; degenerate ones carry no normal and no neighbourhood. (Counting them first, then copying,
+        // read every index and its remap entry twice: 1.7 ms of 3.4 at 394k points.)
+        unfilled(m->tris, 3 * F);
+        size_t T = 0;
+        for (size_t t = 0; t < F; ++t) {
+            const uint32_t a = remap[indices[3 * t]], b = remap[indices[3 * t + 1]], c = remap[indices[3 * t + 2]];
+            m->tris[3 * T] = a, m->tris[3 * T + 1] = b, m->tris[3 * T + 2] = c;
+            T += a != b && b != c && c != a;
+        }
+        m->tris.resize(3 * T);
         // (The face terms are allocated where they are first computed: normals() below, or the first update()
         // with along_up; the block holds room for them.)
         // Undeformed normals give the displacement direction.
@@ -434,10 +446,11 @@ Status DisplacedGround::prepare(const float* positions, size_t vertex_count, con
             }
         }
         unfilled(m->texel, 2 * points);
-        tbb::parallel_for(size_t(0), size_t(points), [&](size_t p) {
-            auto t = frame.to_texel(&m->rest[3 * p]);
+        const double inverse = frame.texel > 0 ? 1.0 / frame.texel : 0.0;
+        for (size_t p = 0; p < points; ++p) {
+            const auto t = texel_of(frame, inverse, &m->rest[3 * p]);
             m->texel[2 * p] = t[0], m->texel[2 * p + 1] = t[1];
-        });
+        }
         if (opt.top_only && ground) {
             const double tol = opt.top_tolerance > 0 ? opt.top_tolerance : 2 * frame.texel;
             m->movable.assign(points, 1);
@@ -520,7 +533,7 @@ size_t DisplacedGround::update(const Heightmap& h, const std::vector<TexelRect>&
     m.face_index();
     m.tile_index();
     if (m.terms.size() != m.tris.size() / 3) { // along_up, no displace_all yet: the terms of rest
-        m.terms.resize(m.tris.size() / 3); // (written whole below)
+        m.size_terms();
         every_face_term(m.terms, m.cur.data(), m.tris);
     }
     std::fill(m.mark.begin(), m.mark.end(), 0); // a bit a point: 27 KB at 221k points, cleared in microseconds

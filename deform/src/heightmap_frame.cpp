@@ -32,9 +32,8 @@ void frame_axes(const std::array<double, 3>& up_in, std::array<double, 3>& axis_
 
 std::array<double, 3> HeightmapFrame::to_texel(const double* p) const {
     using namespace deform_detail;
-    Vec3 d = Vec3{p[0], p[1], p[2]} - d3(origin);
-    const double inv = texel > 0 ? 1.0 / texel : 0.0;
-    return {dot(d, d3(axis_u)) * inv, dot(d, d3(axis_v)) * inv, dot(d, d3(up))};
+    const auto t = texel_of(*this, texel > 0 ? 1.0 / texel : 0.0, p);
+    return {t[0], t[1], dot(Vec3{p[0], p[1], p[2]} - d3(origin), d3(up))};
 }
 
 void TexelRect::unite(const TexelRect& o) {

@@ -45,12 +45,10 @@ void compute_vertex_normals(float* normals_out, const float* positions, size_t v
             }
             if (!valid || w[0] == w[1] || w[1] == w[2] || w[2] == w[0]) continue;
             const Vec3 p[3] = {point(w[0]), point(w[1]), point(w[2])};
-            const auto face = kernel::face_normal(p[0], p[1], p[2]);
-            if (!face) continue;
-            for (int k = 0; k < 3; ++k) {
-                const double angle = kernel::corner_angle(p[k], p[(k + 1) % 3], p[(k + 2) % 3], face->double_area);
-                sum[w[k]] = sum[w[k]] + angle * face->unit;
-            }
+            const kernel::FaceTerm term = kernel::face_term(p[0], p[1], p[2]);
+            if (term.angle[0] < 0) continue; // degenerate
+            const Vec3 unit{term.unit[0], term.unit[1], term.unit[2]};
+            for (int k = 0; k < 3; ++k) sum[w[k]] = sum[w[k]] + term.angle[k] * unit;
         }
     }
     for (size_t v = 0; v < vertex_count; ++v) {

@@ -173,13 +173,11 @@ WeldedSurface welded_surface(const float* positions, size_t n, const uint32_t* i
         std::array<uint32_t, 3> t{wid[indices[3 * f]], wid[indices[3 * f + 1]], wid[indices[3 * f + 2]]};
         if (t[0] == t[1] || t[1] == t[2] || t[2] == t[0]) continue;
         if (!finite[t[0]] || !finite[t[1]] || !finite[t[2]]) continue;
-        const auto face = kernel::face_normal(P[t[0]], P[t[1]], P[t[2]]);
-        if (!face) continue;
-        std::array<double, 3> ang{};
-        for (int k = 0; k < 3; ++k) ang[k] = kernel::corner_angle(P[t[k]], P[t[(k + 1) % 3]], P[t[(k + 2) % 3]], face->double_area);
+        const kernel::FaceTerm term = kernel::face_term(P[t[0]], P[t[1]], P[t[2]]);
+        if (term.angle[0] < 0) continue; // degenerate
         tri.push_back(t);
-        fn.push_back(face->unit);
-        angle.push_back(ang);
+        fn.push_back({term.unit[0], term.unit[1], term.unit[2]});
+        angle.push_back({term.angle[0], term.angle[1], term.angle[2]});
     }
     const size_t T = tri.size();
 

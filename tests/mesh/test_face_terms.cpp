@@ -15,15 +15,7 @@ using namespace furrow::kernel;
 
 namespace {
 
-FaceTerm scalar_term(const double* P, const uint32_t* t) {
-    FaceTerm f = FaceTerm::none();
-    const Vec3 p[3] = {point_at(P, t[0]), point_at(P, t[1]), point_at(P, t[2])};
-    const auto face = face_normal(p[0], p[1], p[2]);
-    if (!face) return f;
-    f.unit[0] = face->unit.x, f.unit[1] = face->unit.y, f.unit[2] = face->unit.z;
-    for (int c = 0; c < 3; ++c) f.angle[c] = corner_angle(p[c], p[(c + 1) % 3], p[(c + 2) % 3], face->double_area);
-    return f;
-}
+FaceTerm scalar_term(const double* P, const uint32_t* t) { return face_term(point_at(P, t[0]), point_at(P, t[1]), point_at(P, t[2])); }
 
 // Triangles of every kind the normals meet, three fresh points each.
 void hard_triangles(std::vector<double>& P, std::vector<uint32_t>& tris, size_t n, unsigned seed) {

@@ -1,30 +1,24 @@
 // furrow's private geometry kernel: the angle-weighted normal terms of many triangles at once, several
-// triangles to a vector register. Each lane computes what face_normal and corner_angle compute for one
-// triangle (angle_weighted_normal.h), the same operations in the same order, and IEEE arithmetic rounds a
+// triangles to a vector register. Each lane computes what face_term computes for one triangle
+// (angle_weighted_normal.h), the same operations in the same order, and IEEE arithmetic rounds a
 // lane as it rounds a scalar, so the terms are the same bits whichever width runs (tested against the scalar
 // functions, degenerate and sliver faces included). The width is chosen at run time: 8 lanes with AVX-512,
 // 4 with AVX2, else 2 (SSE2); the build targets baseline x86-64. Implemented in mesh/src/face_terms.cpp.
 //
-// Why: a triangle's terms are nine divisions and a square root, latency-bound one face at a time. The
+// Why: a triangle's terms are five divisions and a square root (nine before face_term derived its third
+// angle), latency-bound one face at a time. The
 // displaced snow ground recomputes them for every face in a full pass and for the faces around each moved
 // point in an update (deform/src/displaced_ground.cpp); they were its largest cost. 800k triangles of
 // nearby points, one thread, on the project's AVX-512 machine: 40 ns a face scalar, 18-19 ns at 2 lanes,
 // 15-17 at 4, 13-14 at 8.
 #pragma once
 
+#include "angle_weighted_normal.h" // FaceTerm, face_term
+
 #include <cstddef>
 #include <cstdint>
 
 namespace furrow::kernel {
-
-// One face's part of its corners' normals: the unit normal and the interior angle at each corner.
-struct FaceTerm {
-    double unit[3];
-    double angle[3]; // < 0: degenerate (face_normal gives nothing), contributes nothing
-    // A degenerate face's term. (No default member values: an array of terms that a pass overwrites whole is
-    // allocated without a fill, 5 ms for the 786k faces of `bench stamp` section 5.)
-    static constexpr FaceTerm none() { return {{0, 0, 0}, {-1, -1, -1}}; }
-};
 
 // The terms of `count` triangles of `tris` (three point indices each) over points P (xyz triples): with
 // `faces` null, triangles first .. first + count − 1 into out[first ..]; else triangles faces[0 .. count − 1]
