@@ -9,20 +9,21 @@
 // the dirty rectangle and renormalises every point of the faces around them, which is exactly the set whose
 // angle-weighted normal can change. Each face's part of a normal, and which faces are degenerate, are the
 // kernel's (furrow_kernel/angle_weighted_normal.h), as in compute_vertex_normals.
-// Cost per point. Both passes cache each face's terms (unit normal, three corner angles) once per face, not
-// once per corner, computed several faces to a vector register (furrow_kernel/face_terms.h: 8 with AVX-512,
-// the same bits). On one thread a full pass adds them to their corners in one pass over the faces; on more,
-// each point gathers its own (the same sums in the same order). prepare() puts every array in one block
+// Cost per point. Each face's terms (unit normal, three corner angles) are computed once per face, not once
+// per corner, several faces to a vector register (furrow_kernel/face_terms.h: 8 with AVX-512, the same
+// bits). On one thread a full pass adds them to their corners in one pass over the faces, a block at a time
+// (none is kept); on more, each point gathers its own from all the faces' terms (the same sums in the same
+// order). An update keeps every face's terms, computed by its first call, and recomputes only those it moves. prepare() puts every array in one block
 // (Arena, below; on huge pages from 32 MiB), which a later prepare() of the same object takes over when the
 // new mesh fits: on this project's VM a fresh 4 KiB page costs ~20 us, and prepare used to spend most of its
 // time in page faults (`bench stamp` §5, 394k vertices: 392-624 ms, 17x the 99k mesh's). The update's
-// indexes (faces per point, points per tile) are built on the first update(): a one-shot displacement needs
-// neither; nor are the arrays it writes whole filled first. `furrow -j 1 bench stamp --section 5`, 394k
+// indexes (faces per point, points per tile) and the faces' terms are built on the first update(): a
+// one-shot displacement needs none of them; nor are the arrays it writes whole filled first. `furrow -j 1 bench stamp --section 5`, 394k
 // vertices, prepare + displace_all: 83-92 + 37-41 ms before the vector terms, the one-pass sums, the late
 // indexes and the unfilled arrays; 37.7-38.7 + 21.1-21.4 ms after (2026-11-27); 25.9-26.2 + 16.9-17.7 ms
 // once the face terms sat in the block (size_terms), were built for their instruction set (face_terms.h),
 // derived their third angle (face_term), and the checks, triangle copy and texel coordinates each took one
-// vectorisable pass (2026-11-28).
+// vectorisable pass (later that day).
 // An update skips the points whose position comes out bit-identical (a dirty tile is rarely dirty
 // everywhere): their faces, normals and buffer entries are already those a full pass writes. The points
 // and faces to redo are found in one cheap sweep, collected in index order from their marks (so the
@@ -191,14 +192,13 @@ bool one_thread() {
 // term added to its three corners' sums. A point's row of `faces` lists its corners in increasing order
 // (bucket() is stable), so adding in face order sums each point's terms in gather_normal's order: the same
 // bits, without the per-point walk through the index (a second read of every term, 48 bytes a face).
-void scattered_normals(double* normals, FaceTerm* terms, const double* P, const Indices& tri, size_t points) {
+void scattered_normals(double* normals, const double* P, const Indices& tri, size_t points) {
     std::fill(normals, normals + 3 * points, 0.0);
     constexpr size_t kBlock = 512;
-    FaceTerm local[kBlock];
+    FaceTerm t[kBlock]; // this block's terms only (in cache; none is kept)
     const size_t T = tri.size() / 3;
     for (size_t f0 = 0; f0 < T; f0 += kBlock) {
         const size_t n = std::min(kBlock, T - f0);
-        FaceTerm* t = terms ? terms + f0 : local; // kept, or only for this block
         kernel::face_terms(t, P, tri.data() + 3 * f0, 0, nullptr, n);
         for (size_t k = 0; k < n; ++k) {
             if (t[k].angle[0] < 0) continue; // degenerate: every angle is < 0
@@ -262,7 +262,8 @@ struct DisplacedGround::Impl {
     int tiles_x = 0, tiles_y = 0;
     Indices tile_off, tile_pts;           // see tile_index()
     bool face_indexed = false, tile_indexed = false; // built (face_index, tile_index)
-    FaceTerms terms;                      // per triangle, as of the last displace_all/update
+    FaceTerms terms;                      // per triangle, of the current positions when terms_current
+    bool terms_current = false;           // (else the next update() computes them all first)
     Array<uint64_t> mark, face_mark;      // update()'s scratch: a bit per point and per triangle (27 + 55 KB at
                                           // 221k points: in cache, unlike a word each, 2.6 MB)
     std::vector<uint32_t> moved;          // points under the dirty rectangles
@@ -301,13 +302,18 @@ struct DisplacedGround::Impl {
         if (terms.size() != tris.size() / 3) terms = FaceTerms(tris.size() / 3, ArenaAlloc<FaceTerm>(&arena));
     }
     // Every point's angle-weighted normal over positions P (rest or current): in one pass over the faces on
-    // one thread, gathered per point in parallel on more (the same bits; the terms kept if asked).
+    // one thread, gathered per point in parallel on more (the same bits). The gather computes every face's
+    // term first and keeps them if asked; the one-thread pass keeps none: the first update() computes them
+    // (terms_current). Writing the 48 bytes a face of every term was a fifth of a one-shot prepare +
+    // displace_all that never reads them (`bench stamp` section 5, 394k points, -j 1).
     void normals(double* out, const double* P) {
+        terms_current = false;
         if (!opt.keep_face_terms) FaceTerms().swap(terms);
-        else size_terms();
-        if (one_thread()) return scattered_normals(out, opt.keep_face_terms ? terms.data() : nullptr, P, tris, rest.size() / 3);
+        if (one_thread()) return scattered_normals(out, P, tris, rest.size() / 3);
         face_index();
+        if (opt.keep_face_terms) size_terms();
         gathered_normals(out, terms, opt.keep_face_terms, P, tris, face_off, faces);
+        terms_current = opt.keep_face_terms;
     }
 
     // Clamped before the conversion: a vertex no triangle uses may lie far off the grid, with a texel
@@ -429,16 +435,15 @@ Status DisplacedGround::prepare(const float* positions, size_t vertex_count, con
             T += a != b && b != c && c != a;
         }
         m->tris.resize(3 * T);
-        // (The face terms are allocated where they are first computed: normals() below, or the first update()
-        // with along_up; the block holds room for them.)
+        // (The face terms are allocated where they are first computed and kept: a gathered normals() on more
+        // than one thread, or the first update(); the block holds room for them.)
         // Undeformed normals give the displacement direction.
         unfilled(m->dir, 3 * points);
         if (opt.along_up) {
             for (size_t p = 0; p < points; ++p)
                 for (int d = 0; d < 3; ++d) m->dir[3 * p + size_t(d)] = frame.up[size_t(d)];
         } else {
-            // The rest faces' terms stay cached: an update() before any displace_all() starts from them, and
-            // displace_all() overwrites them in place (no second allocation of the largest array).
+            // (Terms kept here, on more threads, are the current positions' too: cur starts as rest.)
             m->normals(m->dir.data(), m->rest.data());
             for (size_t p = 0; p < points; ++p) {
                 double* o = &m->dir[3 * p];
@@ -532,9 +537,10 @@ size_t DisplacedGround::update(const Heightmap& h, const std::vector<TexelRect>&
     if (m.rest.empty()) return 0;
     m.face_index();
     m.tile_index();
-    if (m.terms.size() != m.tris.size() / 3) { // along_up, no displace_all yet: the terms of rest
+    if (!m.terms_current) { // the first update after a prepare or a one-thread displace_all
         m.size_terms();
         every_face_term(m.terms, m.cur.data(), m.tris);
+        m.terms_current = true;
     }
     std::fill(m.mark.begin(), m.mark.end(), 0); // a bit a point: 27 KB at 221k points, cleared in microseconds
     std::fill(m.face_mark.begin(), m.face_mark.end(), 0);

@@ -271,6 +271,36 @@ TEST(DisplacedGround, TopOnlyLeavesTheUndersideAlone) {
     for (size_t v = 0; v < b; ++v) EXPECT_EQ(pos[3 * v + 1], 0.0f) << v; // the floor under the roof is untouched
 }
 
+
+// On one thread a full pass keeps no face terms (the first update computes them all): an update that follows
+// an update, then a full pass of another heightmap, must start from that heightmap's terms, not the older
+// ones it kept. Update, full pass, update again: the bits of a fresh object's full pass. (Checked to fail when
+// the update only recomputes terms it does not have.)
+TEST(DisplacedGround, AnUpdateAfterAOneThreadFullPassStartsFromItsTerms) {
+    tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
+    Prepared p;
+    p.ground = hill_ground(4, 80);
+    prepare(p);
+    const size_t n = p.ground.positions.size();
+    std::vector<float> pos(n), nor(n), full_pos(n), full_nor(n);
+    p.field.update();
+    p.dg.displace_all(p.field.heightmap(), pos.data(), nor.data());
+    auto stamp = [&](double x, double z) {
+        EXPECT_TRUE(p.field.stamp(sphere(0.25, {}), ColliderPose{{x, hill_height(x, z) + 0.1, z}, 0, 0}).ok());
+        return p.field.update();
+    };
+    EXPECT_GT(p.dg.update(p.field.heightmap(), stamp(0.3, 0.2), pos.data(), nor.data()), 0u); // terms computed
+    stamp(-0.4, 0.5);
+    p.dg.displace_all(p.field.heightmap(), pos.data(), nor.data()); // the kept terms are now stale
+    EXPECT_GT(p.dg.update(p.field.heightmap(), stamp(-0.1, -0.6), pos.data(), nor.data()), 0u);
+    DisplacedGround fresh;
+    ASSERT_TRUE(fresh.prepare(p.ground.positions.data(), p.ground.vertex_count(), p.ground.indices.data(), p.ground.indices.size(),
+                              p.field.frame())
+                    .ok());
+    fresh.displace_all(p.field.heightmap(), full_pos.data(), full_nor.data());
+    EXPECT_EQ(pos, full_pos);
+    EXPECT_EQ(nor, full_nor);
+}
 // On one thread the normals are summed in one pass over the faces (scattered_normals), on more each point
 // gathers its faces' terms: the same bits, with and without the face-term cache, in displace_all and in the
 // updates after it, on a ground with a zero-area (collinear) and a sliver triangle added.

@@ -265,9 +265,10 @@ struct DisplaceOptions {
     bool along_up = false;   // move along up instead of the undeformed vertex normal
     bool top_only = false;   // leave vertices below the top surface alone (grounds with overhangs)
     double top_tolerance = 0.0; // with top_only: metres below the top surface still counted as top; 0 = 2 texels
-    bool keep_face_terms = true; // keep each triangle's normal terms (48 bytes a triangle) so that update() redoes
-                                 // only the faces it moves; false for a one-shot displace_all (less memory, the same
-                                 // bits; update() then computes them all on its first call)
+    bool keep_face_terms = true; // keep each triangle's normal terms (48 bytes a triangle), computed by the first
+                                 // update() (or a displace_all() on more than one thread), so that an update redoes
+                                 // only the faces it moves; false for a one-shot displace_all (no room kept for them,
+                                 // the same bits; an update() after a displace_all() computes them all again)
 };
 
 class DisplacedGround {
@@ -278,8 +279,8 @@ public:
     DisplacedGround& operator=(DisplacedGround&&) noexcept;
 
     // World-space triangles of the (tessellated) ground, undeformed. Welds by exact position and computes the
-    // undeformed normals. The update's indexes (faces per point, points per texel tile) are built by the first
-    // update() (or a displace_all() on more than one thread): a one-shot displacement does not need them. `ground` (SnowField::ground()) is needed only
+    // undeformed normals. The update's indexes (faces per point, points per texel tile) and face terms are built
+    // by the first update() (or a displace_all() on more than one thread): a one-shot displacement does not need them. `ground` (SnowField::ground()) is needed only
     // for top_only. Errors: an empty frame (invalid_argument); indices that are not triangles or out of range,
     // a NaN or infinite position (invalid_input).
     Status prepare(const float* positions, size_t vertex_count, const uint32_t* indices, size_t index_count,

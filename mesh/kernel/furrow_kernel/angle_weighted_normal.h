@@ -94,9 +94,9 @@ inline double corner_angle(Vec3 p, Vec3 q, Vec3 r, double double_area) { return 
 // (compute_vertex_normals, the fur frame, the displaced ground) and the batched face_terms (face_terms.h,
 // each lane the same operations in the same order, so the same bits) compute it so.
 // Two corners get corner_angle; the third, the corner opposite the longest edge (the largest angle, at least
-// pi/3), is pi minus the other two: 2 of the 9 divisions a face cost (corner_angle has two, the unit normal
-// one). The subtraction loses nothing that matters: the derived angle is at least pi/3, so its absolute error,
-// a few roundings of pi, stays a few ulp of itself (test compute_vertex_normals.DerivedCornerIsAtan2WithinFourUlp).
+// pi/3), is pi minus the other two: one arctangent (two divisions and two polynomials) fewer a face. The
+// subtraction loses nothing that matters: the derived angle is at least pi/3, so its absolute error, a few
+// roundings of pi, stays a few ulp of itself (test compute_vertex_normals.DerivedCornerIsAtan2WithinFourUlp).
 // Edges as the batched code forms them: a = p1 − p0, b = p2 − p0, c = p2 − p1.
 inline FaceTerm face_term(Vec3 p0, Vec3 p1, Vec3 p2) {
     const auto face = face_normal(p0, p1, p2);

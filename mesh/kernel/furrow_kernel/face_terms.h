@@ -3,14 +3,16 @@
 // (angle_weighted_normal.h), the same operations in the same order, and IEEE arithmetic rounds a
 // lane as it rounds a scalar, so the terms are the same bits whichever width runs (tested against the scalar
 // functions, degenerate and sliver faces included). The width is chosen at run time: 8 lanes with AVX-512,
-// 4 with AVX2, else 2 (SSE2); the build targets baseline x86-64. Implemented in mesh/src/face_terms.cpp.
+// 4 with AVX2, else 2 (SSE2); the build targets baseline x86-64. Implemented in mesh/src/face_terms_lanes.h,
+// built once per width (face_terms.cpp, face_terms_avx2.cpp, face_terms_avx512.cpp).
 //
-// Why: a triangle's terms are five divisions and a square root (nine before face_term derived its third
-// angle), latency-bound one face at a time. The
-// displaced snow ground recomputes them for every face in a full pass and for the faces around each moved
-// point in an update (deform/src/displaced_ground.cpp); they were its largest cost. 800k triangles of
-// nearby points, one thread, on the project's AVX-512 machine: 40 ns a face scalar, 18-19 ns at 2 lanes,
-// 15-17 at 4, 13-14 at 8.
+// Why: one face at a time, a triangle's terms (a square root, five divisions, two arctangent polynomials) are
+// latency-bound. The displaced snow ground recomputes them for every face in a full pass and for the faces
+// around each moved point in an update (deform/src/displaced_ground.cpp); they were its largest cost. 800k
+// triangles of nearby points, one thread, on the project's AVX-512 machine: 40 ns a face scalar, 18-19 ns at
+// 2 lanes, 15-17 at 4, 13-14 at 8 (2026-11-27); 9.9 at 8 once built for AVX-512 in their own unit with the
+// third angle derived (later that day). They are not bound by the divisions (made products, the same 13 ns):
+// gathering each lane's three points and storing the terms is most of the cost.
 #pragma once
 
 #include "angle_weighted_normal.h" // FaceTerm, face_term
