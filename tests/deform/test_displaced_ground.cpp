@@ -30,16 +30,33 @@ void prepare(Prepared& p, const DisplaceOptions& o = {}) {
     ASSERT_TRUE(s.ok()) << s.message;
 }
 
+// A hill of n x n cells, prepared and displaced whole by its field's heightmap into pos and nor.
+void displaced_hill(Prepared& p, int n, std::vector<float>& pos, std::vector<float>& nor) {
+    p.ground = hill_ground(4, n);
+    prepare(p);
+    pos.assign(p.ground.positions.size(), 0.0f), nor.assign(p.ground.positions.size(), 0.0f);
+    p.field.update();
+    p.dg.displace_all(p.field.heightmap(), pos.data(), nor.data());
+}
+
+// pos and nor are, bit for bit, what a fresh object's full pass writes for p's ground and heightmap.
+void expect_full_pass_bits(const Prepared& p, const std::vector<float>& pos, const std::vector<float>& nor) {
+    DisplacedGround fresh;
+    ASSERT_TRUE(fresh.prepare(p.ground.positions.data(), p.ground.vertex_count(), p.ground.indices.data(), p.ground.indices.size(),
+                              p.field.frame())
+                    .ok());
+    std::vector<float> full_pos(pos.size()), full_nor(nor.size());
+    fresh.displace_all(p.field.heightmap(), full_pos.data(), full_nor.data());
+    EXPECT_EQ(pos, full_pos);
+    EXPECT_EQ(nor, full_nor);
+}
+
 } // namespace
 
 TEST(DisplacedGround, IncrementalUpdatesEqualAFullPass) {
     Prepared p;
-    p.ground = hill_ground(4, 100);
-    prepare(p);
-    const size_t n = p.ground.positions.size();
-    std::vector<float> pos(n), nor(n), full_pos(n), full_nor(n);
-    p.field.update();
-    p.dg.displace_all(p.field.heightmap(), pos.data(), nor.data());
+    std::vector<float> pos, nor;
+    displaced_hill(p, 100, pos, nor);
     std::mt19937 rng(11);
     std::uniform_real_distribution<double> U(-1.6, 1.6);
     size_t moved_total = 0;
@@ -52,13 +69,7 @@ TEST(DisplacedGround, IncrementalUpdatesEqualAFullPass) {
         EXPECT_LT(moved, p.dg.welded_count() / 4);
         moved_total += moved;
     }
-    DisplacedGround fresh;
-    ASSERT_TRUE(fresh.prepare(p.ground.positions.data(), p.ground.vertex_count(), p.ground.indices.data(), p.ground.indices.size(),
-                              p.field.frame())
-                    .ok());
-    fresh.displace_all(p.field.heightmap(), full_pos.data(), full_nor.data());
-    EXPECT_EQ(pos, full_pos);
-    EXPECT_EQ(nor, full_nor);
+    expect_full_pass_bits(p, pos, nor);
     EXPECT_GT(moved_total, 100u);
 }
 
@@ -279,12 +290,8 @@ TEST(DisplacedGround, TopOnlyLeavesTheUndersideAlone) {
 TEST(DisplacedGround, AnUpdateAfterAOneThreadFullPassStartsFromItsTerms) {
     tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
     Prepared p;
-    p.ground = hill_ground(4, 80);
-    prepare(p);
-    const size_t n = p.ground.positions.size();
-    std::vector<float> pos(n), nor(n), full_pos(n), full_nor(n);
-    p.field.update();
-    p.dg.displace_all(p.field.heightmap(), pos.data(), nor.data());
+    std::vector<float> pos, nor;
+    displaced_hill(p, 80, pos, nor);
     auto stamp = [&](double x, double z) {
         EXPECT_TRUE(p.field.stamp(sphere(0.25, {}), ColliderPose{{x, hill_height(x, z) + 0.1, z}, 0, 0}).ok());
         return p.field.update();
@@ -293,13 +300,7 @@ TEST(DisplacedGround, AnUpdateAfterAOneThreadFullPassStartsFromItsTerms) {
     stamp(-0.4, 0.5);
     p.dg.displace_all(p.field.heightmap(), pos.data(), nor.data()); // the kept terms are now stale
     EXPECT_GT(p.dg.update(p.field.heightmap(), stamp(-0.1, -0.6), pos.data(), nor.data()), 0u);
-    DisplacedGround fresh;
-    ASSERT_TRUE(fresh.prepare(p.ground.positions.data(), p.ground.vertex_count(), p.ground.indices.data(), p.ground.indices.size(),
-                              p.field.frame())
-                    .ok());
-    fresh.displace_all(p.field.heightmap(), full_pos.data(), full_nor.data());
-    EXPECT_EQ(pos, full_pos);
-    EXPECT_EQ(nor, full_nor);
+    expect_full_pass_bits(p, pos, nor);
 }
 // On one thread the normals are summed in one pass over the faces (scattered_normals), on more each point
 // gathers its faces' terms: the same bits, with and without the face-term cache, in displace_all and in the
