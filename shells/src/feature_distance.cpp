@@ -248,6 +248,7 @@ struct SurfaceIndex::Impl {
             for (int c = 0; c < 3; ++c)
                 for (int k = 0; k < 3; ++k) out[3 * c + k] = p[3 * size_t(t[f][size_t(c)]) + size_t(k)];
         }, kSlabPrims);
+        bvh.widen(); // for_near on 4-wide nodes (owned_lengths' ball queries)
     }
     Point pt(uint32_t v) const { return Point(points[3 * size_t(v)], points[3 * size_t(v) + 1], points[3 * size_t(v) + 2]); }
 
