@@ -38,6 +38,7 @@
 #include <cstdint>
 #include <cstring>
 #include <limits>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
@@ -304,7 +305,8 @@ public:
 
     // Primitives whose box lies within squared distance r2 of p, nearer boxes first; f(prim, r2) may lower
     // r2 (a nearest-point search) and returns true to stop the search (an emptiness test that found
-    // something). Returns whether f stopped it.
+    // something). Returns whether f stopped it. An f taking a third argument is also given the primitive's position
+    // in leaf_order(), for data the caller keeps in that order.
     template <class F>
     bool for_near(const double* p, double& r2, F&& f) const {
         return wide_.empty() ? for_near_binary(p, r2, f) : for_near_wide(p, r2, f);
@@ -335,8 +337,14 @@ public:
             if (!(dist[top] < r2) || out_of_reach(stack[top])) continue;
             const Node& n = nodes_[stack[top]];
             if (n.count > 0) {
-                for (uint32_t j = n.first; j < n.first + n.count; ++j)
-                    if (boxes_[j].squared_distance(p) < r2 && f(prims_[j], r2)) return true;
+                for (uint32_t j = n.first; j < n.first + n.count; ++j) {
+                    if (!(boxes_[j].squared_distance(p) < r2)) continue;
+                    if constexpr (std::is_invocable_v<F&, uint32_t, double&, uint32_t>) {
+                        if (f(prims_[j], r2, j)) return true;
+                    } else if (f(prims_[j], r2)) {
+                        return true;
+                    }
+                }
                 continue;
             }
             const double da = nodes_[n.first].box.squared_distance(p), db = nodes_[n.first + 1].box.squared_distance(p);
@@ -382,8 +390,15 @@ public:
             --top;
             if (!(dist[top] < r2)) continue;
             if (count[top] > 0) {
-                for (uint32_t j = stack[top]; j < stack[top] + count[top]; ++j)
-                    if (boxes_[j].squared_distance(p) < r2 && f(prims_[j], r2)) return true;
+                for (uint32_t j = stack[top]; j < stack[top] + count[top]; ++j) {
+                    if (!(boxes_[j].squared_distance(p) < r2)) continue;
+                    // A caller that keeps per-primitive data in leaf order (leaf_order()) is also told the position.
+                    if constexpr (std::is_invocable_v<F&, uint32_t, double&, uint32_t>) {
+                        if (f(prims_[j], r2, j)) return true;
+                    } else if (f(prims_[j], r2)) {
+                        return true;
+                    }
+                }
                 continue;
             }
             const Wide& w = wide_[stack[top]];
