@@ -367,7 +367,7 @@ public:
         if (nodes_.empty()) return;
         wide_.emplace_back();
         if (nodes_[0].count > 0) {
-            set_slot(0, 0, 0);
+            set_slot(0, 0, 0, 0);
             wide_[0].child[0] = nodes_[0].first, wide_[0].count[0] = nodes_[0].count;
             return;
         }
@@ -549,17 +549,21 @@ private:
         uint32_t count[4] = {0, 0, 0, 0};
     };
     // Slot i of wide node w takes binary node b's box and slab.
-    void set_slot(uint32_t w, int i, uint32_t b) {
+    void set_slot(uint32_t w, int i, uint32_t b, uint32_t slab) {
         Wide& x = wide_[w];
         for (int k = 0; k < 3; ++k) x.lo[k][i] = nodes_[b].box.lo[k], x.hi[k][i] = nodes_[b].box.hi[k];
         if (slabs_.empty()) return;
-        const Slab& sl = slabs_[b];
+        const Slab& sl = slabs_[slab];
         for (int k = 0; k < 3; ++k) x.sn[k][i] = sl.n[k];
         x.slo[i] = sl.lo, x.shi[i] = sl.hi;
     }
-    // Fills wide node w from inner binary node b (its descendants down to four).
+    // Fills wide node w from inner binary node b (its descendants down to four). A slot without a slab of its
+    // own takes that of the binary node it was split from (which holds its faces too), so the descent skips
+    // no less than the binary one did at the nodes collapsed away.
     void widen_node(uint32_t w, uint32_t b) {
         uint32_t slot[4] = {nodes_[b].first, nodes_[b].first + 1, 0, 0};
+        uint32_t slab[4] = {slot[0], slot[1], 0, 0};
+        auto has_slab = [&](uint32_t node) { return !slabs_.empty() && slabs_[node].lo != -HUGE_VAL; };
         int n = 2;
         while (n < 4) {
             int pick = -1;
@@ -572,13 +576,14 @@ private:
                 if (area > best) best = area, pick = i;
             }
             if (pick < 0) break;
-            const uint32_t first = nodes_[slot[pick]].first;
-            for (int i = n; i > pick + 1; --i) slot[i] = slot[i - 1];
+            const uint32_t first = nodes_[slot[pick]].first, from = slab[pick];
+            for (int i = n; i > pick + 1; --i) slot[i] = slot[i - 1], slab[i] = slab[i - 1];
             slot[pick] = first, slot[pick + 1] = first + 1;
+            slab[pick] = has_slab(first) ? first : from, slab[pick + 1] = has_slab(first + 1) ? first + 1 : from;
             ++n;
         }
         for (int i = 0; i < n; ++i) {
-            set_slot(w, i, slot[i]);
+            set_slot(w, i, slot[i], slab[i]);
             const Node& c = nodes_[slot[i]];
             if (c.count > 0) {
                 wide_[w].child[i] = c.first, wide_[w].count[i] = c.count;
