@@ -422,3 +422,88 @@ TEST(box_bvh, SlabsSkipOnlyWhatIsOutOfReach) {
     EXPECT_GT(found, 300u);
     EXPECT_LT(slab_visits, plain_visits - plain_visits / 200); // the slabs prune
 }
+
+// BoxBvh::widen: for_near on the 4-wide nodes meets every primitive within reach that the binary descent
+// meets (the same set, in nearest-box-first order of its own), finds the same nearest distance, and never
+// drops a primitive that lies within reach (brute force over all faces). Random soups, queries just above a
+// torus's surface (the medial-axis clamp's kind) and anywhere around it, and the torus 1e6 from the origin
+// (where the boxes' margin is largest against the faces).
+namespace {
+void check_wide(const TriSoup& m, uint64_t seed, bool lifted) {
+    using K = CGAL::Simple_cartesian<double>;
+    using shells_detail::Box3;
+    std::vector<Box3> boxes(m.triangles.size());
+    std::vector<K::Triangle_3> tris;
+    for (size_t f = 0; f < m.triangles.size(); ++f) {
+        std::array<K::Point_3, 3> c;
+        for (size_t k = 0; k < 3; ++k) {
+            const double* x = &m.points[3 * size_t(m.triangles[f][k])];
+            boxes[f].add(x);
+            c[k] = K::Point_3(x[0], x[1], x[2]);
+        }
+        tris.emplace_back(c[0], c[1], c[2]);
+    }
+    Box3 all;
+    for (const Box3& b : boxes) all.add(b);
+    const double size = std::max({all.hi[0] - all.lo[0], all.hi[1] - all.lo[1], all.hi[2] - all.lo[2]});
+    shells_detail::BoxBvh binary;
+    binary.build(boxes);
+    binary.add_slabs([&](uint32_t f, double* out) {
+        for (size_t c = 0; c < 3; ++c)
+            for (size_t k = 0; k < 3; ++k) out[3 * c + k] = m.points[3 * size_t(m.triangles[f][c]) + k];
+    }, 256);
+    shells_detail::BoxBvh wide = binary;
+    wide.widen();
+    size_t found = 0;
+    for (int trial = 0; trial < 1500; ++trial) {
+        K::Point_3 x;
+        double r;
+        const size_t f = next(seed) % tris.size();
+        if (lifted && trial % 4 != 0) { // a surface point lifted along its face's normal by h, reach just short of h
+            const double h = size * (0.01 + 0.1 * uniform(seed));
+            x = CGAL::centroid(tris[f]) + h * CGAL::unit_normal(tris[f][0], tris[f][1], tris[f][2]);
+            r = h * (0.9 + 0.1 * uniform(seed));
+        } else {
+            x = K::Point_3(all.lo[0] + (all.hi[0] - all.lo[0]) * (1.4 * uniform(seed) - 0.2), all.lo[1] + (all.hi[1] - all.lo[1]) * (1.4 * uniform(seed) - 0.2),
+                           all.lo[2] + (all.hi[2] - all.lo[2]) * (1.4 * uniform(seed) - 0.2));
+            r = size * 0.3 * uniform(seed);
+        }
+        const double p[3] = {x.x(), x.y(), x.z()};
+        auto within = [&](const shells_detail::BoxBvh& bvh, bool wide_nodes) {
+            std::vector<uint32_t> met;
+            double r2 = r * r;
+            auto f = [&](uint32_t g, double&) {
+                if (CGAL::squared_distance(x, tris[g]) < r * r) met.push_back(g);
+                return false;
+            };
+            wide_nodes ? bvh.for_near_wide(p, r2, f) : bvh.for_near_binary(p, r2, f);
+            std::sort(met.begin(), met.end());
+            return met;
+        };
+        const std::vector<uint32_t> a = within(binary, false), b = within(wide, true);
+        ASSERT_EQ(b, a) << "trial " << trial;
+        std::vector<uint32_t> brute;
+        for (uint32_t g = 0; g < tris.size(); ++g)
+            if (CGAL::squared_distance(x, tris[g]) < r * r) brute.push_back(g);
+        ASSERT_EQ(b, brute) << "trial " << trial;
+        found += !b.empty();
+        // The nearest-point search (bound shrinking as it goes): the same distance as brute force.
+        double best = HUGE_VAL, exact = HUGE_VAL;
+        wide.for_near(p, best, [&](uint32_t g, double& bound) {
+            bound = std::min(bound, CGAL::squared_distance(x, tris[g]));
+            return false;
+        });
+        for (const auto& t : tris) exact = std::min(exact, CGAL::squared_distance(x, t));
+        ASSERT_EQ(best, exact) << "trial " << trial;
+    }
+    EXPECT_GT(found, 150u);
+}
+} // namespace
+
+TEST(box_bvh, WideNodesMeetWhatTheBinaryDescentMeets) {
+    for (uint64_t seed = 1; seed <= 3; ++seed) check_wide(random_soup(seed, 400, 600), seed * 31, false);
+    TriSoup torus = from_primitive(shapes::torus(1.0f, 0.3f, 96, 48));
+    check_wide(torus, 5, true);
+    for (size_t i = 0; i < torus.points.size(); i += 3) torus.points[i] += 1e6, torus.points[i + 1] -= 1e6, torus.points[i + 2] += 1e6;
+    check_wide(torus, 6, true);
+}
