@@ -23,7 +23,7 @@
 // indexes and the unfilled arrays; 37.7-38.7 + 21.1-21.4 ms after (2026-11-27); 25.9-26.2 + 16.9-17.7 ms
 // once the face terms sat in the block (size_terms), were built for their instruction set (face_terms.h),
 // derived their third angle (face_term), and the checks, triangle copy and texel coordinates each took one
-// vectorisable pass (later that day).
+// vectorisable pass (later that day); 25.0 + 16.5-16.6 ms once a one-thread full pass kept no face terms.
 // An update skips the points whose position comes out bit-identical (a dirty tile is rarely dirty
 // everywhere): their faces, normals and buffer entries are already those a full pass writes. The points
 // and faces to redo are found in one cheap sweep, collected in index order from their marks (so the
