@@ -322,29 +322,16 @@ public:
         int top = 0;
         stack[top] = 0, dist[top++] = nodes_[0].box.squared_distance(p);
         // A node whose slab lies out of reach holds nothing within reach: skipped, the other visits in the same
-        // order. The slab distance |n·p − lo or hi| is rounded by at most 4e-16 Σ|n_k p_k| (|n| = 1 within
-        // 1e-15), and what is skipped is at least that much farther than reach by a factor 1 + 5e-7.
-        auto out_of_reach = [&](uint32_t node) {
-            if (slabs_.empty()) return false;
-            const Slab& sl = slabs_[node];
-            const double d = sl.n[0] * p[0] + sl.n[1] * p[1] + sl.n[2] * p[2];
-            const double err = 4e-16 * (std::abs(sl.n[0] * p[0]) + std::abs(sl.n[1] * p[1]) + std::abs(sl.n[2] * p[2]));
-            const double gap = std::max(d - sl.hi, sl.lo - d) - err;
-            return gap > 0 && gap * gap * (1 - 1e-6) >= r2;
+        // order.
+        auto slab_out_of_reach = [&](uint32_t node) {
+            return !slabs_.empty() && out_of_reach(slabs_[node].n, slabs_[node].lo, slabs_[node].hi, p, r2);
         };
         while (top > 0) {
             --top;
-            if (!(dist[top] < r2) || out_of_reach(stack[top])) continue;
+            if (!(dist[top] < r2) || slab_out_of_reach(stack[top])) continue;
             const Node& n = nodes_[stack[top]];
             if (n.count > 0) {
-                for (uint32_t j = n.first; j < n.first + n.count; ++j) {
-                    if (!(boxes_[j].squared_distance(p) < r2)) continue;
-                    if constexpr (std::is_invocable_v<F&, uint32_t, double&, uint32_t>) {
-                        if (f(prims_[j], r2, j)) return true;
-                    } else if (f(prims_[j], r2)) {
-                        return true;
-                    }
-                }
+                if (near_in_leaf(n.first, n.count, p, r2, f)) return true;
                 continue;
             }
             const double da = nodes_[n.first].box.squared_distance(p), db = nodes_[n.first + 1].box.squared_distance(p);
@@ -390,15 +377,7 @@ public:
             --top;
             if (!(dist[top] < r2)) continue;
             if (count[top] > 0) {
-                for (uint32_t j = stack[top]; j < stack[top] + count[top]; ++j) {
-                    if (!(boxes_[j].squared_distance(p) < r2)) continue;
-                    // A caller that keeps per-primitive data in leaf order (leaf_order()) is also told the position.
-                    if constexpr (std::is_invocable_v<F&, uint32_t, double&, uint32_t>) {
-                        if (f(prims_[j], r2, j)) return true;
-                    } else if (f(prims_[j], r2)) {
-                        return true;
-                    }
-                }
+                if (near_in_leaf(stack[top], count[top], p, r2, f)) return true;
                 continue;
             }
             const Wide& w = wide_[stack[top]];
@@ -523,6 +502,21 @@ private:
         box.add(nodes_[left].box);
         box.add(nodes_[left + 1].box);
         nodes_[node].box = box;
+    }
+
+    // for_near's leaf: f for each of slots [first, first + count) whose box lies within reach; whether f stopped
+    // the search. A caller that keeps per-primitive data in leaf order (leaf_order()) is also told the position.
+    template <class F>
+    bool near_in_leaf(uint32_t first, uint32_t count, const double* p, double& r2, F& f) const {
+        for (uint32_t j = first; j < first + count; ++j) {
+            if (!(boxes_[j].squared_distance(p) < r2)) continue;
+            if constexpr (std::is_invocable_v<F&, uint32_t, double&, uint32_t>) {
+                if (f(prims_[j], r2, j)) return true;
+            } else if (f(prims_[j], r2)) {
+                return true;
+            }
+        }
+        return false;
     }
 
     // Is the slab lo <= n·x <= hi out of reach of p (squared reach r2)? The slab distance |n·p − lo or hi| is

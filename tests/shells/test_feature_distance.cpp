@@ -57,6 +57,23 @@ TriSoup from_primitive(Primitive p) {
     return m;
 }
 
+// Each triangle's box and its CGAL triangle: what the hierarchy tests build, and their brute-force reference.
+void boxes_and_triangles(const TriSoup& m, std::vector<shells_detail::Box3>& boxes,
+                         std::vector<CGAL::Simple_cartesian<double>::Triangle_3>& tris) {
+    using Point = CGAL::Simple_cartesian<double>::Point_3;
+    boxes.assign(m.triangles.size(), shells_detail::Box3{});
+    tris.clear();
+    for (size_t f = 0; f < m.triangles.size(); ++f) {
+        std::array<Point, 3> c;
+        for (size_t k = 0; k < 3; ++k) {
+            const double* x = &m.points[3 * size_t(m.triangles[f][k])];
+            boxes[f].add(x);
+            c[k] = Point(x[0], x[1], x[2]);
+        }
+        tris.emplace_back(c[0], c[1], c[2]);
+    }
+}
+
 // A soup of random triangles in the unit cube, sharing corners at random (so that rays start on surfaces).
 TriSoup random_soup(uint64_t seed, size_t points, size_t triangles) {
     TriSoup m;
@@ -377,17 +394,9 @@ TEST(box_bvh, SlabsSkipOnlyWhatIsOutOfReach) {
     using K = CGAL::Simple_cartesian<double>;
     using shells_detail::Box3;
     const TriSoup m = from_primitive(shapes::torus(1.0f, 0.3f, 96, 48));
-    std::vector<Box3> boxes(m.triangles.size());
+    std::vector<Box3> boxes;
     std::vector<K::Triangle_3> tris;
-    for (size_t f = 0; f < m.triangles.size(); ++f) {
-        std::array<K::Point_3, 3> c;
-        for (size_t k = 0; k < 3; ++k) {
-            const double* x = &m.points[3 * size_t(m.triangles[f][k])];
-            boxes[f].add(x);
-            c[k] = K::Point_3(x[0], x[1], x[2]);
-        }
-        tris.emplace_back(c[0], c[1], c[2]);
-    }
+    boxes_and_triangles(m, boxes, tris);
     shells_detail::BoxBvh plain, slabbed;
     plain.build(boxes);
     slabbed.build(boxes);
@@ -432,17 +441,9 @@ namespace {
 void check_wide(const TriSoup& m, uint64_t seed, bool lifted) {
     using K = CGAL::Simple_cartesian<double>;
     using shells_detail::Box3;
-    std::vector<Box3> boxes(m.triangles.size());
+    std::vector<Box3> boxes;
     std::vector<K::Triangle_3> tris;
-    for (size_t f = 0; f < m.triangles.size(); ++f) {
-        std::array<K::Point_3, 3> c;
-        for (size_t k = 0; k < 3; ++k) {
-            const double* x = &m.points[3 * size_t(m.triangles[f][k])];
-            boxes[f].add(x);
-            c[k] = K::Point_3(x[0], x[1], x[2]);
-        }
-        tris.emplace_back(c[0], c[1], c[2]);
-    }
+    boxes_and_triangles(m, boxes, tris);
     Box3 all;
     for (const Box3& b : boxes) all.add(b);
     const double size = std::max({all.hi[0] - all.lo[0], all.hi[1] - all.lo[1], all.hi[2] - all.lo[2]});
