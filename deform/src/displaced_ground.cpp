@@ -13,13 +13,14 @@
 // per corner, several faces to a vector register (furrow_kernel/face_terms.h: 8 with AVX-512, the same
 // bits). On one thread a full pass adds them to their corners in one pass over the faces, a block at a time
 // (none is kept); on more, each point gathers its own from all the faces' terms (the same sums in the same
-// order). An update keeps every face's terms, computed by its first call, and recomputes only those it moves. prepare() puts every array in one block
-// (Arena, below; on huge pages from 32 MiB), which a later prepare() of the same object takes over when the
-// new mesh fits: on this project's VM a fresh 4 KiB page costs ~20 us, and prepare used to spend most of its
-// time in page faults (`bench stamp` §5, 394k vertices: 392-624 ms, 17x the 99k mesh's). The update's
-// indexes (faces per point, points per tile) and the faces' terms are built on the first update(): a
-// one-shot displacement needs none of them; nor are the arrays it writes whole filled first. `furrow -j 1 bench stamp --section 5`, 394k
-// vertices, prepare + displace_all: 83-92 + 37-41 ms before the vector terms, the one-pass sums, the late
+// order). An update keeps every face's terms, computed by its first call, and recomputes only those it
+// moves. prepare() puts every array in one block (Arena, below; on huge pages from 32 MiB), which a later
+// prepare() of the same object takes over when the new mesh fits: on this project's VM a fresh 4 KiB page
+// costs ~20 us, and prepare used to spend most of its time in page faults (`bench stamp` §5, 394k
+// vertices: 392-624 ms, 17x the 99k mesh's). The update's indexes (faces per point, points per tile) and
+// the faces' terms are built on the first update(): a one-shot displacement needs none of them; nor are
+// the arrays it writes whole filled first. `furrow -j 1 bench stamp --section 5`, 394k vertices,
+// prepare + displace_all: 83-92 + 37-41 ms before the vector terms, the one-pass sums, the late
 // indexes and the unfilled arrays; 37.7-38.7 + 21.1-21.4 ms after (2026-11-27); 25.9-26.2 + 16.9-17.7 ms
 // once the face terms sat in the block (size_terms), were built for their instruction set (face_terms.h),
 // derived their third angle (face_term), and the checks, triangle copy and texel coordinates each took one
@@ -297,15 +298,16 @@ struct DisplacedGround::Impl {
     }
     // The face terms' array, one per triangle, in the block (room for it was counted in prepare()), unfilled:
     // its caller writes it whole. A default-constructed array has no arena: sized by resize(), the 38 MB of a
-    // 394k-point ground came from a fresh mapping at every prepare(), 19 huge-page faults of ~1.1 ms each.
+    // 394k-point ground came from a fresh mapping at every prepare(), 19 huge-page faults (a prepare loop at
+    // 394k points: 43.5-43.8 -> 39.0-39.7 ms once in the block).
     void size_terms() {
         if (terms.size() != tris.size() / 3) terms = FaceTerms(tris.size() / 3, ArenaAlloc<FaceTerm>(&arena));
     }
     // Every point's angle-weighted normal over positions P (rest or current): in one pass over the faces on
     // one thread, gathered per point in parallel on more (the same bits). The gather computes every face's
     // term first and keeps them if asked; the one-thread pass keeps none: the first update() computes them
-    // (terms_current). Writing the 48 bytes a face of every term was a fifth of a one-shot prepare +
-    // displace_all that never reads them (`bench stamp` section 5, 394k points, -j 1).
+    // (terms_current). A one-shot prepare + displace_all never reads them, and writing 48 bytes a face took
+    // it from 42.7-45.7 to 47.2-47.6 ms (`bench stamp` section 5, 394k points, -j 1, two noisy runs).
     void normals(double* out, const double* P) {
         terms_current = false;
         if (!opt.keep_face_terms) FaceTerms().swap(terms);

@@ -111,11 +111,11 @@ template <int L, class FaceOf>
     const D<L> second = corner_angles<L>(area, la >= max_bc ? dot1 : dot2);
     const D<L> third = (kPi - first) - second;
     D<L> angle[3] = {c2 > max_ab ? third : first, c2 > max_ab ? first : (la >= max_bc ? second : third), la >= max_bc ? third : second};
-    // A degenerate face (face_normal's test: a finite area above the limit) gets FaceTerm::none().
-    for (auto& a : angle) a = area <= std::numeric_limits<double>::max() ? (area > limit ? a : zero - 1) : zero - 1;
-    const D<L> unit[3] = {area <= std::numeric_limits<double>::max() ? (area > limit ? ux : zero) : zero,
-                          area <= std::numeric_limits<double>::max() ? (area > limit ? uy : zero) : zero,
-                          area <= std::numeric_limits<double>::max() ? (area > limit ? uz : zero) : zero};
+    // A degenerate face (face_normal's test: a finite area above the limit) gets FaceTerm::none(). A non-finite
+    // area is taken as 0 first, which no limit (>= 0, or NaN) is below.
+    const D<L> finite_area = area <= std::numeric_limits<double>::max() ? area : zero;
+    for (auto& a : angle) a = finite_area > limit ? a : zero - 1;
+    const D<L> unit[3] = {finite_area > limit ? ux : zero, finite_area > limit ? uy : zero, finite_area > limit ? uz : zero};
     for (int j = 0; j < L && k0 + size_t(j) < count; ++j) {
         FaceTerm& o = out[f[j]];
         for (int c = 0; c < 3; ++c) o.unit[c] = unit[c][j], o.angle[c] = angle[c][j];
