@@ -31,7 +31,9 @@
 // arrays are walked forwards: with a 6 cm rim, `bench stamp` section 4 at -j 1, 7.0-7.4 ms a frame against
 // 9.4-10.4 in the order they were found), and recomputed in parallel; the result bytes do not depend on the
 // thread count. (Numbering the points by heightmap tile and the faces by their lowest point, for
-// locality, made an update 5-10 % faster and prepare() 30 % slower, 82 -> 107 ms at 394k points: not kept.)
+// locality, made an update 5-10 % faster and prepare() 30 % slower, 82 -> 107 ms at 394k points: not kept.
+// Measured again once the update had become load-bound: the points alone numbered by tile, with the same bits,
+// and each point's rest, direction and texel in one 64-byte line, gave no faster update; deform/README.md.)
 #include "deform_internal.h"
 
 #include <furrow_kernel/angle_weighted_normal.h>
