@@ -243,25 +243,18 @@ public:
         if (nodes_.empty() || other.nodes_.empty()) return;
         const bool self = &other == this;
         std::vector<Pair> frontier{{0, 0}}, next;
-        auto no_leaves = [](uint32_t, uint32_t) {};
         for (int depth = 0; depth < 12 && frontier.size() < 256; ++depth) {
             next.clear();
             bool split = false;
-            for (const Pair& xy : frontier) split |= expand(other, self, xy, next, no_leaves, false);
+            for (const Pair& xy : frontier) split |= expand(other, self, xy, next);
             frontier.swap(next);
             if (!split) break;
         }
         std::vector<std::vector<T>> lists(frontier.size());
         tbb::parallel_for(tbb::blocked_range<size_t>(0, frontier.size(), 1), [&](const tbb::blocked_range<size_t>& r) {
-            std::vector<Pair> stack;
             for (size_t k = r.begin(); k != r.end(); ++k) {
                 auto leaf = [&](uint32_t a, uint32_t b) { emit(a, b, lists[k]); };
-                stack.assign(1, frontier[k]);
-                while (!stack.empty()) {
-                    const Pair xy = stack.back();
-                    stack.pop_back();
-                    expand(other, self, xy, stack, leaf, true);
-                }
+                descend(other, self, frontier[k], leaf);
             }
         });
         size_t total = out.size();
@@ -424,24 +417,15 @@ private:
         uint32_t count = 0; // leaf: number of primitives; inner: 0
     };
 
-    // One step of the paired descent from node pair xy: overlapping child pairs go to `next`; at two leaves
-    // the overlapping primitive pairs go to leaf(a, b) (or, without `at_leaves`, the leaf pair itself goes
-    // to `next`). Returns whether xy was split.
-    template <class Leaf>
-    bool expand(const BoxBvh& other, bool self, std::pair<uint32_t, uint32_t> xy, std::vector<std::pair<uint32_t, uint32_t>>& next,
-                Leaf& leaf, bool at_leaves) const {
+    // One step of the breadth-first split into tasks: the child pairs of node pair xy go to `next` (two
+    // leaves: the pair itself). Returns whether xy was split; a pair that does not overlap is dropped.
+    bool expand(const BoxBvh& other, bool self, std::pair<uint32_t, uint32_t> xy, std::vector<std::pair<uint32_t, uint32_t>>& next) const {
         const auto [x, y] = xy;
         const Node &a = nodes_[x], &b = other.nodes_[y];
         if (!a.box.overlaps(b.box)) return false;
         const bool same = self && x == y;
         if (a.count > 0 && b.count > 0) {
-            if (!at_leaves) {
-                next.push_back(xy);
-                return false;
-            }
-            for (uint32_t i = a.first; i < a.first + a.count; ++i)
-                for (uint32_t j = same ? i + 1 : b.first; j < b.first + b.count; ++j)
-                    if (boxes_[i].overlaps(other.boxes_[j])) leaf(prims_[i], other.prims_[j]);
+            next.push_back(xy);
             return false;
         }
         if (same) { // (l, l), (l, r), (r, r): the pair (r, l) is (l, r) again
@@ -459,6 +443,41 @@ private:
                 for (uint32_t j = 0; j < 2; ++j) next.emplace_back(a.first + i, b.first + j);
         }
         return true;
+    }
+
+    // The paired descent below node pair xy: every primitive pair whose boxes overlap to leaf(a, b). A child
+    // pair is tested before it is stacked, so the stack (on the frame: a step replaces one pair by at most
+    // four and goes one level down in at least one tree, so 3 x (both depths) + 1 entries suffice) holds only
+    // overlapping pairs. Stanford bunny's crossing test (callgrind, `furrow -j 1 -q shells --layers 2
+    // --length 0.003`): 394 k node pairs were stacked and popped, 235 k of them overlapping; verify_crossings
+    // 312.6 -> 298.5 M instructions.
+    template <class Leaf>
+    void descend(const BoxBvh& other, bool self, std::pair<uint32_t, uint32_t> xy, Leaf& leaf) const {
+        std::pair<uint32_t, uint32_t> stack[6 * kStack + 1];
+        int top = 0;
+        auto push = [&](uint32_t x, uint32_t y) {
+            if (nodes_[x].box.overlaps(other.nodes_[y].box)) stack[top++] = {x, y};
+        };
+        push(xy.first, xy.second);
+        while (top > 0) {
+            const auto [x, y] = stack[--top];
+            const Node &a = nodes_[x], &b = other.nodes_[y];
+            const bool same = self && x == y;
+            if (a.count > 0 && b.count > 0) {
+                for (uint32_t i = a.first; i < a.first + a.count; ++i)
+                    for (uint32_t j = same ? i + 1 : b.first; j < b.first + b.count; ++j)
+                        if (boxes_[i].overlaps(other.boxes_[j])) leaf(prims_[i], other.prims_[j]);
+            } else if (same) { // (l, l), (l, r), (r, r): the pair (r, l) is (l, r) again
+                push(a.first, a.first), push(a.first, a.first + 1), push(a.first + 1, a.first + 1);
+            } else if (a.count > 0) {
+                push(x, b.first), push(x, b.first + 1);
+            } else if (b.count > 0) {
+                push(a.first, y), push(a.first + 1, y);
+            } else {
+                for (uint32_t i = 0; i < 2; ++i)
+                    for (uint32_t j = 0; j < 2; ++j) push(a.first + i, b.first + j);
+            }
+        }
     }
 
     // A primitive's box centre and id, moved with it by the split: the partition reads its keys in order instead
