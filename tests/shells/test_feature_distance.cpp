@@ -16,7 +16,9 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstring>
 #include <functional>
+#include <iterator>
 #include <limits>
 #include <utility>
 #include <vector>
@@ -386,6 +388,41 @@ TEST(box_bvh, BuildsTheTreeTheIdsAloneGave) {
             ASSERT_TRUE(found) << i;
         }
     }
+}
+
+// Box3::ray_entry_oblique (for_ray's test for a ray with no zero component) gives Box3::ray_entry's parameter bit
+// for bit: random boxes and rays of either sign, origins on a box's faces and inside it, infinite and NaN
+// coordinates, inverse directions that overflow, and t_max from 0 to infinity.
+TEST(box_bvh, ObliqueRayEntryIsTheSlabTestsBits) {
+    using shells_detail::Box3;
+    uint64_t seed = 53;
+    const double specials[] = {0.0, -0.0, 1.0, -1.0, 1e-310, -1e-310, 1e300, -1e300, HUGE_VAL, -HUGE_VAL, std::nan("")};
+    auto value = [&](bool wild) {
+        if (wild && next(seed) % 8 == 0) return specials[next(seed) % std::size(specials)];
+        return double(int(next(seed) % 9) - 4) * (next(seed) % 2 ? 1.0 : 0.25);
+    };
+    size_t entered = 0, missed = 0;
+    for (int trial = 0; trial < 200000; ++trial) {
+        const bool wild = trial % 4 == 0;
+        Box3 b;
+        double c[2][3];
+        for (auto& corner : c)
+            for (double& x : corner) x = value(wild);
+        b.add(c[0]), b.add(c[1]);
+        double o[3], d[3], inv[3];
+        for (int k = 0; k < 3; ++k) {
+            o[k] = next(seed) % 3 == 0 ? (next(seed) % 2 ? b.lo[k] : b.hi[k]) : value(wild); // often on a face
+            do d[k] = value(wild);
+            while (d[k] == 0);
+            inv[k] = 1.0 / d[k];
+        }
+        const double t_max = trial % 5 == 0 ? HUGE_VAL : double(next(seed) % 6);
+        const double want = b.ray_entry(o, inv, d, t_max), got = b.ray_entry_oblique(o, inv, t_max);
+        ASSERT_EQ(std::memcmp(&want, &got, sizeof want), 0) << "trial " << trial << ": " << want << " against " << got;
+        (want == HUGE_VAL ? missed : entered) += 1;
+    }
+    EXPECT_GT(entered, 20000u);
+    EXPECT_GT(missed, 20000u);
 }
 
 // BoxBvh::overlapping_pairs (the crossing test's candidates): every pair of primitives whose boxes overlap, each
