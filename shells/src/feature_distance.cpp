@@ -334,7 +334,7 @@ struct CrossingTest::State {
         stri.resize(T);
         is_shell.assign(T, 0);
         sbox.resize(T);
-        shells.refit(ix.bvh, sbox);
+        shells.take_shape(ix.bvh); // refitted by run, to the shell boxes
     }
     Box3 box_of_ids(const std::array<uint32_t, 3>& t) const {
         Box3 box;

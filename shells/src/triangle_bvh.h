@@ -146,9 +146,16 @@ public:
     // This tree's shape over other boxes of the same primitives (a shell triangle's box for its base face):
     // only the boxes are recomputed, bottom-up, in O(n). Primitives with an empty box take no part.
     void refit(const BoxBvh& shape, const std::vector<Box3>& boxes) {
+        take_shape(shape);
+        refit(boxes);
+    }
+    // Shape's nodes and primitives, with no boxes until refit(boxes) (nothing to query before).
+    void take_shape(const BoxBvh& shape) {
         nodes_ = shape.nodes_;
         prims_ = shape.prims_;
-        refit(boxes);
+        boxes_.clear();
+        slabs_.clear();
+        wide_.clear();
     }
     // The same, keeping this tree's own shape (boxes[i] for primitive i, as at the build).
     void refit(const std::vector<Box3>& boxes) {
