@@ -236,8 +236,12 @@ ShellVertices shell_vertices(const Primitive& p, const std::vector<uint32_t>& tr
         return sv;
     }
     // No usable UVs: box projection, each triangle onto the plane its normal faces most; a vertex used by
-    // triangles of different planes is split (positions stay identical, so no crack).
-    std::map<std::pair<uint32_t, int>, uint32_t> map;
+    // triangles of different planes is split (positions stay identical, so no crack). A copy's id by (vertex,
+    // plane) in a flat table, numbered in order of first use, as a std::map of the pairs numbered them: on the
+    // Stanford bunny (callgrind --branch-sim=yes) 64.6 -> 16.1 M instructions, 1.99 -> 0.12 M mispredicted
+    // branches; `bench shells -j 1 --layers 32 --repeat 5` set-up, three interleaved runs, 213.5/219.4/209.2
+    // -> 202.4/200.8/187.9 ms.
+    std::vector<uint32_t> copy(3 * n, UINT32_MAX);
     for (size_t f = 0; f < T; ++f) {
         if (!keep[f]) continue;
         uint32_t a = tris[3 * f], b = tris[3 * f + 1], c = tris[3 * f + 2];
@@ -247,8 +251,9 @@ ShellVertices shell_vertices(const Primitive& p, const std::vector<uint32_t>& tr
                          std::abs(e1[0] * e2[1] - e1[1] * e2[0])};
         int axis = nrm[0] >= nrm[1] && nrm[0] >= nrm[2] ? 0 : nrm[1] >= nrm[2] ? 1 : 2;
         for (uint32_t v : {a, b, c}) {
-            auto [it, fresh] = map.emplace(std::make_pair(v, axis), uint32_t(sv.src.size()));
-            if (fresh) {
+            uint32_t& id = copy[3 * size_t(v) + size_t(axis)];
+            if (id == UINT32_MAX) {
+                id = uint32_t(sv.src.size());
                 sv.src.push_back(v);
                 int i0 = (axis + 1) % 3, i1 = (axis + 2) % 3;
                 float u = tile_coord(pos(v, i0) / tile_obj), w = tile_coord(pos(v, i1) / tile_obj);
@@ -257,7 +262,7 @@ ShellVertices shell_vertices(const Primitive& p, const std::vector<uint32_t>& tr
                 sv.uv0.push_back(u);
                 sv.uv0.push_back(w);
             }
-            sv.indices.push_back(it->second);
+            sv.indices.push_back(id);
         }
     }
     return sv;

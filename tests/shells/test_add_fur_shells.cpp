@@ -10,6 +10,7 @@
 #include <tbb/global_control.h>
 
 #include <cmath>
+#include <map>
 
 namespace furrow {
 namespace {
@@ -310,6 +311,35 @@ TEST(add_fur_shells, StrandUvsStayFiniteForAnyTileSize) {
             for (float x : p.uv1) ASSERT_TRUE(std::isfinite(x)) << (uvs ? "UV layout" : "box projection") << ", primitive " << k;
             for (float x : p.uv0) ASSERT_TRUE(std::isfinite(x)) << (uvs ? "UV layout" : "box projection") << ", primitive " << k;
         }
+    }
+}
+
+// Without UVs, the strand UVs are box-projected: each triangle onto the axis plane its normal faces most, a
+// vertex split into one copy per plane it is used with, the copies numbered in order of first use. Each shell's
+// index buffer held to that numbering, rebuilt here from the base with the (vertex, plane) pairs in a map.
+TEST(add_fur_shells, BoxProjectionSplitsVerticesByPlaneInOrderOfFirstUse) {
+    const Primitive base = shapes::icosphere(0.5f, 2); // no TEXCOORD_0
+    ASSERT_TRUE(base.uv0.empty());
+    Scene s = make_scene(base);
+    ASSERT_TRUE(add_fur_shells(s, fur(2, 0.02)).ok());
+    std::map<std::pair<uint32_t, int>, uint32_t> copies;
+    std::vector<uint32_t> want;
+    auto pos = [&](uint32_t v, int k) { return double(base.positions[3 * size_t(v) + size_t(k)]); };
+    for (size_t i = 0; i + 2 < base.indices.size(); i += 3) {
+        const uint32_t a = base.indices[i], b = base.indices[i + 1], c = base.indices[i + 2];
+        double e1[3], e2[3];
+        for (int k = 0; k < 3; ++k) e1[k] = pos(b, k) - pos(a, k), e2[k] = pos(c, k) - pos(a, k);
+        const double n[3] = {std::abs(e1[1] * e2[2] - e1[2] * e2[1]), std::abs(e1[2] * e2[0] - e1[0] * e2[2]),
+                             std::abs(e1[0] * e2[1] - e1[1] * e2[0])};
+        const int axis = n[0] >= n[1] && n[0] >= n[2] ? 0 : n[1] >= n[2] ? 1 : 2;
+        for (uint32_t v : {a, b, c}) want.push_back(copies.emplace(std::make_pair(v, axis), uint32_t(copies.size())).first->second);
+    }
+    ASSERT_GT(copies.size(), base.vertex_count()); // some vertices are split
+    ASSERT_EQ(s.meshes[0].primitives.size(), 3u);  // the base and two shells
+    for (size_t k = 1; k < 3; ++k) {
+        const Primitive& shell = s.meshes[0].primitives[k];
+        EXPECT_EQ(shell.vertex_count(), copies.size()) << "shell " << k;
+        EXPECT_EQ(shell.indices, want) << "shell " << k;
     }
 }
 

@@ -16,8 +16,11 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstring>
 #include <functional>
+#include <iterator>
 #include <limits>
+#include <utility>
 #include <vector>
 
 using namespace furrow;
@@ -383,6 +386,93 @@ TEST(box_bvh, BuildsTheTreeTheIdsAloneGave) {
             bool found = false;
             bvh.for_overlapping(boxes[i], [&](uint32_t f) { found = found || f == i; });
             ASSERT_TRUE(found) << i;
+        }
+    }
+}
+
+// Box3::ray_entry_oblique (for_ray's test for a ray with no zero component) gives Box3::ray_entry's parameter bit
+// for bit: random boxes and rays of either sign, origins on a box's faces and inside it, infinite and NaN
+// coordinates, inverse directions that overflow, and t_max from 0 to infinity.
+TEST(box_bvh, ObliqueRayEntryIsTheSlabTestsBits) {
+    using shells_detail::Box3;
+    uint64_t seed = 53;
+    const double specials[] = {0.0, -0.0, 1.0, -1.0, 1e-310, -1e-310, 1e300, -1e300, HUGE_VAL, -HUGE_VAL, std::nan("")};
+    auto value = [&](bool wild) {
+        if (wild && next(seed) % 8 == 0) return specials[next(seed) % std::size(specials)];
+        return double(int(next(seed) % 9) - 4) * (next(seed) % 2 ? 1.0 : 0.25);
+    };
+    size_t entered = 0, missed = 0;
+    for (int trial = 0; trial < 200000; ++trial) {
+        const bool wild = trial % 4 == 0;
+        Box3 b;
+        double c[2][3];
+        for (auto& corner : c)
+            for (double& x : corner) x = value(wild);
+        b.add(c[0]), b.add(c[1]);
+        double o[3], d[3], inv[3];
+        for (int k = 0; k < 3; ++k) {
+            o[k] = next(seed) % 3 == 0 ? (next(seed) % 2 ? b.lo[k] : b.hi[k]) : value(wild); // often on a face
+            do d[k] = value(wild);
+            while (d[k] == 0);
+            inv[k] = 1.0 / d[k];
+        }
+        const double t_max = trial % 5 == 0 ? HUGE_VAL : double(next(seed) % 6);
+        const double want = b.ray_entry(o, inv, d, t_max), got = b.ray_entry_oblique(o, inv, t_max);
+        ASSERT_EQ(std::memcmp(&want, &got, sizeof want), 0) << "trial " << trial << ": " << want << " against " << got;
+        (want == HUGE_VAL ? missed : entered) += 1;
+    }
+    EXPECT_GT(entered, 20000u);
+    EXPECT_GT(missed, 20000u);
+}
+
+// BoxBvh::overlapping_pairs (the crossing test's candidates): every pair of primitives whose boxes overlap, each
+// once, against a brute-force reference: a tree with itself (each unordered pair of distinct primitives) and
+// a tree against another shape's tree refitted to other boxes (as the shells' boxes on the base's shape), with
+// empty boxes among them (primitives that take no part). Boxes on an integer grid: touching counts, and the
+// trees' margins cannot join boxes a whole unit apart. Sizes from one leaf to enough node pairs that the
+// parallel tasks' own descents do most of the work.
+TEST(box_bvh, PairedDescentMeetsEveryOverlappingPair) {
+    using shells_detail::Box3;
+    using Pair = std::pair<uint32_t, uint32_t>;
+    uint64_t seed = 47;
+    auto random_boxes = [&](size_t n, bool with_empty) {
+        std::vector<Box3> boxes(n);
+        for (Box3& b : boxes) {
+            if (with_empty && next(seed) % 7 == 0) continue; // empty: no part
+            double lo[3], hi[3];
+            for (int k = 0; k < 3; ++k) lo[k] = double(next(seed) % 24), hi[k] = lo[k] + double(next(seed) % 3);
+            b.add(lo), b.add(hi);
+        }
+        return boxes;
+    };
+    for (size_t n : {1u, 5u, 17u, 300u, 4099u}) {
+        const std::vector<Box3> base = random_boxes(n, false), other_boxes = random_boxes(n, true);
+        shells_detail::BoxBvh a;
+        a.build(base);
+        shells_detail::BoxBvh b;
+        b.refit(a, other_boxes);
+        auto collect = [](const shells_detail::BoxBvh& x, const shells_detail::BoxBvh& y) {
+            std::vector<Pair> found;
+            x.overlapping_pairs(y, [](uint32_t f, uint32_t g, std::vector<Pair>& out) { out.emplace_back(f, g); }, found);
+            return found;
+        };
+        // With itself: each unordered pair once, in either order.
+        std::vector<Pair> self = collect(b, b), want_self;
+        for (Pair& p : self) p = {std::min(p.first, p.second), std::max(p.first, p.second)};
+        std::sort(self.begin(), self.end());
+        for (uint32_t i = 0; i < n; ++i)
+            for (uint32_t j = i + 1; j < n; ++j)
+                if (other_boxes[i].overlaps(other_boxes[j])) want_self.emplace_back(i, j);
+        EXPECT_EQ(self, want_self) << n << " boxes, with itself";
+        // Against the other tree: every (b's, a's) pair once.
+        std::vector<Pair> across = collect(b, a), want_across;
+        std::sort(across.begin(), across.end());
+        for (uint32_t i = 0; i < n; ++i)
+            for (uint32_t j = 0; j < n; ++j)
+                if (other_boxes[i].overlaps(base[j])) want_across.emplace_back(i, j);
+        EXPECT_EQ(across, want_across) << n << " boxes, across";
+        if (n == 4099) {
+            EXPECT_GT(want_self.size(), 2 * n); // the trees overlap deeply, not only at a few leaves
         }
     }
 }
