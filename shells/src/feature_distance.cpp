@@ -161,7 +161,9 @@ static_assert(std::is_same_v<Kernel::Cartesian_const_iterator_3, std::array<doub
 const double* xyz(const Point& p) { return &*p.cartesian_begin(); }
 
 // CGAL::squared_distance(x, t), the same bits (point_triangle_distance.h).
-double squared_distance_to(const Point& x, const Triangle& t) { return shells_detail::squared_distance(xyz(x), xyz(t[0]), xyz(t[1]), xyz(t[2])); }
+double squared_distance_to(const Point& x, const Triangle& t) {
+    return shells_detail::squared_distance(xyz(x), xyz(t[0]), xyz(t[1]), xyz(t[2]));
+}
 
 shells_detail::Box3 box_of(const Point& a, const Point& b, const Point& c) {
     shells_detail::Box3 box;
@@ -206,6 +208,25 @@ bool witness_takes(const PreparedTriangle& witness, const PreparedTriangle* own,
         nearest = std::min(nearest, d);
     }
     return w < rr * nearest;
+}
+
+// The smallest of x's squared distances to the faces ids[0..count), min'd in that order (as std::min over
+// CGAL's distances would): two faces at a time (squared_distance_pair), the same bits.
+double nearest_of(const std::vector<Triangle>& tris, const Point& x, const uint32_t* ids, uint32_t count) {
+    double nearest = std::numeric_limits<double>::infinity();
+    uint32_t i = 0;
+    for (; i + 2 <= count; i += 2) {
+        const Triangle &s = tris[ids[i]], &t = tris[ids[i + 1]];
+        const double* a[2] = {xyz(s[0]), xyz(t[0])};
+        const double* b[2] = {xyz(s[1]), xyz(t[1])};
+        const double* c[2] = {xyz(s[2]), xyz(t[2])};
+        double d[2];
+        squared_distance_pair(d, xyz(x), a, b, c);
+        nearest = std::min(nearest, d[0]);
+        nearest = std::min(nearest, d[1]);
+    }
+    if (i < count) nearest = std::min(nearest, squared_distance_to(x, tris[ids[i]]));
+    return nearest;
 }
 
 void prepare_face(PreparedTriangle& out, const Triangle& t) { prepare_triangle(out, xyz(t[0]), xyz(t[1]), xyz(t[2])); }
@@ -707,7 +728,7 @@ void owned_lengths(double* out, const SurfaceIndex& index, const uint32_t* ring_
             auto owned_r2 = [&](const Point& x) {
                 double nearest = std::numeric_limits<double>::infinity();
                 if (own.empty())
-                    for (uint32_t i = ring_start[v]; i < ring_start[v + 1]; ++i) nearest = std::min(nearest, squared_distance_to(x, ix.tris[ring_faces[i]]));
+                    nearest = nearest_of(ix.tris, x, ring_faces + ring_start[v], own_count);
                 else
                     for (const PreparedTriangle& t : own) nearest = std::min(nearest, squared_distance(t, xyz(x)));
                 return ratio * ratio * nearest;

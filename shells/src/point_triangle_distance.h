@@ -129,4 +129,46 @@ inline double squared_distance(const double* p, const double* a, const double* b
     return region_distance(in, edge, plane);
 }
 
+// Two triangles at once, one per SSE2 lane (GCC/Clang vector extension): out[i] is squared_distance(p, a[i],
+// b[i], c[i]), the same bits. Each lane computes every region's value with the same operations as above and
+// takes CGAL's by masks (lane arithmetic is the scalar IEEE arithmetic), so no branch depends on the region.
+// For a vertex's own faces at its fur tip, where one distance per face is all that is asked.
+inline void squared_distance_pair(double* out, const double* p, const double* const* a, const double* const* b, const double* const* c) {
+    typedef double V2 __attribute__((vector_size(16)));
+    struct V3 {
+        V2 x[3];
+    };
+    auto load = [](const double* const* q) __attribute__((always_inline)) {
+        return V3{{V2{q[0][0], q[1][0]}, V2{q[0][1], q[1][1]}, V2{q[0][2], q[1][2]}}};
+    };
+    auto sub = [](const V3& u, const V3& v) __attribute__((always_inline)) { return V3{{u.x[0] - v.x[0], u.x[1] - v.x[1], u.x[2] - v.x[2]}}; };
+    auto dot = [](const V3& u, const V3& v) __attribute__((always_inline)) { return u.x[0] * v.x[0] + u.x[1] * v.x[1] + u.x[2] * v.x[2]; };
+    auto cross = [](const V3& u, const V3& v) __attribute__((always_inline)) {
+        return V3{{u.x[1] * v.x[2] - u.x[2] * v.x[1], u.x[2] * v.x[0] - u.x[0] * v.x[2], u.x[0] * v.x[1] - u.x[1] * v.x[0]}};
+    };
+    auto min_of = [](V2 x, V2 y) __attribute__((always_inline)) { return y < x ? y : x; };
+    const V3 A = load(a), B = load(b), C = load(c);
+    const V3 P{{V2{p[0], p[0]}, V2{p[1], p[1]}, V2{p[2], p[2]}}};
+    const V3 e[3] = {sub(B, A), sub(C, B), sub(A, C)};
+    const V3 n = cross(e[0], sub(C, A));
+    const V3 d[3] = {sub(P, A), sub(P, B), sub(P, C)};
+    V2 edge[3];
+    for (int k = 0; k < 3; ++k) { // edge_squared_distance, all three cases computed
+        const V3 &ds = d[k], &dt = d[(k + 1) % 3];
+        const V2 ee = dot(e[k], e[k]), along = dot(ds, e[k]);
+        const V3 w = cross(e[k], ds);
+        const V2 line = dot(w, w) / ee;
+        edge[k] = along <= 0 ? dot(ds, ds) : (along > ee ? dot(dt, dt) : line);
+    }
+    const V2 h = dot(n, d[0]);
+    const V2 plane = h * h / dot(n, n);
+    const auto in0 = dot(cross(e[0], n), d[0]) <= 0, in1 = dot(cross(e[1], n), d[1]) <= 0, in2 = dot(cross(e[2], n), d[2]) <= 0;
+    // region_distance's table
+    const V2 outside0 = !in1 ? min_of(edge[0], edge[1]) : (!in2 ? min_of(edge[0], edge[2]) : edge[0]);
+    const V2 inside0 = !in1 ? (!in2 ? min_of(edge[1], edge[2]) : edge[1]) : (!in2 ? edge[2] : plane);
+    const auto flat = (n.x[0] == 0) & (n.x[1] == 0) & (n.x[2] == 0);
+    const V2 r = flat ? min_of(min_of(edge[2], edge[1]), edge[0]) : (in0 ? inside0 : outside0);
+    out[0] = r[0], out[1] = r[1];
+}
+
 } // namespace furrow::shells_detail

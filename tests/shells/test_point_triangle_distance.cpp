@@ -154,3 +154,30 @@ TEST(point_triangle_distance, EveryRegionIsCgals) {
         EXPECT_EQ(got, q[3]) << q[0] << " " << q[1] << " " << q[2];
     }
 }
+
+// squared_distance_pair (two triangles, one per lane, the region chosen by masks) gives each lane CGAL's bits,
+// over the same kinds of triangles and points, the two lanes of different kinds.
+TEST(point_triangle_distance, PairLanesAreCgals) {
+    uint64_t seed = 77;
+    const double scales[] = {1.0, 1e-9, 1e-3, 1e3, 1e9, 1e160};
+    for (int round = 0; round < 1'000'000; ++round) {
+        Case c[2];
+        const double scale = scales[next(seed) % 6 < 3 ? 0 : next(seed) % 6];
+        const double offset = next(seed) % 3 == 0 ? 1e6 : 0.0;
+        for (int i = 0; i < 2; ++i) {
+            c[i] = make_case(seed, int(next(seed) % 8));
+            transform(c[i], scale, offset);
+        }
+        c[1].p[0] = c[0].p[0], c[1].p[1] = c[0].p[1], c[1].p[2] = c[0].p[2]; // one point, two triangles
+        if (round % 2) // the point placed for the second triangle
+            for (int k = 0; k < 3; ++k) c[0].p[k] = c[1].p[k] = c[1].t[0][k] + (c[1].t[1][k] - c[1].t[0][k]) * 0.5;
+        const double* a[2] = {c[0].t[0], c[1].t[0]};
+        const double* b[2] = {c[0].t[1], c[1].t[1]};
+        const double* t[2] = {c[0].t[2], c[1].t[2]};
+        double got[2];
+        furrow::shells_detail::squared_distance_pair(got, c[0].p, a, b, t);
+        for (int i = 0; i < 2; ++i)
+            ASSERT_EQ(std::bit_cast<uint64_t>(got[i]), std::bit_cast<uint64_t>(cgal_distance(c[i])))
+                << "round " << round << " lane " << i << ": " << got[i] << " vs CGAL " << cgal_distance(c[i]);
+    }
+}
