@@ -3,7 +3,8 @@
 // References: P. Alliez, S. Tayeb, C. Wormser, "3D Fast Intersection and Distance Computation", CGAL User and
 // Reference Manual (AABB Tree package), 5.5 (distances_to_mesh, what the benchmark measures with); the
 // geometric tests at the leaves are CGAL's (Simple_cartesian constructions; Epick exact predicates for the
-// intersection test), the traversal is triangle_bvh.h's. T. Möller, B. Trumbore, "Fast, Minimum Storage
+// intersection test; the point-triangle distances of the medial-axis clamp are CGAL's bits computed by
+// point_triangle_distance.h), the traversal is triangle_bvh.h's. T. Möller, B. Trumbore, "Fast, Minimum Storage
 // Ray/Triangle Intersection", JGT 2(1), 1997 (only as a loose pre-filter in front of CGAL's construction).
 // The exact test of one pair of triangles is the kernel's (triangle_pair_intersection.h), shared with
 // furrow::mesh's self-intersection count.
@@ -17,6 +18,7 @@
 // queries wait on memory more than on arithmetic, and neighbouring queries read the same nodes.
 //
 // The only CGAL file of furrow::shells (its headers dominate compile time).
+#include "point_triangle_distance.h"
 #include "shells_internal.h"
 #include "triangle_bvh.h"
 
@@ -40,6 +42,7 @@
 #include <limits>
 #include <numeric>
 #include <optional>
+#include <type_traits>
 
 namespace furrow {
 namespace {
@@ -152,6 +155,16 @@ bool may_hit(const double* o, const double* d, const Triangle& tri) {
     return !(t < -tol * (sl + l1 + l2));
 }
 
+// A point's coordinates in place (Simple_cartesian keeps them in a std::array): what point_triangle_distance.h
+// reads.
+static_assert(std::is_same_v<Kernel::Cartesian_const_iterator_3, std::array<double, 3>::const_iterator>);
+const double* xyz(const Point& p) { return &*p.cartesian_begin(); }
+
+// CGAL::squared_distance(x, t), the same bits (point_triangle_distance.h).
+double squared_distance_to(const Point& x, const Triangle& t) {
+    return shells_detail::squared_distance(xyz(x), xyz(t[0]), xyz(t[1]), xyz(t[2]));
+}
+
 shells_detail::Box3 box_of(const Point& a, const Point& b, const Point& c) {
     shells_detail::Box3 box;
     for (const Point* p : {&a, &b, &c}) {
@@ -178,15 +191,16 @@ bool planes_rule_out(const std::vector<double>& points, const std::array<uint32_
 // own). An own face whose scaled distance is not above the witness's decides "not taken" on its own (the
 // scaled minimum can only be smaller: rounding is monotone); only "taken" needs them all. NaN distances are
 // skipped, as std::min skips them in owned_r2: the same answer, bit for bit. Stanford bunny at the bench's
-// length: 161 k bisection steps, 7 distances each before.
-bool witness_takes(const std::vector<Triangle>& tris, const Point& x, uint32_t witness, const uint32_t* own, uint32_t own_count,
-                   double ratio, uint32_t* hint) {
-    const double w = CGAL::squared_distance(x, tris[witness]);
+// length: 161 k bisection steps, 7 distances each before; now 92.6 k steps, 3.8 distances each. The faces come
+// prepared (point_triangle_distance.h: CGAL's bits, the per-triangle part computed once per vertex).
+bool witness_takes(const PreparedTriangle& witness, const PreparedTriangle* own, uint32_t own_count, const double* x, double ratio,
+                   uint32_t* hint) {
+    const double w = squared_distance(witness, x);
     const double rr = ratio * ratio;
     double nearest = std::numeric_limits<double>::infinity();
     for (uint32_t k = 0; k < own_count; ++k) {
         const uint32_t i = (*hint + k) % own_count;
-        const double d = CGAL::squared_distance(x, tris[own[i]]);
+        const double d = squared_distance(own[i], x);
         if (d == d && !(w < rr * d)) {
             *hint = i;
             return false;
@@ -196,14 +210,38 @@ bool witness_takes(const std::vector<Triangle>& tris, const Point& x, uint32_t w
     return w < rr * nearest;
 }
 
+// The smallest of x's squared distances to the faces ids[0..count), min'd in that order (as std::min over
+// CGAL's distances would): two faces at a time (squared_distance_pair), the same bits.
+double nearest_of(const std::vector<Triangle>& tris, const Point& x, const uint32_t* ids, uint32_t count) {
+    double nearest = std::numeric_limits<double>::infinity();
+    uint32_t i = 0;
+    for (; i + 2 <= count; i += 2) {
+        const Triangle &s = tris[ids[i]], &t = tris[ids[i + 1]];
+        const double* a[2] = {xyz(s[0]), xyz(t[0])};
+        const double* b[2] = {xyz(s[1]), xyz(t[1])};
+        const double* c[2] = {xyz(s[2]), xyz(t[2])};
+        double d[2];
+        squared_distance_pair(d, xyz(x), a, b, c);
+        nearest = std::min(nearest, d[0]);
+        nearest = std::min(nearest, d[1]);
+    }
+    if (i < count) nearest = std::min(nearest, squared_distance_to(x, tris[ids[i]]));
+    return nearest;
+}
+
+void prepare_face(PreparedTriangle& out, const Triangle& t) { prepare_triangle(out, xyz(t[0]), xyz(t[1]), xyz(t[2])); }
+
 bool witness_takes(const std::vector<double>& points, const std::vector<std::array<uint32_t, 3>>& triangles, const double* x,
                    uint32_t witness, const std::vector<uint32_t>& own, double ratio, uint32_t* hint) {
-    std::vector<Triangle> tris;
-    for (const auto& t : triangles) {
-        auto pt = [&](uint32_t v) { return Point(points[3 * v], points[3 * v + 1], points[3 * v + 2]); };
-        tris.emplace_back(pt(t[0]), pt(t[1]), pt(t[2]));
-    }
-    return witness_takes(tris, Point(x[0], x[1], x[2]), witness, own.data(), uint32_t(own.size()), ratio, hint);
+    auto pt = [&](uint32_t v) { return &points[3 * size_t(v)]; };
+    auto prepared = [&](uint32_t f) {
+        PreparedTriangle t;
+        prepare_triangle(t, pt(triangles[f][0]), pt(triangles[f][1]), pt(triangles[f][2]));
+        return t;
+    };
+    std::vector<PreparedTriangle> own_faces;
+    for (uint32_t f : own) own_faces.push_back(prepared(f));
+    return witness_takes(prepared(witness), own_faces.data(), uint32_t(own_faces.size()), x, ratio, hint);
 }
 
 // Nodes of at most this many triangles get a slab (BoxBvh::add_slabs): larger ones are seldom flat.
@@ -267,17 +305,21 @@ struct SurfaceIndex::Impl {
         const double p[3] = {x.x(), x.y(), x.z()};
         const double r = std::sqrt(r2) * (1 + 1e-12);
         return bvh.for_near(p, r2, [&](uint32_t f, double&, uint32_t j) {
-            if (std::find(skip, skip_end, f) != skip_end || !within(planes[j], f, x, p, r, r2)) return false;
+            if (!within(planes[j], f, x, p, r, r2, skip, skip_end)) return false;
             if (witness) *witness = f;
             return true;
         });
     }
-    // Squared distance from x (= p) to triangle f below r2 (r: sqrt(r2), rounded up)? Its plane pl first.
-    bool within(const Plane& pl, uint32_t f, const Point& x, const double* p, double r, double r2) const {
+    // Squared distance from x (= p) to triangle f below r2 (r: sqrt(r2), rounded up), f not in [skip, skip_end)?
+    // Its plane first, then the list (a caller's own faces mostly pass the plane test: it is the cheaper
+    // filter), then the distance.
+    bool within(const Plane& pl, uint32_t f, const Point& x, const double* p, double r, double r2, const uint32_t* skip = nullptr,
+                const uint32_t* skip_end = nullptr) const {
         const double d[3] = {p[0] - pl.a[0], p[1] - pl.a[1], p[2] - pl.a[2]};
         const double plane = std::abs(pl.n[0] * d[0] + pl.n[1] * d[1] + pl.n[2] * d[2]);
         if (plane > r + pl.slack * (std::abs(d[0]) + std::abs(d[1]) + std::abs(d[2]))) return false;
-        return CGAL::squared_distance(x, tris[f]) < r2;
+        if (std::find(skip, skip_end, f) != skip_end) return false;
+        return squared_distance_to(x, tris[f]) < r2;
     }
     // Squared distance from x to the mesh.
     double squared_distance(const Point& x) const {
@@ -679,25 +721,35 @@ void owned_lengths(double* out, const SurfaceIndex& index, const uint32_t* ring_
     }
     const std::vector<uint32_t> order = coherent_order(ix, query_vertex, query_count);
     tbb::parallel_for(tbb::blocked_range<size_t>(0, query_count, 128), [&](const tbb::blocked_range<size_t>& r) {
+        std::vector<PreparedTriangle> own; // v's own faces, prepared once for all of v's distances
+        PreparedTriangle witness_face;
         for (size_t k = r.begin(); k != r.end(); ++k) {
             const size_t q = order[k];
             const uint32_t v = query_vertex[q];
             const Point p = ix.pt(v);
             const Vector d(dirs[3 * q], dirs[3 * q + 1], dirs[3 * q + 2]);
+            const uint32_t own_count = ring_start[v + 1] - ring_start[v];
+            own.clear(); // prepared once v is clamped (most vertices need one distance per own face)
             // Owned: no part of the mesh is nearer than `ratio` × the distance to v's own faces. v's own faces
             // are never nearer than that (ratio < 1), so "anything nearer?" with an early exit decides it.
             // The triangle that broke ownership last time is the likeliest to break it again along the same
             // ray: tried first, it saves the search on about half of the bisection steps.
-            uint32_t witness = UINT32_MAX;
+            uint32_t witness = UINT32_MAX, prepared_witness = UINT32_MAX; // witness_face holds prepared_witness
             // ratio² × the squared distance from x to v's own faces: what another face must come within.
             auto owned_r2 = [&](const Point& x) {
-                double own = std::numeric_limits<double>::infinity();
-                for (uint32_t i = ring_start[v]; i < ring_start[v + 1]; ++i)
-                    own = std::min(own, CGAL::squared_distance(x, ix.tris[ring_faces[i]]));
-                return ratio * ratio * own;
+                double nearest = std::numeric_limits<double>::infinity();
+                if (own.empty())
+                    nearest = nearest_of(ix.tris, x, ring_faces + ring_start[v], own_count);
+                else
+                    for (const PreparedTriangle& t : own) nearest = std::min(nearest, squared_distance(t, xyz(x)));
+                return ratio * ratio * nearest;
+            };
+            auto witness_prepared = [&]() -> const PreparedTriangle& {
+                if (prepared_witness != witness) prepare_face(witness_face, ix.tris[witness]), prepared_witness = witness;
+                return witness_face;
             };
             auto taken_by_witness = [&](const Point& x, double r2) {
-                return witness != UINT32_MAX && CGAL::squared_distance(x, ix.tris[witness]) < r2;
+                return witness != UINT32_MAX && squared_distance(witness_prepared(), xyz(x)) < r2;
             };
             uint32_t hint = 0; // witness_takes' first own face to try
             auto owned = [&](double t) {
@@ -714,6 +766,8 @@ void owned_lengths(double* out, const SurfaceIndex& index, const uint32_t* ring_
                 out[q] = h;
                 continue;
             }
+            own.resize(own_count);
+            for (uint32_t i = 0; i < own_count; ++i) prepare_face(own[i], ix.tris[ring_faces[ring_start[v] + i]]);
             // Ownership is lost once along the ray and (in practice) not regained: the boundary is bracketed
             // to 1/4096 of the length, owned at lo (a whole search says so), not at hi (a face comes within).
             // Bisected against the witness alone (v's own faces and one more distance, no search), then one
@@ -729,7 +783,7 @@ void owned_lengths(double* out, const SurfaceIndex& index, const uint32_t* ring_
                 while (b - a > step) {
                     const double mid = 0.5 * (a + b);
                     const Point x = p + mid * d;
-                    (witness_takes(ix.tris, x, witness, ring_faces + ring_start[v], ring_start[v + 1] - ring_start[v], ratio, &hint) ? b : a) = mid;
+                    (witness_takes(witness_prepared(), own.data(), own_count, xyz(x), ratio, &hint) ? b : a) = mid;
                 }
                 hi = b;
                 if (owned(a)) {
