@@ -694,7 +694,9 @@ void free_distances(double* out, const SurfaceIndex& index, const uint32_t* quer
                     } else {
                         pr = 0, dist = 0;
                     }
-                    if (pr < best_param) {
+                    // Ties on the parameter (a hit on an edge two faces share) go to the nearer point: the
+                    // answer does not depend on which face the descent meets first.
+                    if (pr < best_param || (pr == best_param && dist < best)) {
                         best_param = pr;
                         best = dist;
                         // Boxes entered beyond the nearest hit so far cannot hold a nearer one (slack for
