@@ -191,6 +191,13 @@ public:
     // (a query point above a surface, whose boxes reach up toward it): for_near then skips the node.
     template <class Corners>
     void add_slabs(Corners&& corners, uint32_t max_prims) {
+        std::vector<double> c(9 * prims_.size());
+        for (size_t j = 0; j < prims_.size(); ++j) corners(prims_[j], &c[9 * j]);
+        add_slabs_gathered(c.data(), max_prims);
+    }
+    // The same from the corners already gathered in leaf order (c: 9 doubles per position in leaf_order()), for a
+    // caller that reads them for more than the slabs.
+    void add_slabs_gathered(const double* c, uint32_t max_prims) {
         const size_t N = nodes_.size();
         slabs_.assign(N, Slab{{0, 0, 0}, -HUGE_VAL, HUGE_VAL});
         std::vector<std::pair<uint32_t, uint32_t>> range(N);
@@ -198,9 +205,7 @@ public:
             const Node& n = nodes_[i];
             range[i] = n.count > 0 ? std::make_pair(n.first, n.first + n.count) : std::make_pair(range[n.first].first, range[n.first + 1].second);
         }
-        std::vector<double> c(9 * prims_.size());
         std::vector<double> sum(4 * N, 0.0); // area-weighted normal (twice the area) and twice the area
-        for (size_t j = 0; j < prims_.size(); ++j) corners(prims_[j], &c[9 * j]);
         for (size_t i = N; i-- > 0;) {
             const Node& n = nodes_[i];
             double* si = &sum[4 * i];
