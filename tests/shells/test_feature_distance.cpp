@@ -598,3 +598,75 @@ TEST(box_bvh, WideNodesMeetWhatTheBinaryDescentMeets) {
     for (size_t i = 0; i < torus.points.size(); i += 3) torus.points[i] += 1e6, torus.points[i + 1] -= 1e6, torus.points[i + 2] += 1e6;
     check_wide(torus, 6, true);
 }
+
+// BoxBvh::for_ray after widen (for_ray_wide, oblique rays): the same primitives as the binary descent, each
+// once, with t_max fixed (every box the ray enters before it) and, with t_max lowered to each hit as it is found
+// (free_distances' nearest-hit search), the same nearest hit as brute force over all faces. Rays from the faces'
+// corners (free_distances' kind: they start inside their neighbours' boxes) and from anywhere around, short and
+// unbounded, some along an axis (those take the binary descent either way).
+namespace {
+void check_wide_rays(const TriSoup& m, uint64_t seed) {
+    using K = CGAL::Simple_cartesian<double>;
+    using shells_detail::Box3;
+    std::vector<Box3> boxes;
+    std::vector<K::Triangle_3> tris;
+    boxes_and_triangles(m, boxes, tris);
+    Box3 all;
+    for (const Box3& b : boxes) all.add(b);
+    const double size = std::max({all.hi[0] - all.lo[0], all.hi[1] - all.lo[1], all.hi[2] - all.lo[2]});
+    shells_detail::BoxBvh binary;
+    binary.build(boxes);
+    shells_detail::BoxBvh wide = binary;
+    wide.widen();
+    size_t met_some = 0, hits = 0;
+    for (int trial = 0; trial < 3000; ++trial) {
+        double o[3], d[3];
+        if (trial % 2 == 0) {
+            const double* c = &m.points[3 * size_t(m.triangles[next(seed) % tris.size()][next(seed) % 3])];
+            std::copy(c, c + 3, o);
+        } else {
+            for (int k = 0; k < 3; ++k) o[k] = all.lo[k] + (all.hi[k] - all.lo[k]) * (1.4 * uniform(seed) - 0.2);
+        }
+        for (double& x : d) x = 2 * uniform(seed) - 1;
+        if (trial % 10 == 0) d[next(seed) % 3] = 0;
+        const double t_max = trial % 3 == 0 ? HUGE_VAL : size * 0.2 * uniform(seed);
+        auto met = [&](const shells_detail::BoxBvh& bvh) {
+            std::vector<uint32_t> ids;
+            double t = t_max;
+            bvh.for_ray(o, d, t, [&](uint32_t g, double&) { ids.push_back(g); });
+            std::sort(ids.begin(), ids.end());
+            return ids;
+        };
+        const std::vector<uint32_t> a = met(binary), b = met(wide);
+        ASSERT_EQ(b, a) << "trial " << trial;
+        met_some += !b.empty();
+        // The nearest hit (ray parameter of CGAL's intersection point), t_max lowered as hits are found.
+        const K::Ray_3 ray(K::Point_3(o[0], o[1], o[2]), K::Vector_3(d[0], d[1], d[2]));
+        auto param = [&](const K::Triangle_3& t) {
+            const auto hit = CGAL::intersection(ray, t);
+            const K::Point_3* p = hit ? boost::get<K::Point_3>(&*hit) : nullptr;
+            if (!p) return HUGE_VAL;
+            const double dd = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+            return std::max(0.0, ((p->x() - o[0]) * d[0] + (p->y() - o[1]) * d[1] + (p->z() - o[2]) * d[2]) / dd); // at the origin: rounded below 0
+        };
+        double best = HUGE_VAL, t = HUGE_VAL, brute = HUGE_VAL;
+        wide.for_ray(o, d, t, [&](uint32_t g, double& limit) {
+            const double h = param(tris[g]);
+            if (h < best) best = h, limit = std::min(limit, h * (1 + 1e-9) + 1e-300);
+        });
+        for (const auto& tri : tris) brute = std::min(brute, param(tri));
+        ASSERT_EQ(best, brute) << "trial " << trial;
+        hits += best != HUGE_VAL;
+    }
+    EXPECT_GT(met_some, 1000u);
+    EXPECT_GT(hits, 300u);
+}
+} // namespace
+
+TEST(box_bvh, WideNodesMeetWhatTheBinaryRayDescentMeets) {
+    for (uint64_t seed = 1; seed <= 3; ++seed) check_wide_rays(random_soup(seed, 400, 600), seed * 37);
+    TriSoup torus = from_primitive(shapes::torus(1.0f, 0.3f, 96, 48));
+    check_wide_rays(torus, 7);
+    for (size_t i = 0; i < torus.points.size(); i += 3) torus.points[i] += 1e6, torus.points[i + 1] -= 1e6, torus.points[i + 2] += 1e6;
+    check_wide_rays(torus, 8);
+}
