@@ -405,6 +405,7 @@ public:
         int top = 0;
         stack[top] = 0, count[top] = 0, dist[top++] = nodes_[0].box.squared_distance(p);
         if (!slabs_.empty() && out_of_reach(slabs_[0].n, slabs_[0].lo, slabs_[0].hi, p, r2)) return false;
+        const double err = slab_error(p);
         while (top > 0) {
             --top;
             if (!(dist[top] < r2)) continue;
@@ -421,7 +422,7 @@ public:
             for (int i = 0; i < 4; ++i) {
                 if (!(d[i] < r2)) continue;
                 const double sn[3] = {w.sn[0][i], w.sn[1][i], w.sn[2][i]};
-                if (out_of_reach(sn, w.slo[i], w.shi[i], p, r2)) continue;
+                if (out_of_reach(sn, w.slo[i], w.shi[i], p, err, r2)) continue;
                 int k = n++;
                 for (; k > 0 && d[order[k - 1]] < d[i]; --k) order[k] = order[k - 1];
                 order[k] = i;
@@ -568,11 +569,21 @@ private:
     // rounded by at most 4e-16 Σ|n_k p_k| (|n| = 1 within 1e-15), and what is skipped is at least that much
     // farther than reach by a factor 1 + 5e-7. No slab (n = 0, lo = −inf, hi = +inf) is never out of reach.
     static bool out_of_reach(const double* n, double lo, double hi, const double* p, double r2) {
-        const double d = n[0] * p[0] + n[1] * p[1] + n[2] * p[2];
         const double err = 4e-16 * (std::abs(n[0] * p[0]) + std::abs(n[1] * p[1]) + std::abs(n[2] * p[2]));
+        return out_of_reach(n, lo, hi, p, err, r2);
+    }
+    // The same with the rounding allowance err given, at least the one above.
+    static bool out_of_reach(const double* n, double lo, double hi, const double* p, double err, double r2) {
+        const double d = n[0] * p[0] + n[1] * p[1] + n[2] * p[2];
         const double gap = std::max(d - hi, lo - d) - err;
         return gap > 0 && gap * gap * (1 - 1e-6) >= r2;
     }
+    // An allowance for every slab at once (for_near_wide, once a query): 4e-16 Σ|n_k p_k| <= 4e-16 (1 + 1e-6)
+    // Σ|p_k| for a unit n (|n_k| <= 1 + 1e-15): it skips no node the exact allowance would keep, and a node
+    // skipped or kept leaves the others' order as it was, so the primitives met within reach are the same, in
+    // the same order (a node kept in excess holds none). Bunny callgrind (`furrow -j 1 -q shells --layers 2
+    // --length 0.004`): owned_lengths 288.7 -> 280.1 M instructions.
+    static double slab_error(const double* p) { return 4e-16 * (1 + 1e-6) * (std::abs(p[0]) + std::abs(p[1]) + std::abs(p[2])); }
 
     // A 4-wide node: per child slot its box and slab (structure of arrays), and what it is: a wide node
     // (count 0, child its index) or a leaf of count primitives (child its index in leaf_boxes_ and
