@@ -670,3 +670,66 @@ TEST(box_bvh, WideNodesMeetWhatTheBinaryRayDescentMeets) {
     for (size_t i = 0; i < torus.points.size(); i += 3) torus.points[i] += 1e6, torus.points[i + 1] -= 1e6, torus.points[i + 2] += 1e6;
     check_wide_rays(torus, 8);
 }
+
+// BoxBvh::widen's leaf blocks (near_in_block): a leaf's boxes tested four at once, the slots within reach met
+// in slot order, a slot skipped once f has lowered the reach below its box, and the empty slots of a leaf of
+// fewer than four never met. One leaf (at most four boxes), then a nearest search over random boxes whose
+// every call must find its box still within the reach as f left it.
+TEST(box_bvh, WideLeafBlocksMeetTheirSlotsInOrder) {
+    using shells_detail::Box3;
+    auto box = [](double x, double y, double z, double s) {
+        Box3 b;
+        const double lo[3] = {x, y, z}, hi[3] = {x + s, y + s, z + s};
+        b.add(lo), b.add(hi);
+        return b;
+    };
+    const double origin[3] = {0, 0, 0};
+    for (size_t n = 1; n <= 4; ++n) {
+        std::vector<Box3> boxes;
+        for (size_t i = 0; i < n; ++i) boxes.push_back(box(0.3 * double(n - i), 0.1, 0.2, 0.05)); // nearest last
+        shells_detail::BoxBvh bvh;
+        bvh.build(boxes);
+        bvh.widen();
+        std::vector<uint32_t> met, slots;
+        double r2 = 100;
+        bvh.for_near_wide(origin, r2, [&](uint32_t g, double&, uint32_t j) {
+            met.push_back(g), slots.push_back(j);
+            return false;
+        });
+        ASSERT_EQ(met.size(), n);
+        for (size_t k = 0; k < n; ++k) {
+            EXPECT_EQ(slots[k], k) << n << " boxes"; // slot order, whatever the distances
+            EXPECT_EQ(met[k], bvh.leaf_order()[k]);
+        }
+        // The first slot's f lowers the reach to nothing: no other slot is met.
+        size_t calls = 0;
+        r2 = 100;
+        bvh.for_near_wide(origin, r2, [&](uint32_t, double& bound) {
+            ++calls, bound = 0;
+            return false;
+        });
+        EXPECT_EQ(calls, 1u) << n << " boxes";
+        // An early stop at the second slot.
+        calls = 0;
+        r2 = 100;
+        EXPECT_EQ(bvh.for_near_wide(origin, r2, [&](uint32_t, double&) { return ++calls == 2; }), n >= 2);
+        EXPECT_EQ(calls, std::min<size_t>(n, 2));
+    }
+    uint64_t seed = 17;
+    std::vector<Box3> boxes;
+    for (int i = 0; i < 3000; ++i) boxes.push_back(box(uniform(seed), uniform(seed), uniform(seed), 0.02 * uniform(seed)));
+    shells_detail::BoxBvh bvh;
+    bvh.build(boxes);
+    bvh.widen();
+    for (int trial = 0; trial < 300; ++trial) {
+        const double p[3] = {uniform(seed), uniform(seed), uniform(seed)};
+        double best = 0.01 + 0.1 * uniform(seed), brute = best;
+        for (const Box3& b : boxes) brute = std::min(brute, b.squared_distance(p) + 1e-12);
+        bvh.for_near_wide(p, best, [&](uint32_t g, double& bound) {
+            EXPECT_LT(boxes[g].squared_distance(p), bound + 2e-9) << "trial " << trial; // still within reach
+            bound = std::min(bound, boxes[g].squared_distance(p) + 1e-12);
+            return false;
+        });
+        ASSERT_EQ(best, brute) << "trial " << trial;
+    }
+}
