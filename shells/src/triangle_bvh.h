@@ -363,8 +363,9 @@ public:
         while (top > 0) {
             --top;
             if (entry[top] > t_max) continue;
-            if (count[top] > 0) {
-                for (uint32_t j = stack[top]; j < stack[top] + count[top]; ++j)
+            if (count[top] > 0) { // a leaf block: its primitives start at leaf_first_
+                const uint32_t first = leaf_first_[stack[top]];
+                for (uint32_t j = first; j < first + count[top]; ++j)
                     if (boxes_[j].ray_entry_oblique(o, inv_d, t_max) != HUGE_VAL) f(prims_[j], t_max);
                 continue;
             }
