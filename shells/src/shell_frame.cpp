@@ -87,23 +87,6 @@ void parallel(size_t n, size_t grain, F&& f) {
 
 namespace shells_detail {
 
-bool settled_root_in_unit(double a, double b, double c, double& k, double& hi) {
-    if (a <= 0) return k = 0, true;
-    auto q = [&](double x) { return a + b * x + c * x * x; };
-    if (q(1) >= 0) {
-        // Still possible to dip in between: a minimum inside (0,1) with a negative value.
-        if (c > 0) {
-            double km = -b / (2 * c);
-            if (!(km > 0 && km < 1 && q(km) < 0)) return k = 1, true;
-        } else {
-            return k = 1, true;
-        }
-    }
-    hi = 1;
-    if (q(1) >= 0) hi = -b / (2 * c); // the dip: the root lies before the minimum
-    return false;
-}
-
 double first_root_in_unit(double a, double b, double c) {
     double k, hi;
     if (settled_root_in_unit(a, b, c, k, hi)) return k;
@@ -176,10 +159,13 @@ struct WeldedSurface {
     std::vector<V3> P;
     std::vector<double> xyz; // P as packed triples (the batched face terms and the SurfaceIndex read them)
     std::vector<std::array<uint32_t, 3>> tri;
-    std::vector<V3> fn;
-    std::vector<std::array<double, 3>> angle;
+    // Each valid face's unit normal and corner angles, as kernel::face_terms writes them (an array it fills
+    // whole, not zeroed first).
+    std::unique_ptr<kernel::FaceTerm[]> term;
     std::vector<uint32_t> start, vf; // CSR: faces of welded vertex w are vf[start[w] .. start[w + 1])
-    int corner(size_t f, uint32_t v) const { return tri[f][0] == v ? 0 : tri[f][1] == v ? 1 : 2; }
+    std::vector<uint8_t> vc;         // beside vf: which corner of face vf[i] the vertex is
+    V3 fn(size_t f) const { return {term[f].unit[0], term[f].unit[1], term[f].unit[2]}; }
+    double angle(size_t f, int corner) const { return term[f].angle[corner]; }
 };
 
 WeldedSurface welded_surface(const float* positions, size_t n, const uint32_t* indices, size_t index_count) {
@@ -215,34 +201,33 @@ WeldedSurface welded_surface(const float* positions, size_t n, const uint32_t* i
         tri.push_back(t);
     }
     static_assert(sizeof(std::array<uint32_t, 3>) == 3 * sizeof(uint32_t));
-    std::unique_ptr<kernel::FaceTerm[]> terms(new kernel::FaceTerm[tri.size()]);
-    kernel::face_terms(terms.get(), xyz.data(), tri.empty() ? nullptr : tri[0].data(), 0, nullptr, tri.size());
-    std::vector<V3> fn;
-    std::vector<std::array<double, 3>> angle;
-    fn.reserve(tri.size()), angle.reserve(tri.size());
-    size_t T = 0;
+    std::unique_ptr<kernel::FaceTerm[]> term(new kernel::FaceTerm[tri.size()]);
+    kernel::face_terms(term.get(), xyz.data(), tri.empty() ? nullptr : tri[0].data(), 0, nullptr, tri.size());
+    size_t T = 0; // the valid faces moved to the front, in order
     for (size_t f = 0; f < tri.size(); ++f) {
-        const kernel::FaceTerm& term = terms[f];
-        if (term.angle[0] < 0) continue; // degenerate
-        tri[T++] = tri[f];
-        fn.push_back({term.unit[0], term.unit[1], term.unit[2]});
-        angle.push_back({term.angle[0], term.angle[1], term.angle[2]});
+        if (term[f].angle[0] < 0) continue; // degenerate
+        if (T != f) tri[T] = tri[f], term[T] = term[f];
+        ++T;
     }
     tri.resize(T);
 
     // --- vertex -> faces (CSR, faces in ascending order: fixed summation order)
     std::vector<uint32_t> start(W + 1, 0), vf(3 * T);
+    std::vector<uint8_t> vc(3 * T);
     for (const auto& t : tri)
         for (uint32_t v : t) ++start[v + 1];
     for (size_t w = 0; w < W; ++w) start[w + 1] += start[w];
     {
         std::vector<uint32_t> fill(start.begin(), start.end() - 1);
         for (size_t f = 0; f < T; ++f)
-            for (uint32_t v : tri[f]) vf[fill[v]++] = uint32_t(f);
+            for (int c = 0; c < 3; ++c) {
+                const uint32_t i = fill[tri[f][c]]++;
+                vf[i] = uint32_t(f), vc[i] = uint8_t(c);
+            }
     }
     s.W = W, s.T = T;
-    s.P = std::move(P), s.xyz = std::move(xyz), s.tri = std::move(tri), s.fn = std::move(fn), s.angle = std::move(angle);
-    s.start = std::move(start), s.vf = std::move(vf);
+    s.P = std::move(P), s.xyz = std::move(xyz), s.tri = std::move(tri), s.term = std::move(term);
+    s.start = std::move(start), s.vf = std::move(vf), s.vc = std::move(vc);
     return s;
 }
 
@@ -293,8 +278,6 @@ void initial_growth(Growth& gr, const WeldedSurface& s, const ShellOptions& o) {
     const size_t W = s.W;
     const auto& start = s.start;
     const auto& vf = s.vf;
-    const auto& angle = s.angle;
-    const auto& fn = s.fn;
     const auto& m = gr.m;
     const auto& combw = gr.combw;
     auto& D = gr.D;
@@ -313,7 +296,7 @@ void initial_growth(Growth& gr, const WeldedSurface& s, const ShellOptions& o) {
         V3 sum{};
         for (uint32_t i = start[w]; i < start[w + 1]; ++i) {
             size_t f = vf[i];
-            sum = sum + angle[f][s.corner(f, uint32_t(w))] * fn[f];
+            sum = sum + s.angle(f, s.vc[i]) * s.fn(f);
         }
         double len = norm(sum);
         if (!(len > 0) || !std::isfinite(len)) {
@@ -330,7 +313,7 @@ void initial_growth(Growth& gr, const WeldedSurface& s, const ShellOptions& o) {
         double inv_cos = 0, weight = 0;
         for (uint32_t i = start[w]; i < start[w + 1]; ++i) {
             const size_t f = vf[i];
-            const double a = angle[f][s.corner(f, uint32_t(w))], c = std::abs(dot(d, fn[f]));
+            const double a = s.angle(f, s.vc[i]), c = std::abs(dot(d, s.fn(f)));
             inv_cos += a * (c > cos_floor ? 1.0 / c : o.max_even_thickness);
             weight += a;
         }
@@ -346,7 +329,7 @@ void initial_growth(Growth& gr, const WeldedSurface& s, const ShellOptions& o) {
             v = v - dot(v, d) * d;
             for (int pass = 0; pass < 2; ++pass)
                 for (uint32_t i = start[w]; i < start[w + 1]; ++i) {
-                    const V3 n = fn[vf[i]];
+                    const V3 n = s.fn(vf[i]);
                     const double into = dot(v, n);
                     if (into < 0) v = v - into * n;
                 }
@@ -550,7 +533,7 @@ void FoldClamp::face_roots(uint32_t f, const V3 u[3], const V3 v[3], Bisections&
     const auto& P = s.P;
     const double r = o.min_area_ratio;
     const V3 e1 = P[t[1]] - P[t[0]], e2 = P[t[2]] - P[t[0]], e12 = cross(e1, e2);
-    const V3 n0 = s.fn[f];
+    const V3 n0 = s.fn(f);
     const double a = dot(e12, n0);
     const V3 d1 = u[1] - u[0], d2 = u[2] - u[0];
     const V3 nb = cross(e1, d2) + cross(d1, e2), nc = cross(d1, d2);
@@ -676,16 +659,17 @@ void verify_crossings(Growth& gr, const WeldedSurface& s, const shells_detail::S
     std::vector<double> top(3 * W);
     shells_detail::CrossingTest crossing(index);
     std::vector<double> last_h(H);
-    std::vector<uint8_t> changed, need(W), halved(W, 0);
+    std::vector<uint8_t> changed, need(W), halved(W, 0), moving(W), hit(W);
     constexpr int kMaxHalvings = 6;
     for (int round = 0; round < 8; ++round) {
-        std::vector<uint8_t> moving(W);
+        // The outermost shell: every point in the first round, then those whose length the last one changed.
         for (size_t w = 0; w < W; ++w) {
+            if (round && !changed[w]) continue;
             const V3 q = P[w] + fold.path(w, 1.0);
             top[3 * w] = q.x, top[3 * w + 1] = q.y, top[3 * w + 2] = q.z;
             moving[w] = H[w] > 0;
         }
-        std::vector<uint8_t> hit(W, 0);
+        std::fill(hit.begin(), hit.end(), uint8_t(0));
         std::fill(need.begin(), need.end(), uint8_t(0));
         if (crossing.run(hit.data(), top, moving, round ? &changed : nullptr, need.data(), kMaxHalvings) == 0) break;
         for (size_t w = 0; w < W; ++w)

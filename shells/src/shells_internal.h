@@ -59,8 +59,23 @@ inline std::array<double, 3> strand_offset(const T* dir, const T* lean, const T*
 // where no shortcut settles it.
 double first_root_in_unit(double a, double b, double c);
 // first_root_in_unit's shortcuts: true with its answer in k, or false with the end of the bracket (0, hi) its
-// bisection starts from.
-bool settled_root_in_unit(double a, double b, double c, double& k, double& hi);
+// bisection starts from. Inline: the fold clamp asks it four times a triangle.
+inline bool settled_root_in_unit(double a, double b, double c, double& k, double& hi) {
+    if (a <= 0) return k = 0, true;
+    auto q = [&](double x) { return a + b * x + c * x * x; };
+    if (q(1) >= 0) {
+        // Still possible to dip in between: a minimum inside (0,1) with a negative value.
+        if (c > 0) {
+            double km = -b / (2 * c);
+            if (!(km > 0 && km < 1 && q(km) < 0)) return k = 1, true;
+        } else {
+            return k = 1, true;
+        }
+    }
+    hi = 1;
+    if (q(1) >= 0) hi = -b / (2 * c); // the dip: the root lies before the minimum
+    return false;
+}
 // first_root_in_unit's bisection for kBisectionLanes quadratics side by side, out[j] for (a[j], b[j], c[j]) from
 // the bracket (0, hi[j]): each lane takes the same steps as the one-at-a-time loop (the same bits), and the
 // lanes' independent chains overlap where one 60-step chain of dependent operations waits on each step.
