@@ -54,6 +54,34 @@ inline std::array<double, 3> strand_offset(const T* dir, const T* lean, const T*
     return {a * dir[0] + g * sag[0] + s * lean[0], a * dir[1] + g * sag[1] + s * lean[1], a * dir[2] + g * sag[2] + s * lean[2]};
 }
 
+// ---- shell_frame.cpp: the fold clamp's roots. The smallest k in (0, 1] with a + b·k + c·k² = 0 where the
+// quadratic falls below 0 (it starts at a > 0); 1 if it stays >= 0 on [0, 1]; 0 if a <= 0. Bisection (60 steps)
+// where no shortcut settles it.
+double first_root_in_unit(double a, double b, double c);
+// first_root_in_unit's shortcuts: true with its answer in k, or false with the end of the bracket (0, hi) its
+// bisection starts from. Inline: the fold clamp asks it four times a triangle.
+inline bool settled_root_in_unit(double a, double b, double c, double& k, double& hi) {
+    if (a <= 0) return k = 0, true;
+    auto q = [&](double x) { return a + b * x + c * x * x; };
+    if (q(1) >= 0) {
+        // Still possible to dip in between: a minimum inside (0,1) with a negative value.
+        if (c > 0) {
+            double km = -b / (2 * c);
+            if (!(km > 0 && km < 1 && q(km) < 0)) return k = 1, true;
+        } else {
+            return k = 1, true;
+        }
+    }
+    hi = 1;
+    if (q(1) >= 0) hi = -b / (2 * c); // the dip: the root lies before the minimum
+    return false;
+}
+// first_root_in_unit's bisection for kBisectionLanes quadratics side by side, out[j] for (a[j], b[j], c[j]) from
+// the bracket (0, hi[j]): each lane takes the same steps as the one-at-a-time loop (the same bits), and the
+// lanes' independent chains overlap where one 60-step chain of dependent operations waits on each step.
+inline constexpr int kBisectionLanes = 8;
+void first_roots_by_bisection(double* out, const double* a, const double* b, const double* c, const double* hi);
+
 // feature_distance.cpp: the welded triangles (`points` xyz, `triangles` with no repeated corner) with a
 // bounding-volume hierarchy (triangle_bvh.h) and their CGAL triangles, built once per frame and shared by
 // every query below. Keeps references to both arrays: they must outlive it.
