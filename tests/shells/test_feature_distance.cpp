@@ -11,6 +11,8 @@
 
 #include <gtest/gtest.h>
 
+#include "test_support.h"
+
 #include <CGAL/Simple_cartesian.h>
 
 #include <algorithm>
@@ -27,13 +29,8 @@ using namespace furrow;
 
 namespace {
 
-uint64_t next(uint64_t& s) { // splitmix64
-    uint64_t z = (s += 0x9E3779B97F4A7C15ull);
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    return z ^ (z >> 31);
-}
-double uniform(uint64_t& s) { return double(next(s) >> 11) * 0x1.0p-53; }
+using furrow::test::splitmix64;
+using furrow::test::unit_uniform;
 
 struct TriSoup {
     std::vector<double> points;
@@ -77,18 +74,36 @@ void boxes_and_triangles(const TriSoup& m, std::vector<shells_detail::Box3>& box
     }
 }
 
+// A soup's boxes and triangles with their bounds, largest extent and binary hierarchy: what the wide-node
+// checks compare the 4-wide descents against.
+struct SoupHierarchy {
+    std::vector<shells_detail::Box3> boxes;
+    std::vector<CGAL::Simple_cartesian<double>::Triangle_3> tris;
+    shells_detail::Box3 all;
+    double size = 0;
+    shells_detail::BoxBvh binary;
+};
+SoupHierarchy soup_hierarchy(const TriSoup& m) {
+    SoupHierarchy h;
+    boxes_and_triangles(m, h.boxes, h.tris);
+    for (const shells_detail::Box3& b : h.boxes) h.all.add(b);
+    h.size = std::max({h.all.hi[0] - h.all.lo[0], h.all.hi[1] - h.all.lo[1], h.all.hi[2] - h.all.lo[2]});
+    h.binary.build(h.boxes);
+    return h;
+}
+
 // A soup of random triangles in the unit cube, sharing corners at random (so that rays start on surfaces).
 TriSoup random_soup(uint64_t seed, size_t points, size_t triangles) {
     TriSoup m;
-    for (size_t i = 0; i < 3 * points; ++i) m.points.push_back(uniform(seed));
+    for (size_t i = 0; i < 3 * points; ++i) m.points.push_back(unit_uniform(seed));
     while (m.triangles.size() < triangles) {
-        const uint32_t a = uint32_t(next(seed) % points);
+        const uint32_t a = uint32_t(splitmix64(seed) % points);
         std::array<uint32_t, 3> t{a, a, a};
         // Small triangles: corners near a (the nearest of a few random picks), so that rays meet some.
         for (int k = 1; k < 3; ++k) {
             double best = HUGE_VAL;
             for (int tries = 0; tries < 8; ++tries) {
-                const uint32_t b = uint32_t(next(seed) % points);
+                const uint32_t b = uint32_t(splitmix64(seed) % points);
                 double d = 0;
                 for (int c = 0; c < 3; ++c) d += std::pow(m.points[3 * b + c] - m.points[3 * a + c], 2);
                 if (b != a && b != t[1] && d < best) best = d, t[size_t(k)] = b;
@@ -109,13 +124,13 @@ void check_reach(const TriSoup& m, uint64_t seed, double scale) {
             double d[3], len = 0;
             do {
                 len = 0;
-                for (double& x : d) x = 2 * uniform(seed) - 1, len += x * x;
+                for (double& x : d) x = 2 * unit_uniform(seed) - 1, len += x * x;
             } while (!(len > 1e-6 && len <= 1));
             len = std::sqrt(len);
             qv.push_back(v);
             dirs.insert(dirs.end(), {d[0] / len, d[1] / len, d[2] / len});
-            H.push_back(scale * uniform(seed));
-            need.push_back(1 + uniform(seed));
+            H.push_back(scale * unit_uniform(seed));
+            need.push_back(1 + unit_uniform(seed));
         }
     const double safe = 0.45;
     for (size_t q = 0; q < qv.size(); ++q) reach.push_back(2.0 * H[q] * need[q] / safe);
@@ -248,15 +263,15 @@ TEST(witness_takes, AnswersAsTheDefinition) {
         std::vector<double> pts{0, 0, 0};
         std::vector<std::array<uint32_t, 3>> tris;
         for (uint32_t k = 0; k < own_count; ++k) {
-            for (int c = 0; c < 6; ++c) pts.push_back(2 * uniform(seed) - 1);
+            for (int c = 0; c < 6; ++c) pts.push_back(2 * unit_uniform(seed) - 1);
             tris.push_back({0, 1 + 2 * k, 2 + 2 * k});
         }
         const uint32_t witness = uint32_t(tris.size());
-        for (int c = 0; c < 9; ++c) pts.push_back(2 * uniform(seed) - 1 + 0.5);
+        for (int c = 0; c < 9; ++c) pts.push_back(2 * unit_uniform(seed) - 1 + 0.5);
         tris.push_back({uint32_t(pts.size() / 3 - 3), uint32_t(pts.size() / 3 - 2), uint32_t(pts.size() / 3 - 1)});
         std::vector<uint32_t> own(own_count);
         for (uint32_t k = 0; k < own_count; ++k) own[k] = k;
-        const double x[3] = {2 * uniform(seed) - 0.5, 2 * uniform(seed) - 0.5, 2 * uniform(seed) - 0.5};
+        const double x[3] = {2 * unit_uniform(seed) - 0.5, 2 * unit_uniform(seed) - 0.5, 2 * unit_uniform(seed) - 0.5};
         const double ratio = trial % 5 == 0 ? 1.0 : 0.98;
         auto tri = [&](uint32_t f) {
             auto p = [&](uint32_t v) { return K::Point_3(pts[3 * v], pts[3 * v + 1], pts[3 * v + 2]); };
@@ -283,7 +298,7 @@ TEST(crossing_planes, RuleOutOnlyPairsThatDoNotCross) {
     size_t ruled_out = 0, apart = 0, crossing = 0;
     for (int trial = 0; trial < 30000; ++trial) {
         std::vector<double> pts(18);
-        for (double& x : pts) x = 2 * uniform(seed) - 1;
+        for (double& x : pts) x = 2 * unit_uniform(seed) - 1;
         if (trial % 7 == 0) // all six corners in the plane z = 0.25
             for (size_t v = 0; v < 6; ++v) pts[3 * v + 2] = 0.25;
         std::array<uint32_t, 3> a{0, 1, 2}, b{3, 4, 5};
@@ -321,11 +336,11 @@ TEST(coherent_order, ABatchAnswersEachQueryAsAlone) {
     std::vector<double> dirs, lengths;
     for (uint32_t v = uint32_t(W); v-- > 0;) {
         double d[3], len = 0;
-        for (double& x : d) x = 2 * uniform(seed) - 1, len += x * x;
+        for (double& x : d) x = 2 * unit_uniform(seed) - 1, len += x * x;
         len = std::sqrt(len);
         qv.push_back(v);
         dirs.insert(dirs.end(), {d[0] / len, d[1] / len, d[2] / len});
-        lengths.push_back(0.8 * uniform(seed));
+        lengths.push_back(0.8 * unit_uniform(seed));
     }
     const size_t n = qv.size();
     std::vector<double> owned(n, -1), rays(n, -1);
@@ -354,7 +369,7 @@ TEST(box_bvh, BuildsTheTreeTheIdsAloneGave) {
         std::vector<Box3> boxes(n);
         for (Box3& b : boxes) {
             double lo[3], hi[3];
-            for (int k = 0; k < 3; ++k) lo[k] = double(next(seed) % 16), hi[k] = lo[k] + double(next(seed) % 3);
+            for (int k = 0; k < 3; ++k) lo[k] = double(splitmix64(seed) % 16), hi[k] = lo[k] + double(splitmix64(seed) % 3);
             b.add(lo), b.add(hi);
         }
         shells_detail::BoxBvh bvh;
@@ -398,8 +413,8 @@ TEST(box_bvh, ObliqueRayEntryIsTheSlabTestsBits) {
     uint64_t seed = 53;
     const double specials[] = {0.0, -0.0, 1.0, -1.0, 1e-310, -1e-310, 1e300, -1e300, HUGE_VAL, -HUGE_VAL, std::nan("")};
     auto value = [&](bool wild) {
-        if (wild && next(seed) % 8 == 0) return specials[next(seed) % std::size(specials)];
-        return double(int(next(seed) % 9) - 4) * (next(seed) % 2 ? 1.0 : 0.25);
+        if (wild && splitmix64(seed) % 8 == 0) return specials[splitmix64(seed) % std::size(specials)];
+        return double(int(splitmix64(seed) % 9) - 4) * (splitmix64(seed) % 2 ? 1.0 : 0.25);
     };
     size_t entered = 0, missed = 0;
     for (int trial = 0; trial < 200000; ++trial) {
@@ -411,12 +426,12 @@ TEST(box_bvh, ObliqueRayEntryIsTheSlabTestsBits) {
         b.add(c[0]), b.add(c[1]);
         double o[3], d[3], inv[3];
         for (int k = 0; k < 3; ++k) {
-            o[k] = next(seed) % 3 == 0 ? (next(seed) % 2 ? b.lo[k] : b.hi[k]) : value(wild); // often on a face
+            o[k] = splitmix64(seed) % 3 == 0 ? (splitmix64(seed) % 2 ? b.lo[k] : b.hi[k]) : value(wild); // often on a face
             do d[k] = value(wild);
             while (d[k] == 0);
             inv[k] = 1.0 / d[k];
         }
-        const double t_max = trial % 5 == 0 ? HUGE_VAL : double(next(seed) % 6);
+        const double t_max = trial % 5 == 0 ? HUGE_VAL : double(splitmix64(seed) % 6);
         const double want = b.ray_entry(o, inv, d, t_max), got = b.ray_entry_oblique(o, inv, t_max);
         ASSERT_EQ(std::memcmp(&want, &got, sizeof want), 0) << "trial " << trial << ": " << want << " against " << got;
         (want == HUGE_VAL ? missed : entered) += 1;
@@ -438,9 +453,9 @@ TEST(box_bvh, PairedDescentMeetsEveryOverlappingPair) {
     auto random_boxes = [&](size_t n, bool with_empty) {
         std::vector<Box3> boxes(n);
         for (Box3& b : boxes) {
-            if (with_empty && next(seed) % 7 == 0) continue; // empty: no part
+            if (with_empty && splitmix64(seed) % 7 == 0) continue; // empty: no part
             double lo[3], hi[3];
-            for (int k = 0; k < 3; ++k) lo[k] = double(next(seed) % 24), hi[k] = lo[k] + double(next(seed) % 3);
+            for (int k = 0; k < 3; ++k) lo[k] = double(splitmix64(seed) % 24), hi[k] = lo[k] + double(splitmix64(seed) % 3);
             b.add(lo), b.add(hi);
         }
         return boxes;
@@ -498,12 +513,12 @@ TEST(box_bvh, SlabsSkipOnlyWhatIsOutOfReach) {
     size_t plain_visits = 0, slab_visits = 0, found = 0;
     for (int trial = 0; trial < 3000; ++trial) {
         // A surface point lifted along its face's normal by h, reach r just short of h (or anything).
-        const size_t f = next(seed) % tris.size();
+        const size_t f = splitmix64(seed) % tris.size();
         const K::Vector_3 n = CGAL::unit_normal(tris[f][0], tris[f][1], tris[f][2]);
-        const double h = 0.02 + 0.2 * uniform(seed);
+        const double h = 0.02 + 0.2 * unit_uniform(seed);
         const K::Point_3 x = CGAL::centroid(tris[f]) + h * n;
         const double p[3] = {x.x(), x.y(), x.z()};
-        const double r = trial % 4 == 0 ? 0.5 * uniform(seed) : h * (0.9 + 0.1 * uniform(seed));
+        const double r = trial % 4 == 0 ? 0.5 * unit_uniform(seed) : h * (0.9 + 0.1 * unit_uniform(seed));
         std::vector<uint32_t> near_plain, near_slab;
         auto run = [&](const shells_detail::BoxBvh& bvh, std::vector<uint32_t>& within, size_t& visits) {
             double r2 = r * r;
@@ -531,14 +546,11 @@ namespace {
 void check_wide(const TriSoup& m, uint64_t seed, bool lifted) {
     using K = CGAL::Simple_cartesian<double>;
     using shells_detail::Box3;
-    std::vector<Box3> boxes;
-    std::vector<K::Triangle_3> tris;
-    boxes_and_triangles(m, boxes, tris);
-    Box3 all;
-    for (const Box3& b : boxes) all.add(b);
-    const double size = std::max({all.hi[0] - all.lo[0], all.hi[1] - all.lo[1], all.hi[2] - all.lo[2]});
-    shells_detail::BoxBvh binary;
-    binary.build(boxes);
+    SoupHierarchy soup = soup_hierarchy(m);
+    const std::vector<K::Triangle_3>& tris = soup.tris;
+    const Box3& all = soup.all;
+    const double size = soup.size;
+    shells_detail::BoxBvh& binary = soup.binary;
     binary.add_slabs([&](uint32_t f, double* out) {
         for (size_t c = 0; c < 3; ++c)
             for (size_t k = 0; k < 3; ++k) out[3 * c + k] = m.points[3 * size_t(m.triangles[f][c]) + k];
@@ -549,15 +561,15 @@ void check_wide(const TriSoup& m, uint64_t seed, bool lifted) {
     for (int trial = 0; trial < 1500; ++trial) {
         K::Point_3 x;
         double r;
-        const size_t f = next(seed) % tris.size();
+        const size_t f = splitmix64(seed) % tris.size();
         if (lifted && trial % 4 != 0) { // a surface point lifted along its face's normal by h, reach just short of h
-            const double h = size * (0.01 + 0.1 * uniform(seed));
+            const double h = size * (0.01 + 0.1 * unit_uniform(seed));
             x = CGAL::centroid(tris[f]) + h * CGAL::unit_normal(tris[f][0], tris[f][1], tris[f][2]);
-            r = h * (0.9 + 0.1 * uniform(seed));
+            r = h * (0.9 + 0.1 * unit_uniform(seed));
         } else {
-            x = K::Point_3(all.lo[0] + (all.hi[0] - all.lo[0]) * (1.4 * uniform(seed) - 0.2), all.lo[1] + (all.hi[1] - all.lo[1]) * (1.4 * uniform(seed) - 0.2),
-                           all.lo[2] + (all.hi[2] - all.lo[2]) * (1.4 * uniform(seed) - 0.2));
-            r = size * 0.3 * uniform(seed);
+            x = K::Point_3(all.lo[0] + (all.hi[0] - all.lo[0]) * (1.4 * unit_uniform(seed) - 0.2), all.lo[1] + (all.hi[1] - all.lo[1]) * (1.4 * unit_uniform(seed) - 0.2),
+                           all.lo[2] + (all.hi[2] - all.lo[2]) * (1.4 * unit_uniform(seed) - 0.2));
+            r = size * 0.3 * unit_uniform(seed);
         }
         const double p[3] = {x.x(), x.y(), x.z()};
         auto within = [&](const shells_detail::BoxBvh& bvh, bool wide_nodes) {
@@ -608,28 +620,25 @@ namespace {
 void check_wide_rays(const TriSoup& m, uint64_t seed) {
     using K = CGAL::Simple_cartesian<double>;
     using shells_detail::Box3;
-    std::vector<Box3> boxes;
-    std::vector<K::Triangle_3> tris;
-    boxes_and_triangles(m, boxes, tris);
-    Box3 all;
-    for (const Box3& b : boxes) all.add(b);
-    const double size = std::max({all.hi[0] - all.lo[0], all.hi[1] - all.lo[1], all.hi[2] - all.lo[2]});
-    shells_detail::BoxBvh binary;
-    binary.build(boxes);
+    SoupHierarchy soup = soup_hierarchy(m);
+    const std::vector<K::Triangle_3>& tris = soup.tris;
+    const Box3& all = soup.all;
+    const double size = soup.size;
+    shells_detail::BoxBvh& binary = soup.binary;
     shells_detail::BoxBvh wide = binary;
     wide.widen();
     size_t met_some = 0, hits = 0;
     for (int trial = 0; trial < 3000; ++trial) {
         double o[3], d[3];
         if (trial % 2 == 0) {
-            const double* c = &m.points[3 * size_t(m.triangles[next(seed) % tris.size()][next(seed) % 3])];
+            const double* c = &m.points[3 * size_t(m.triangles[splitmix64(seed) % tris.size()][splitmix64(seed) % 3])];
             std::copy(c, c + 3, o);
         } else {
-            for (int k = 0; k < 3; ++k) o[k] = all.lo[k] + (all.hi[k] - all.lo[k]) * (1.4 * uniform(seed) - 0.2);
+            for (int k = 0; k < 3; ++k) o[k] = all.lo[k] + (all.hi[k] - all.lo[k]) * (1.4 * unit_uniform(seed) - 0.2);
         }
-        for (double& x : d) x = 2 * uniform(seed) - 1;
-        if (trial % 10 == 0) d[next(seed) % 3] = 0;
-        const double t_max = trial % 3 == 0 ? HUGE_VAL : size * 0.2 * uniform(seed);
+        for (double& x : d) x = 2 * unit_uniform(seed) - 1;
+        if (trial % 10 == 0) d[splitmix64(seed) % 3] = 0;
+        const double t_max = trial % 3 == 0 ? HUGE_VAL : size * 0.2 * unit_uniform(seed);
         auto met = [&](const shells_detail::BoxBvh& bvh) {
             std::vector<uint32_t> ids;
             double t = t_max;
@@ -717,13 +726,13 @@ TEST(box_bvh, WideLeafBlocksMeetTheirSlotsInOrder) {
     }
     uint64_t seed = 17;
     std::vector<Box3> boxes;
-    for (int i = 0; i < 3000; ++i) boxes.push_back(box(uniform(seed), uniform(seed), uniform(seed), 0.02 * uniform(seed)));
+    for (int i = 0; i < 3000; ++i) boxes.push_back(box(unit_uniform(seed), unit_uniform(seed), unit_uniform(seed), 0.02 * unit_uniform(seed)));
     shells_detail::BoxBvh bvh;
     bvh.build(boxes);
     bvh.widen();
     for (int trial = 0; trial < 300; ++trial) {
-        const double p[3] = {uniform(seed), uniform(seed), uniform(seed)};
-        double best = 0.01 + 0.1 * uniform(seed), brute = best;
+        const double p[3] = {unit_uniform(seed), unit_uniform(seed), unit_uniform(seed)};
+        double best = 0.01 + 0.1 * unit_uniform(seed), brute = best;
         for (const Box3& b : boxes) brute = std::min(brute, b.squared_distance(p) + 1e-12);
         bvh.for_near_wide(p, best, [&](uint32_t g, double& bound) {
             EXPECT_LT(boxes[g].squared_distance(p), bound + 2e-9) << "trial " << trial; // still within reach

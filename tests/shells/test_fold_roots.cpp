@@ -7,6 +7,8 @@
 
 #include <gtest/gtest.h>
 
+#include "test_support.h"
+
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -37,13 +39,8 @@ double reference_root(double a, double b, double c) {
     return lo;
 }
 
-uint64_t next(uint64_t& s) { // splitmix64
-    uint64_t z = (s += 0x9E3779B97F4A7C15ull);
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    return z ^ (z >> 31);
-}
-double uniform(uint64_t& s, double lo, double hi) { return lo + (hi - lo) * double(next(s) >> 11) * 0x1.0p-53; }
+using furrow::test::splitmix64;
+double uniform(uint64_t& s, double lo, double hi) { return lo + (hi - lo) * furrow::test::unit_uniform(s); }
 
 bool same_bits(double x, double y) { return std::memcmp(&x, &y, sizeof x) == 0; }
 
@@ -56,9 +53,9 @@ std::vector<Quadratic> random_quadratics(size_t n) {
     uint64_t s = 7;
     std::vector<Quadratic> out;
     for (size_t i = 0; i < n; ++i) {
-        const double scale = std::pow(10.0, uniform(s, -12, 3)) * (next(s) % 4 == 0 ? -1 : 1);
+        const double scale = std::pow(10.0, uniform(s, -12, 3)) * (splitmix64(s) % 4 == 0 ? -1 : 1);
         const double r1 = uniform(s, -0.1, 1.1);
-        const double r2 = next(s) % 3 == 0 ? r1 + uniform(s, -1e-6, 1e-6) : uniform(s, -3, 3);
+        const double r2 = splitmix64(s) % 3 == 0 ? r1 + uniform(s, -1e-6, 1e-6) : uniform(s, -3, 3);
         out.push_back({scale * r1 * r2, -scale * (r1 + r2), scale});
     }
     return out;

@@ -8,6 +8,8 @@
 
 #include <gtest/gtest.h>
 
+#include "test_support.h"
+
 #include <CGAL/Simple_cartesian.h>
 
 #include <bit>
@@ -18,14 +20,9 @@ namespace {
 
 using K = CGAL::Simple_cartesian<double>;
 
-uint64_t next(uint64_t& s) { // splitmix64
-    uint64_t z = (s += 0x9E3779B97F4A7C15ull);
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    return z ^ (z >> 31);
-}
-double uniform(uint64_t& s) { return double(next(s) >> 11) * 0x1.0p-53; }
-double signed_unit(uint64_t& s) { return 2 * uniform(s) - 1; }
+using furrow::test::splitmix64;
+using furrow::test::unit_uniform;
+double signed_unit(uint64_t& s) { return 2 * unit_uniform(s) - 1; }
 
 // Corners t[0..2] and a point p, by kind; every coordinate then scaled and offset.
 struct Case {
@@ -44,43 +41,43 @@ Case make_case(uint64_t& s, int kind) {
     switch (kind) {
     case 0: break; // random
     case 1: // needle: two corners 1e-8..1e-14 apart
-        for (int k = 0; k < 3; ++k) c.t[1][k] = c.t[0][k] + std::ldexp(signed_unit(s), -27 - int(next(s) % 20));
+        for (int k = 0; k < 3; ++k) c.t[1][k] = c.t[0][k] + std::ldexp(signed_unit(s), -27 - int(splitmix64(s) % 20));
         break;
     case 2: { // exactly collinear: integer steps along an integer direction (the normal is exactly zero)
-        const double o[3] = {double(next(s) % 9) - 4, double(next(s) % 9) - 4, double(next(s) % 9) - 4};
-        const double d[3] = {double(next(s) % 5) - 2, double(next(s) % 5) - 2, double(next(s) % 5) - 2};
+        const double o[3] = {double(splitmix64(s) % 9) - 4, double(splitmix64(s) % 9) - 4, double(splitmix64(s) % 9) - 4};
+        const double d[3] = {double(splitmix64(s) % 5) - 2, double(splitmix64(s) % 5) - 2, double(splitmix64(s) % 5) - 2};
         for (int i = 0; i < 3; ++i) {
-            const double step = double(next(s) % 7) - 3;
+            const double step = double(splitmix64(s) % 7) - 3;
             for (int k = 0; k < 3; ++k) c.t[i][k] = o[k] + step * d[k];
         }
         for (double& x : c.p) x = 4 * signed_unit(s);
         break;
     }
     case 3: // zero area: a repeated corner, or all three the same
-        for (int k = 0; k < 3; ++k) c.t[next(s) % 3 == 0 ? 2 : 1][k] = c.t[0][k];
+        for (int k = 0; k < 3; ++k) c.t[splitmix64(s) % 3 == 0 ? 2 : 1][k] = c.t[0][k];
         break;
     case 4: { // a hair off a corner
-        const int v = int(next(s) % 3);
-        for (int k = 0; k < 3; ++k) c.p[k] = c.t[v][k] + std::ldexp(signed_unit(s), -20 - int(next(s) % 30));
+        const int v = int(splitmix64(s) % 3);
+        for (int k = 0; k < 3; ++k) c.p[k] = c.t[v][k] + std::ldexp(signed_unit(s), -20 - int(splitmix64(s) % 30));
         break;
     }
     case 5: { // on or a hair off an edge (and outside it along the edge's line)
-        const int v = int(next(s) % 3);
-        lerp(c.p, c.t[v], c.t[(v + 1) % 3], 1.5 * uniform(s) - 0.25);
-        if (next(s) % 2)
-            for (double& x : c.p) x += std::ldexp(signed_unit(s), -25 - int(next(s) % 25));
+        const int v = int(splitmix64(s) % 3);
+        lerp(c.p, c.t[v], c.t[(v + 1) % 3], 1.5 * unit_uniform(s) - 0.25);
+        if (splitmix64(s) % 2)
+            for (double& x : c.p) x += std::ldexp(signed_unit(s), -25 - int(splitmix64(s) % 25));
         break;
     }
     case 6: { // in the plane (inside or just outside), or just above it
         double q[3];
-        lerp(q, c.t[0], c.t[1], uniform(s));
-        lerp(c.p, q, c.t[2], 1.2 * uniform(s) - 0.1);
-        if (next(s) % 2)
+        lerp(q, c.t[0], c.t[1], unit_uniform(s));
+        lerp(c.p, q, c.t[2], 1.2 * unit_uniform(s) - 0.1);
+        if (splitmix64(s) % 2)
             for (double& x : c.p) x += std::ldexp(signed_unit(s), -30);
         break;
     }
     case 7: // on a corner exactly
-        for (int k = 0; k < 3; ++k) c.p[k] = c.t[next(s) % 3][k];
+        for (int k = 0; k < 3; ++k) c.p[k] = c.t[splitmix64(s) % 3][k];
         break;
     default: break;
     }
@@ -108,9 +105,9 @@ TEST(point_triangle_distance, CgalBitsOnMillionsOfQueries) {
     for (int round = 0; round < 2'000'000; ++round) {
         const int kind = round % 8;
         Case c = make_case(seed, kind);
-        const size_t si = next(seed) % 12; // mostly unit scale
+        const size_t si = splitmix64(seed) % 12; // mostly unit scale
         const double scale = si < 6 ? 1.0 : scales[si - 6];
-        const double offset = next(seed) % 3 == 0 ? offsets[next(seed) % 3] : 0.0;
+        const double offset = splitmix64(seed) % 3 == 0 ? offsets[splitmix64(seed) % 3] : 0.0;
         transform(c, scale, offset);
         const double want = cgal_distance(c);
         const double got = furrow::shells_detail::squared_distance(c.p, c.t[0], c.t[1], c.t[2]);
@@ -162,10 +159,10 @@ TEST(point_triangle_distance, PairLanesAreCgals) {
     const double scales[] = {1.0, 1e-9, 1e-3, 1e3, 1e9, 1e160};
     for (int round = 0; round < 1'000'000; ++round) {
         Case c[2];
-        const double scale = scales[next(seed) % 6 < 3 ? 0 : next(seed) % 6];
-        const double offset = next(seed) % 3 == 0 ? 1e6 : 0.0;
+        const double scale = scales[splitmix64(seed) % 6 < 3 ? 0 : splitmix64(seed) % 6];
+        const double offset = splitmix64(seed) % 3 == 0 ? 1e6 : 0.0;
         for (int i = 0; i < 2; ++i) {
-            c[i] = make_case(seed, int(next(seed) % 8));
+            c[i] = make_case(seed, int(splitmix64(seed) % 8));
             transform(c[i], scale, offset);
         }
         c[1].p[0] = c[0].p[0], c[1].p[1] = c[0].p[1], c[1].p[2] = c[0].p[2]; // one point, two triangles

@@ -82,4 +82,16 @@ inline std::vector<uint32_t> distinct_corners(Lcg& next, size_t nv, size_t n) {
 // The JSON document of a .gltf or .glb file (the GLB's JSON chunk); null on failure.
 nlohmann::json gltf_json(const std::filesystem::path& file);
 
+// splitmix64 (G. Steele, D. Lea, C. Flood, "Fast Splittable Pseudorandom Number Generators", OOPSLA 2014): the
+// property tests' generator, the same stream on every platform and standard library (unlike <random>'s
+// distributions), so a failing case is the same case everywhere.
+inline uint64_t splitmix64(uint64_t& s) {
+    uint64_t z = (s += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return z ^ (z >> 31);
+}
+// Uniform in [0, 1) from 53 random bits.
+inline double unit_uniform(uint64_t& s) { return double(splitmix64(s) >> 11) * 0x1.0p-53; }
+
 } // namespace furrow::test
