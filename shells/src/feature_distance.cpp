@@ -470,6 +470,29 @@ struct CrossingTest::State {
             }
         });
     }
+    // Blame, per crossing pair (f, other) as run lists them: a shell that crosses the base is at fault. Where
+    // two shells cross and only one of them also crosses the base (a wall's fur running through a shelf, and so
+    // through the shelf's fur), only that one is shortened; the other's fur is where it belongs. The blamed
+    // triangles' corners are marked in hit.
+    std::vector<std::array<bool, 2>> blame(uint8_t* hit, const std::vector<std::pair<uint32_t, uint32_t>>& pairs) const {
+        std::vector<uint8_t> into_base(T, 0);
+        for (const auto& [f, other] : pairs)
+            if (other < T) into_base[f] = 1;
+        std::vector<std::array<bool, 2>> out(pairs.size());
+        for (size_t k = 0; k < pairs.size(); ++k) {
+            const auto [f, other] = pairs[k];
+            const bool shell_pair = other >= T;
+            const uint32_t g = shell_pair ? other - uint32_t(T) : 0;
+            const bool blame_f = !shell_pair || into_base[f] || !into_base[g];
+            const bool blame_g = shell_pair && (into_base[g] || !into_base[f]);
+            out[k] = {blame_f, blame_g};
+            if (blame_f)
+                for (uint32_t v : ix.triangles[f]) hit[v] = 1;
+            if (blame_g)
+                for (uint32_t v : ix.triangles[g]) hit[v] = 1;
+        }
+        return out;
+    }
     void rebuild_face(size_t f, const std::vector<uint8_t>& moving) {
         const auto& t = ix.triangles[f];
         stri[f] = {shell_id[t[0]], shell_id[t[1]], shell_id[t[2]]};
@@ -590,25 +613,7 @@ size_t CrossingTest::run(uint8_t* hit, const std::vector<double>& shell, const s
         }
     std::sort(pairs.begin(), pairs.end());
     pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
-    // Blame: a shell that crosses the base is at fault. Where two shells cross and only one of them also
-    // crosses the base (a wall's fur running through a shelf, and so through the shelf's fur), only that one
-    // is shortened; the other's fur is where it belongs.
-    std::vector<uint8_t> into_base(T, 0);
-    for (const auto& [f, other] : pairs)
-        if (other < T) into_base[f] = 1;
-    std::vector<std::array<bool, 2>> blame(pairs.size());
-    for (size_t k = 0; k < pairs.size(); ++k) {
-        const auto [f, other] = pairs[k];
-        const bool shell_pair = other >= T;
-        const uint32_t g = shell_pair ? other - T : 0;
-        const bool blame_f = !shell_pair || into_base[f] || !into_base[g];
-        const bool blame_g = shell_pair && (into_base[g] || !into_base[f]);
-        blame[k] = {blame_f, blame_g};
-        if (blame_f)
-            for (uint32_t v : triangles[f]) hit[v] = 1;
-        if (blame_g)
-            for (uint32_t v : triangles[g]) hit[v] = 1;
-    }
+    const std::vector<std::array<bool, 2>> blame = st.blame(hit, pairs);
     if (halvings) st.raise_halvings(halvings, pairs, blame, max_halvings);
     return pairs.size();
 }
