@@ -380,19 +380,8 @@ public:
                 const V2 far = vmin(vmin(vmin(V2{t_max, t_max}, vmax(b[0], a[0])), vmax(b[1], a[1])), vmax(b[2], a[2]));
                 std::memcpy(&t0[h], &near, sizeof near), std::memcpy(&t1[h], &far, sizeof far);
             }
-            // The children entered, farther first onto the stack, so that the nearest is visited next (ties:
-            // the later slot). An unused slot (empty box) is never entered.
-            int order[4], n = 0;
-            for (int i = 0; i < 4; ++i) {
-                if (t0[i] > t1[i] || !(w.lo[0][i] <= w.hi[0][i])) continue;
-                int k = n++;
-                for (; k > 0 && t0[order[k - 1]] < t0[i]; --k) order[k] = order[k - 1];
-                order[k] = i;
-            }
-            for (int k = 0; k < n; ++k) {
-                const int i = order[k];
-                stack[top] = w.child[i], count[top] = w.count[i], entry[top++] = t0[i];
-            }
+            // The children entered (an unused slot, an empty box, never is).
+            push_nearest_last(w, t0, [&](int i) { return !(t0[i] > t1[i]) && w.lo[0][i] <= w.hi[0][i]; }, stack, count, entry, top);
         }
     }
 
@@ -479,21 +468,12 @@ public:
             const Wide& w = wide_[stack[top]];
             double d[4];
             lanes_within(w.lo, w.hi, p, r2, d);
-            // The children within reach, farther first onto the stack (ties: the later slot first), so that
-            // the nearest is visited next.
-            int order[4], n = 0;
-            for (int i = 0; i < 4; ++i) {
-                if (!(d[i] < r2)) continue;
+            // The children within reach.
+            push_nearest_last(w, d, [&](int i) {
+                if (!(d[i] < r2)) return false;
                 const double sn[3] = {w.sn[0][i], w.sn[1][i], w.sn[2][i]};
-                if (out_of_reach(sn, w.slo[i], w.shi[i], p, err, r2)) continue;
-                int k = n++;
-                for (; k > 0 && d[order[k - 1]] < d[i]; --k) order[k] = order[k - 1];
-                order[k] = i;
-            }
-            for (int k = 0; k < n; ++k) {
-                const int i = order[k];
-                stack[top] = w.child[i], count[top] = w.count[i], dist[top++] = d[i];
-            }
+                return !out_of_reach(sn, w.slo[i], w.shi[i], p, err, r2);
+            }, stack, count, dist, top);
         }
         return false;
     }
@@ -660,6 +640,24 @@ private:
         uint32_t child[4] = {0, 0, 0, 0};
         uint32_t count[4] = {0, 0, 0, 0};
     };
+    // The children i of wide node w that `enter` accepts, pushed with their keys (entry parameter or box
+    // distance) farther first, ties the later slot first, so that the nearest is popped next: both wide
+    // descents' order.
+    template <class Enter>
+    static void push_nearest_last(const Wide& w, const double* key, Enter&& enter, uint32_t* stack, uint32_t* count, double* keys,
+                                  int& top) {
+        int order[4], n = 0;
+        for (int i = 0; i < 4; ++i) {
+            if (!enter(i)) continue;
+            int k = n++;
+            for (; k > 0 && key[order[k - 1]] < key[i]; --k) order[k] = order[k - 1];
+            order[k] = i;
+        }
+        for (int k = 0; k < n; ++k) {
+            const int i = order[k];
+            stack[top] = w.child[i], count[top] = w.count[i], keys[top++] = key[i];
+        }
+    }
     // A leaf's boxes (boxes_[first, first + count)) side by side, as a wide node's: the slots past count are
     // empty boxes, never within reach.
     struct alignas(64) LeafBoxes {

@@ -546,11 +546,7 @@ namespace {
 void check_wide(const TriSoup& m, uint64_t seed, bool lifted) {
     using K = CGAL::Simple_cartesian<double>;
     using shells_detail::Box3;
-    SoupHierarchy soup = soup_hierarchy(m);
-    const std::vector<K::Triangle_3>& tris = soup.tris;
-    const Box3& all = soup.all;
-    const double size = soup.size;
-    shells_detail::BoxBvh& binary = soup.binary;
+    auto [boxes, tris, all, size, binary] = soup_hierarchy(m);
     binary.add_slabs([&](uint32_t f, double* out) {
         for (size_t c = 0; c < 3; ++c)
             for (size_t k = 0; k < 3; ++k) out[3 * c + k] = m.points[3 * size_t(m.triangles[f][c]) + k];
@@ -620,11 +616,7 @@ namespace {
 void check_wide_rays(const TriSoup& m, uint64_t seed) {
     using K = CGAL::Simple_cartesian<double>;
     using shells_detail::Box3;
-    SoupHierarchy soup = soup_hierarchy(m);
-    const std::vector<K::Triangle_3>& tris = soup.tris;
-    const Box3& all = soup.all;
-    const double size = soup.size;
-    shells_detail::BoxBvh& binary = soup.binary;
+    auto [boxes, tris, all, size, binary] = soup_hierarchy(m);
     shells_detail::BoxBvh wide = binary;
     wide.widen();
     size_t met_some = 0, hits = 0;
