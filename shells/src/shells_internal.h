@@ -128,6 +128,11 @@ void bend_limits(double* out, const SurfaceIndex& index, const uint32_t* ring_st
 bool planes_rule_out(const std::vector<double>& points, const std::array<uint32_t, 3>& a, const std::array<uint32_t, 3>& b,
                      bool* crosses = nullptr);
 
+// The crossing test's neighbour shortcut: whether the triangles (centre, spokes[i][0], spokes[i][1]) (ids into
+// points, xyz each; each written in one winding) close into a fan that is certainly embedded, so that no two of
+// them cross. Exposed for the test that holds it to the full pair test.
+bool fan_rules_out(const std::vector<double>& points, uint32_t centre, const std::vector<std::array<uint32_t, 2>>& spokes);
+
 // owned_lengths' bisection test for one point x (xyz): is the witness face (an index into triangles) nearer
 // to x than `ratio` × x's distance to the faces `own`, with distances as CGAL's Simple_cartesian computes
 // them? *hint: where in `own` to start (updated). Exposed for the test that holds it to that definition.

@@ -274,7 +274,8 @@ public:
     // Every pair (a primitive of this tree, one of `other`) whose boxes overlap, found by descending both
     // trees together (Ericson, chapter 6): the upper levels are visited once for all pairs instead of once per
     // query box. With other == this, each unordered pair of distinct primitives comes once. Each pair goes to
-    // emit(a, b, list), which appends to `list` what the caller keeps of it (the caller's filter runs in the
+    // emit(a, b, i, j, list) (i, j: a's and b's positions in leaf_order(), for data the caller keeps in that
+    // order), which appends to `list` what the caller keeps of it (the caller's filter runs in the
     // tasks, and only what it keeps is stored and copied); the lists are appended to `out`. Parallel: the
     // node pairs are expanded breadth-first into independent tasks in a fixed order, each task fills its own
     // list, and the lists are joined in task order, so the result is the same for any thread count.
@@ -294,7 +295,7 @@ public:
         std::vector<std::vector<T>> lists(frontier.size());
         tbb::parallel_for(tbb::blocked_range<size_t>(0, frontier.size(), 1), [&](const tbb::blocked_range<size_t>& r) {
             for (size_t k = r.begin(); k != r.end(); ++k) {
-                auto leaf = [&](uint32_t a, uint32_t b) { emit(a, b, lists[k]); };
+                auto leaf = [&](uint32_t a, uint32_t b, uint32_t i, uint32_t j) { emit(a, b, i, j, lists[k]); };
                 descend(other, self, frontier[k], leaf);
             }
         });
@@ -515,7 +516,8 @@ private:
         return true;
     }
 
-    // The paired descent below node pair xy: every primitive pair whose boxes overlap to leaf(a, b). A child
+    // The paired descent below node pair xy: every primitive pair whose boxes overlap to leaf(a, b, i, j) (i, j:
+    // their positions in the leaf order). A child
     // pair is tested before it is stacked, so the stack (on the frame: a step replaces one pair by at most
     // four and goes one level down in at least one tree, so 3 x (both depths) + 1 entries suffice) holds only
     // overlapping pairs. Stanford bunny's crossing test (callgrind, `furrow -j 1 -q shells --layers 2
@@ -536,7 +538,7 @@ private:
             if (a.count > 0 && b.count > 0) {
                 for (uint32_t i = a.first; i < a.first + a.count; ++i)
                     for (uint32_t j = same ? i + 1 : b.first; j < b.first + b.count; ++j)
-                        if (boxes_[i].overlaps(other.boxes_[j])) leaf(prims_[i], other.prims_[j]);
+                        if (boxes_[i].overlaps(other.boxes_[j])) leaf(prims_[i], other.prims_[j], i, j);
             } else if (same) { // (l, l), (l, r), (r, r): the pair (r, l) is (l, r) again
                 push(a.first, a.first), push(a.first, a.first + 1), push(a.first + 1, a.first + 1);
             } else if (a.count > 0) {

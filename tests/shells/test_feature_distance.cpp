@@ -316,6 +316,71 @@ TEST(crossing_planes, RuleOutOnlyPairsThatDoNotCross) {
     EXPECT_GT(ruled_out, apart / 2); // the shortcut must also work, not only be safe
 }
 
+// The crossing test's neighbour shortcut (shells_detail::fan_rules_out): a fan it certifies has no two
+// triangles that cross (the full pair test, through planes_rule_out's answer), and it certifies most gently
+// curved fans. Random fans around a centre: 4 to 12 spokes at sorted angles, heights from gentle to steep, the whole
+// fan turned at random; some wound the other way, some folded (two spokes swapped), some wound twice, some
+// exactly flat, some open (a border vertex) and some with a spoke repeated.
+TEST(crossing_fans, CertifiedFansHaveNoCrossingPair) {
+    uint64_t seed = 7;
+    int certified = 0, crossing = 0, gentle = 0, gentle_certified = 0;
+    const int trials = 6000;
+    for (int trial = 0; trial < trials; ++trial) {
+        const int kind = trial % 8; // 0-2 plain, 3 reversed, 4 folded, 5 twice around, 6 flat, 7 open or repeated
+        const size_t n = 4 + splitmix64(seed) % 9;
+        const double steep = kind == 0 ? 0.05 : 2.0 * unit_uniform(seed);
+        const double turns = kind == 5 ? 2.0 : 1.0;
+        // Evenly spread with a jitter (every sector under half a turn), or anywhere (kinds 1 and 2).
+        std::vector<double> angle(n);
+        for (size_t i = 0; i < n; ++i)
+            angle[i] = kind == 1 || kind == 2 ? 2 * M_PI * unit_uniform(seed) : 2 * M_PI * turns * (double(i) + 0.6 * unit_uniform(seed) - 0.3) / double(n);
+        std::sort(angle.begin(), angle.end());
+        std::vector<double> local(3 * (n + 1), 0.0); // centre at 0, spoke ends at 1..n
+        for (size_t i = 0; i < n; ++i) {
+            const double r = 0.2 + unit_uniform(seed);
+            local[3 * (i + 1)] = r * std::cos(angle[i]);
+            local[3 * (i + 1) + 1] = r * std::sin(angle[i]);
+            local[3 * (i + 1) + 2] = kind == 6 ? 0.0 : steep * (2 * unit_uniform(seed) - 1);
+        }
+        // A random rotation (kept off for the exactly flat fans), then a translation.
+        std::vector<double> pts(local.size());
+        const double a = 2 * M_PI * unit_uniform(seed), b = M_PI * unit_uniform(seed), c = 2 * M_PI * unit_uniform(seed);
+        const double R[3][3] = {{std::cos(a) * std::cos(c) - std::sin(a) * std::cos(b) * std::sin(c), -std::cos(a) * std::sin(c) - std::sin(a) * std::cos(b) * std::cos(c), std::sin(a) * std::sin(b)},
+                                {std::sin(a) * std::cos(c) + std::cos(a) * std::cos(b) * std::sin(c), -std::sin(a) * std::sin(c) + std::cos(a) * std::cos(b) * std::cos(c), -std::cos(a) * std::sin(b)},
+                                {std::sin(b) * std::sin(c), std::sin(b) * std::cos(c), std::cos(b)}};
+        for (size_t v = 0; v <= n; ++v)
+            for (size_t k = 0; k < 3; ++k)
+                pts[3 * v + k] = kind == 6 ? local[3 * v + k] + 0.25 : 3.0 + R[k][0] * local[3 * v] + R[k][1] * local[3 * v + 1] + R[k][2] * local[3 * v + 2];
+        std::vector<std::array<uint32_t, 2>> spokes(n);
+        for (uint32_t i = 0; i < n; ++i) spokes[i] = {i + 1, uint32_t((i + 1) % n + 1)};
+        if (kind == 3)
+            for (auto& s : spokes) std::swap(s[0], s[1]);
+        if (kind == 4 && n >= 4) { // spokes 1 and 2 trade places: the fan folds over itself
+            for (size_t k = 0; k < 3; ++k) std::swap(pts[3 + k], pts[6 + k]);
+        }
+        if (kind == 7) {
+            if (trial % 16 == 7) spokes.pop_back();
+            else spokes[n - 1][1] = spokes[0][1];
+        }
+        const bool ok = shells_detail::fan_rules_out(pts, 0, spokes);
+        bool crosses = false;
+        for (size_t i = 0; i < spokes.size(); ++i)
+            for (size_t j = 0; j < i; ++j) {
+                bool cross = false;
+                (void)shells_detail::planes_rule_out(pts, {0, spokes[i][0], spokes[i][1]}, {0, spokes[j][0], spokes[j][1]}, &cross);
+                crosses = crosses || cross;
+            }
+        ASSERT_FALSE(ok && crosses) << "trial " << trial << " (kind " << kind << ", " << n << " spokes): certified a fan that crosses itself";
+        if (kind == 7) ASSERT_FALSE(ok) << "trial " << trial << ": an open or repeated fan";
+        certified += ok;
+        crossing += crosses;
+        if (kind == 0) gentle_certified += ok, ++gentle;
+    }
+    EXPECT_GT(crossing, trials / 20);
+    EXPECT_GT(certified, trials / 4);
+    EXPECT_GT(gentle_certified, gentle * 9 / 10); // gently curved fans with wide enough sectors
+}
+
 // The per-vertex queries answer in a spatially coherent order (coherent_order): a batch answers every query as
 // that query alone does.
 TEST(coherent_order, ABatchAnswersEachQueryAsAlone) {
@@ -441,7 +506,7 @@ TEST(box_bvh, ObliqueRayEntryIsTheSlabTestsBits) {
 }
 
 // BoxBvh::overlapping_pairs (the crossing test's candidates): every pair of primitives whose boxes overlap, each
-// once, against a brute-force reference: a tree with itself (each unordered pair of distinct primitives) and
+// once, with their positions in the leaf order, against a brute-force reference: a tree with itself (each unordered pair of distinct primitives) and
 // a tree against another shape's tree refitted to other boxes (as the shells' boxes on the base's shape), with
 // empty boxes among them (primitives that take no part). Boxes on an integer grid: touching counts, and the
 // trees' margins cannot join boxes a whole unit apart. Sizes from one leaf to enough node pairs that the
@@ -468,7 +533,12 @@ TEST(box_bvh, PairedDescentMeetsEveryOverlappingPair) {
         b.refit(a, other_boxes);
         auto collect = [](const shells_detail::BoxBvh& x, const shells_detail::BoxBvh& y) {
             std::vector<Pair> found;
-            x.overlapping_pairs(y, [](uint32_t f, uint32_t g, std::vector<Pair>& out) { out.emplace_back(f, g); }, found);
+            const std::vector<uint32_t>&xl = x.leaf_order(), &yl = y.leaf_order();
+            x.overlapping_pairs(y, [&](uint32_t f, uint32_t g, uint32_t i, uint32_t j, std::vector<Pair>& out) {
+                EXPECT_EQ(xl[i], f); // the positions in the leaf order, as the caller's leaf-ordered data expects
+                EXPECT_EQ(yl[j], g);
+                out.emplace_back(f, g);
+            }, found);
             return found;
         };
         // With itself: each unordered pair once, in either order.
