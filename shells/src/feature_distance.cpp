@@ -138,34 +138,21 @@ bool certainly_apart_by_planes(const std::vector<Exact::Point_3>& pts, const std
 // The most triangles a certified fan may have (the checks are quadratic in them; a mesh's fans have about 6).
 constexpr size_t kMaxFan = 32;
 
-bool spokes_close(uint32_t c, const std::array<uint32_t, 2>* spokes, size_t n) {
+// next[i]: the spoke j whose a_j is b_i (where they close).
+bool spokes_close(uint32_t c, const std::array<uint32_t, 2>* spokes, size_t n, uint8_t* next) {
     if (n < 3 || n > kMaxFan) return false;
+    bool ok = true; // counted without branches: a vertex's spokes are few, and which match is unpredictable
     for (size_t i = 0; i < n; ++i) {
         const auto [a, b] = spokes[i];
-        if (a == c || b == c || a == b) return false;
-        bool closes = false;
+        unsigned as = 0, bs = 0, closes = 0, at = 0;
         for (size_t j = 0; j < n; ++j) {
-            if (j != i && (spokes[j][0] == a || spokes[j][1] == b)) return false;
-            closes = closes || spokes[j][1] == a;
+            as += spokes[j][0] == a, bs += spokes[j][1] == b, closes += spokes[j][1] == a;
+            at = spokes[j][0] == b ? unsigned(j) : at;
         }
-        if (!closes) return false;
+        ok &= (a != c) & (b != c) & (a != b) & (as == 1) & (bs == 1) & (closes == 1);
+        next[i] = uint8_t(at);
     }
-    return true;
-}
-
-// The exact sign of the 2D orientation (p, q, r): CGAL's semi-static filter (Static_filters/Orientation_2.h,
-// 5.5, the same expression and bound), Epick's exact predicate where it does not decide.
-int orientation_2(double px, double py, double qx, double qy, double rx, double ry) {
-    const double pqx = qx - px, pqy = qy - py, prx = rx - px, pry = ry - py;
-    const double det = pqx * pry - pqy * prx;
-    double lo = std::max(std::abs(pqx), std::abs(prx)), hi = std::max(std::abs(pqy), std::abs(pry));
-    if (lo > hi) std::swap(lo, hi);
-    if (lo >= 1e-146 && hi < 1e153) {
-        const double eps = 8.8872057372592798e-16 * lo * hi;
-        if (det > eps) return 1;
-        if (det < -eps) return -1;
-    }
-    return int(CGAL::orientation(Exact::Point_2(px, py), Exact::Point_2(qx, qy), Exact::Point_2(rx, ry)));
+    return ok;
 }
 
 // Is the closed fan of triangles (c, a_i, b_i) (ids into pts through `at`; spokes_close holds) certainly
@@ -185,19 +172,19 @@ int orientation_2(double px, double py, double qx, double qy, double rx, double 
 // (Stanford bunny, `furrow -j 1 shells --length 0.004`, stage timers, three interleaved runs): candidate loop
 // 17.4-19.1 -> 4.0-4.3 ms, for 3.6-3.8 ms of certificates and 2.5-3 ms more in the descent.
 template <class At>
-bool fan_certainly_embedded(At at, uint32_t c, const std::array<uint32_t, 2>* spokes, size_t n) {
+bool fan_certainly_embedded(At at, uint32_t c, const std::array<uint32_t, 2>* spokes, const uint8_t* next, size_t n) {
     if (n > kMaxFan) return false;
     const Exact::Point_3& o = at(c);
     const double oc[3] = {o.x(), o.y(), o.z()};
-    double ends[kMaxFan][2][3]; // each spoke's a and b
+    double end[kMaxFan][3]; // each spoke's a (its b is spoke next[i]'s a)
+    for (size_t i = 0; i < n; ++i) {
+        const Exact::Point_3& p = at(spokes[i][0]);
+        end[i][0] = p.x(), end[i][1] = p.y(), end[i][2] = p.z();
+    }
     double normal[3] = {0, 0, 0};
     for (size_t i = 0; i < n; ++i) {
-        for (size_t j = 0; j < 2; ++j) {
-            const Exact::Point_3& p = at(spokes[i][j]);
-            ends[i][j][0] = p.x(), ends[i][j][1] = p.y(), ends[i][j][2] = p.z();
-        }
-        const double* a = ends[i][0];
-        const double* b = ends[i][1];
+        const double* a = end[i];
+        const double* b = end[next[i]];
         const double e[3] = {a[0] - oc[0], a[1] - oc[1], a[2] - oc[2]}, f[3] = {b[0] - oc[0], b[1] - oc[1], b[2] - oc[2]};
         normal[0] += e[1] * f[2] - e[2] * f[1], normal[1] += e[2] * f[0] - e[0] * f[2], normal[2] += e[0] * f[1] - e[1] * f[0];
     }
@@ -205,20 +192,36 @@ bool fan_certainly_embedded(At at, uint32_t c, const std::array<uint32_t, 2>* sp
     for (int j = 1; j < 3; ++j)
         if (std::abs(normal[j]) > std::abs(normal[k])) k = j;
     if (!(std::abs(normal[k]) > 0)) return false;
-    // The two other coordinates, in the order that makes the 2D orientation the sign of normal[k].
+    // The two other coordinates, in the order that makes the 2D orientation the sign of normal[k], relative to
+    // c: the differences CGAL's filter forms (and a difference has the exact sign of the comparison).
     const int u = (k + 1) % 3, w = (k + 2) % 3;
-    const int turn = normal[k] > 0 ? 1 : -1;
-    const double ou = oc[u], ow = oc[w];
-    auto upper = [&](const double* p) { return p[w] > ow || (p[w] == ow && p[u] > ou); };
+    const double turn = normal[k] > 0 ? 1 : -1;
+    double X[kMaxFan], Y[kMaxFan];
+    for (size_t i = 0; i < n; ++i) X[i] = end[i][u] - oc[u], Y[i] = end[i][w] - oc[w];
+    // Each triangle's orientation by CGAL's semi-static filter (Static_filters/Orientation_2.h, 5.5: the same
+    // expression and bound), without branches; Epick's exact predicate where it does not decide.
+    unsigned wrong = 0, unsure = 0;
     int turns = 0;
     for (size_t i = 0; i < n; ++i) {
-        const double* a = ends[i][0];
-        const double* b = ends[i][1];
-        if (orientation_2(ou, ow, a[u], a[w], b[u], b[w]) != turn) return false;
-        const bool from = upper(a), to = upper(b);
-        turns += turn > 0 ? !from && to : from && !to; // clockwise: the same steps walked backwards
+        const size_t j = next[i];
+        const double det = turn * (X[i] * Y[j] - Y[i] * X[j]);
+        const double mx = std::max(std::abs(X[i]), std::abs(X[j])), my = std::max(std::abs(Y[i]), std::abs(Y[j]));
+        const double lo = std::min(mx, my), hi = std::max(mx, my);
+        const double eps = 8.8872057372592798e-16 * lo * hi;
+        const bool filtered = lo >= 1e-146 && hi < 1e153, along = det > eps, against = det < -eps;
+        wrong += filtered & against;
+        unsure += !(filtered & (along | against));
+        const bool from = Y[i] > 0 || (Y[i] == 0 && X[i] > 0), to = Y[j] > 0 || (Y[j] == 0 && X[j] > 0);
+        turns += turn > 0 ? !from & to : from & !to; // clockwise: the same steps walked backwards
     }
-    return turns == 1;
+    if (wrong || turns != 1) return false;
+    for (size_t i = 0; unsure && i < n; ++i) {
+        const double* a = end[i];
+        const double* b = end[next[i]];
+        const CGAL::Orientation s = CGAL::orientation(Exact::Point_2(oc[u], oc[w]), Exact::Point_2(a[u], a[w]), Exact::Point_2(b[u], b[w]));
+        if (s != (turn > 0 ? CGAL::LEFT_TURN : CGAL::RIGHT_TURN)) return false;
+    }
+    return true;
 }
 
 // Möller–Trumbore with a generous tolerance: false only where the ray clearly misses the triangle (or hits
@@ -279,8 +282,9 @@ bool planes_rule_out(const std::vector<double>& points, const std::array<uint32_
 bool fan_rules_out(const std::vector<double>& points, uint32_t centre, const std::vector<std::array<uint32_t, 2>>& spokes) {
     std::vector<Exact::Point_3> pts(points.size() / 3);
     for (size_t v = 0; v < pts.size(); ++v) pts[v] = Exact::Point_3(points[3 * v], points[3 * v + 1], points[3 * v + 2]);
-    return spokes_close(centre, spokes.data(), spokes.size()) &&
-           fan_certainly_embedded([&](uint32_t v) -> const Exact::Point_3& { return pts[v]; }, centre, spokes.data(), spokes.size());
+    std::vector<uint8_t> next(spokes.size());
+    return spokes_close(centre, spokes.data(), spokes.size(), next.data()) &&
+           fan_certainly_embedded([&](uint32_t v) -> const Exact::Point_3& { return pts[v]; }, centre, spokes.data(), next.data(), spokes.size());
 }
 
 // The medial-axis clamp's bisection test, taken_by_witness(x, owned_r2(x)) in owned_lengths (is x nearer than
@@ -459,6 +463,7 @@ struct CrossingTest::State {
     std::vector<Box3> sbox;                         // per face: the shell triangle's box (empty if none)
     std::vector<uint32_t> spoke_start;              // vertex -> its spokes (CSR)
     std::vector<std::array<uint32_t, 2>> spokes;    // per face around a vertex: its two other corners, in winding order
+    std::vector<uint8_t> spoke_next;                // per spoke: the spoke that follows it (spokes_close)
     std::vector<uint8_t> fan_closes;                // per vertex: its spokes close into a fan (spokes_close)
     std::vector<uint8_t> flat_fan;                  // per vertex: its shell fan certainly embedded (certify_fan)
     std::vector<uint32_t> slot;                     // per face: its position in the hierarchy's leaf order
@@ -492,7 +497,9 @@ struct CrossingTest::State {
         for (const auto& t : ix.triangles)
             for (size_t k = 0; k < 3; ++k) spokes[fill[t[k]]++] = {t[(k + 1) % 3], t[(k + 2) % 3]};
         fan_closes.resize(W);
-        for (uint32_t v = 0; v < W; ++v) fan_closes[v] = spokes_close(v, &spokes[spoke_start[v]], spoke_start[v + 1] - spoke_start[v]);
+        spoke_next.resize(spokes.size());
+        for (uint32_t v = 0; v < W; ++v)
+            fan_closes[v] = spokes_close(v, &spokes[spoke_start[v]], spoke_start[v + 1] - spoke_start[v], &spoke_next[spoke_start[v]]);
         flat_fan.assign(W, 0);
         slot.resize(T);
         const std::vector<uint32_t>& leaves = ix.bvh.leaf_order();
@@ -502,7 +509,8 @@ struct CrossingTest::State {
     // flat_fan[v]: the shell triangles around v's shell point form a certainly embedded fan.
     void certify_fan(uint32_t v) {
         flat_fan[v] = fan_closes[v] && fan_certainly_embedded([&](uint32_t u) -> const Exact::Point_3& { return pts[shell_id[u]]; }, v,
-                                                              &spokes[spoke_start[v]], spoke_start[v + 1] - spoke_start[v]);
+                                                              &spokes[spoke_start[v]], &spoke_next[spoke_start[v]],
+                                                              spoke_start[v + 1] - spoke_start[v]);
     }
     // Do shell triangles a and b share a corner whose fan is certainly embedded (then they do not cross)?
     bool share_flat_fan(const std::array<uint32_t, 3>& a, const std::array<uint32_t, 3>& b) const {

@@ -437,6 +437,11 @@ public:
         leaf_boxes_.clear();
         leaf_first_.clear();
         if (nodes_.empty()) return;
+        size_t leaves = 0;
+        for (const Node& n : nodes_) leaves += n.count > 0;
+        wide_.reserve(leaves); // at most one a binary inner node: grown in place (no copies of the 384-byte nodes)
+        leaf_boxes_.reserve(leaves);
+        leaf_first_.reserve(leaves);
         wide_.emplace_back();
         if (nodes_[0].count > 0) {
             set_slot(0, 0, 0, 0);

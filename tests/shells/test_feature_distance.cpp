@@ -371,7 +371,9 @@ TEST(crossing_fans, CertifiedFansHaveNoCrossingPair) {
                 crosses = crosses || cross;
             }
         ASSERT_FALSE(ok && crosses) << "trial " << trial << " (kind " << kind << ", " << n << " spokes): certified a fan that crosses itself";
-        if (kind == 7) ASSERT_FALSE(ok) << "trial " << trial << ": an open or repeated fan";
+        if (kind == 7) {
+            ASSERT_FALSE(ok) << "trial " << trial << ": an open or repeated fan";
+        }
         certified += ok;
         crossing += crosses;
         if (kind == 0) gentle_certified += ok, ++gentle;
