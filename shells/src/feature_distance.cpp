@@ -512,6 +512,22 @@ struct CrossingTest::State {
                                                               &spokes[spoke_start[v]], &spoke_next[spoke_start[v]],
                                                               spoke_start[v + 1] - spoke_start[v]);
     }
+    // Every fan (touched_face null: the first run), or those whose shell points moved: every corner of a
+    // rebuilt face (touched_face).
+    void certify_fans(const std::vector<uint8_t>* touched_face) {
+        if (!touched_face) {
+            tbb::parallel_for(tbb::blocked_range<uint32_t>(0, uint32_t(W), 1024), [&](const tbb::blocked_range<uint32_t>& r) {
+                for (uint32_t v = r.begin(); v != r.end(); ++v) certify_fan(v);
+            });
+            return;
+        }
+        std::vector<uint8_t> again(W, 0);
+        for (size_t f = 0; f < T; ++f)
+            if ((*touched_face)[f])
+                for (uint32_t v : ix.triangles[f]) again[v] = 1;
+        for (uint32_t v = 0; v < W; ++v)
+            if (again[v]) certify_fan(v);
+    }
     // Do shell triangles a and b share a corner whose fan is certainly embedded (then they do not cross)?
     bool share_flat_fan(const std::array<uint32_t, 3>& a, const std::array<uint32_t, 3>& b) const {
         bool apart = false; // without branches: which corners are shared is a coin toss to the predictor
@@ -668,19 +684,7 @@ size_t CrossingTest::run(uint8_t* hit, const std::vector<double>& shell, const s
         if (st.is_shell[f]) touched.push_back(uint32_t(f));
     }
     if (touched.empty()) return 0;
-    // The fans whose shell points moved: every corner of a rebuilt face.
-    if (changed) {
-        std::vector<uint8_t> again(W, 0);
-        for (size_t f = 0; f < T; ++f)
-            if (touched_face[f])
-                for (uint32_t v : triangles[f]) again[v] = 1;
-        for (uint32_t v = 0; v < W; ++v)
-            if (again[v]) st.certify_fan(v);
-    } else {
-        tbb::parallel_for(tbb::blocked_range<uint32_t>(0, uint32_t(W), 1024), [&](const tbb::blocked_range<uint32_t>& r) {
-            for (uint32_t v = r.begin(); v != r.end(); ++v) st.certify_fan(v);
-        });
-    }
+    st.certify_fans(changed ? &touched_face : nullptr);
     st.shells.refit(st.sbox);
     const BoxBvh& shells = st.shells;
 
