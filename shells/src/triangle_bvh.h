@@ -197,12 +197,9 @@ public:
             Node& n = nodes_[i];
             n.box = Box3{};
             if (n.count > 0) {
+                for (uint32_t j = n.first; j < n.first + n.count; ++j) n.box.add(boxes_[j]);
                 block_of_node_[i] = uint32_t(pair_blocks_.size());
-                LeafBoxes& b = pair_blocks_.emplace_back();
-                for (uint32_t j = n.first; j < n.first + n.count; ++j) {
-                    n.box.add(boxes_[j]);
-                    for (int k = 0; k < 3; ++k) b.lo[k][j - n.first] = boxes_[j].lo[k], b.hi[k][j - n.first] = boxes_[j].hi[k];
-                }
+                pair_blocks_.push_back(leaf_block(n));
             } else {
                 n.box.add(nodes_[n.first].box), n.box.add(nodes_[n.first + 1].box);
             }
@@ -689,11 +686,16 @@ private:
         double hi[3][4] = {{-HUGE_VAL, -HUGE_VAL, -HUGE_VAL, -HUGE_VAL}, {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL, -HUGE_VAL}, {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL, -HUGE_VAL}};
     };
     static_assert(kLeaf <= 4, "a leaf's boxes fill one LeafBoxes");
-    // Binary leaf node c's boxes as a new leaf block; its index.
-    uint32_t add_leaf_block(const Node& c) {
-        LeafBoxes& b = leaf_boxes_.emplace_back();
+    // Binary leaf node c's boxes side by side.
+    LeafBoxes leaf_block(const Node& c) const {
+        LeafBoxes b;
         for (uint32_t i = 0; i < c.count; ++i)
             for (int k = 0; k < 3; ++k) b.lo[k][i] = boxes_[c.first + i].lo[k], b.hi[k][i] = boxes_[c.first + i].hi[k];
+        return b;
+    }
+    // Binary leaf node c's boxes as a new leaf block of the wide nodes; its index.
+    uint32_t add_leaf_block(const Node& c) {
+        leaf_boxes_.push_back(leaf_block(c));
         leaf_first_.push_back(c.first);
         return uint32_t(leaf_boxes_.size() - 1);
     }
