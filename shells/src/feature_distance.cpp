@@ -461,7 +461,7 @@ struct CrossingTest::State {
     std::vector<std::array<uint32_t, 3>> stri;      // per face: its shell triangle
     std::vector<uint8_t> is_shell;                  // per face: has a moving corner and is not collinear
     std::vector<Box3> sbox;                         // per face: the shell triangle's box (empty if none)
-    std::vector<uint32_t> spoke_start;              // vertex -> its spokes (CSR)
+    const uint32_t* ring_start;                     // vertex -> its faces (CSR, the caller's): and its spokes
     std::vector<std::array<uint32_t, 2>> spokes;    // per face around a vertex: its two other corners, in winding order
     std::vector<uint8_t> spoke_next;                // per spoke: the spoke that follows it (spokes_close)
     std::vector<uint8_t> fan_closes;                // per vertex: its spokes close into a fan (spokes_close)
@@ -472,7 +472,8 @@ struct CrossingTest::State {
     // serves the shell without a second build (one tree holding both would have boxes as tall as the fur).
     BoxBvh shells;
 
-    explicit State(const SurfaceIndex::Impl& index) : ix(index), W(index.points.size() / 3), T(index.triangles.size()) {
+    State(const SurfaceIndex::Impl& index, const uint32_t* rings, const uint32_t* ring_faces)
+        : ix(index), W(index.points.size() / 3), T(index.triangles.size()), ring_start(rings) {
         pts.resize(2 * W);
         for (size_t v = 0; v < W; ++v)
             pts[v] = pts[W + v] = Exact::Point_3(ix.points[3 * v], ix.points[3 * v + 1], ix.points[3 * v + 2]);
@@ -488,18 +489,17 @@ struct CrossingTest::State {
         sbox.resize(T);
         shells.take_shape(ix.bvh); // refitted by run, to the shell boxes
         // Each vertex's spokes (its faces' other corners, in their winding), kept where they close into a fan.
-        spoke_start.assign(W + 1, 0);
-        for (const auto& t : ix.triangles)
-            for (uint32_t v : t) ++spoke_start[v + 1];
-        for (size_t v = 0; v < W; ++v) spoke_start[v + 1] += spoke_start[v];
-        spokes.resize(spoke_start[W]);
-        std::vector<uint32_t> fill(spoke_start.begin(), spoke_start.end() - 1);
-        for (const auto& t : ix.triangles)
-            for (size_t k = 0; k < 3; ++k) spokes[fill[t[k]]++] = {t[(k + 1) % 3], t[(k + 2) % 3]};
+        spokes.resize(ring_start[W]);
+        for (uint32_t v = 0; v < W; ++v)
+            for (uint32_t i = ring_start[v]; i < ring_start[v + 1]; ++i) {
+                const auto& t = ix.triangles[ring_faces[i]];
+                const size_t at = t[0] == v ? 0 : t[1] == v ? 1 : 2;
+                spokes[i] = {t[(at + 1) % 3], t[(at + 2) % 3]};
+            }
         fan_closes.resize(W);
         spoke_next.resize(spokes.size());
         for (uint32_t v = 0; v < W; ++v)
-            fan_closes[v] = spokes_close(v, &spokes[spoke_start[v]], spoke_start[v + 1] - spoke_start[v], &spoke_next[spoke_start[v]]);
+            fan_closes[v] = spokes_close(v, &spokes[ring_start[v]], ring_start[v + 1] - ring_start[v], &spoke_next[ring_start[v]]);
         flat_fan.assign(W, 0);
         slot.resize(T);
         const std::vector<uint32_t>& leaves = ix.bvh.leaf_order();
@@ -509,8 +509,8 @@ struct CrossingTest::State {
     // flat_fan[v]: the shell triangles around v's shell point form a certainly embedded fan.
     void certify_fan(uint32_t v) {
         flat_fan[v] = fan_closes[v] && fan_certainly_embedded([&](uint32_t u) -> const Exact::Point_3& { return pts[shell_id[u]]; }, v,
-                                                              &spokes[spoke_start[v]], &spoke_next[spoke_start[v]],
-                                                              spoke_start[v + 1] - spoke_start[v]);
+                                                              &spokes[ring_start[v]], &spoke_next[ring_start[v]],
+                                                              ring_start[v + 1] - ring_start[v]);
     }
     // Every fan (touched_face null: the first run), or those whose shell points moved: every corner of a
     // rebuilt face (touched_face).
@@ -656,7 +656,8 @@ struct CrossingTest::State {
     }
 };
 
-CrossingTest::CrossingTest(const SurfaceIndex& index) : state_(std::make_unique<State>(index.impl())) {}
+CrossingTest::CrossingTest(const SurfaceIndex& index, const uint32_t* ring_start, const uint32_t* ring_faces)
+    : state_(std::make_unique<State>(index.impl(), ring_start, ring_faces)) {}
 CrossingTest::~CrossingTest() = default;
 
 size_t CrossingTest::run(uint8_t* hit, const std::vector<double>& shell, const std::vector<uint8_t>& moving,

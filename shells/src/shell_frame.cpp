@@ -674,7 +674,7 @@ void verify_crossings(Growth& gr, const WeldedSurface& s, const shells_detail::S
     auto& H = gr.H;
     auto& flags = gr.flags;
     std::vector<double> top(3 * W);
-    shells_detail::CrossingTest crossing(index);
+    shells_detail::CrossingTest crossing(index, s.start.data(), s.vf.data());
     std::vector<double> last_h(H);
     std::vector<uint8_t> changed, need(W), halved(W, 0), moving(W), hit(W);
     constexpr int kMaxHalvings = 6;

@@ -152,7 +152,8 @@ bool witness_takes(const std::vector<double>& points, const std::vector<std::arr
 // the pair when it is tested alone.
 class CrossingTest {
 public:
-    explicit CrossingTest(const SurfaceIndex& index);
+    // ring_start/ring_faces: CSR vertex -> incident triangles (as owned_lengths takes), read by run().
+    CrossingTest(const SurfaceIndex& index, const uint32_t* ring_start, const uint32_t* ring_faces);
     ~CrossingTest();
     CrossingTest(const CrossingTest&) = delete;
     CrossingTest& operator=(const CrossingTest&) = delete;

@@ -37,6 +37,24 @@ struct TriSoup {
     std::vector<std::array<uint32_t, 3>> triangles;
 };
 
+// Vertex -> incident triangles (CSR, faces in increasing order), as compute_shell_frame hands the queries.
+struct Rings {
+    std::vector<uint32_t> start, faces;
+};
+Rings rings_of(const TriSoup& m) {
+    const size_t W = m.points.size() / 3;
+    Rings r;
+    r.start.assign(W + 1, 0);
+    for (const auto& t : m.triangles)
+        for (uint32_t v : t) ++r.start[v + 1];
+    for (size_t v = 0; v < W; ++v) r.start[v + 1] += r.start[v];
+    r.faces.resize(r.start[W]);
+    std::vector<uint32_t> fill(r.start.begin(), r.start.end() - 1);
+    for (size_t f = 0; f < m.triangles.size(); ++f)
+        for (uint32_t v : m.triangles[f]) r.faces[fill[v]++] = uint32_t(f);
+    return r;
+}
+
 // A primitive's triangles on its welded positions (exact weld), faces with a repeated corner left out.
 TriSoup from_primitive(Primitive p) {
     if (!p.face_sizes.empty()) triangulate(p);
@@ -195,7 +213,8 @@ template <class Offset>
 size_t run_crossings(const TriSoup& m, Offset offset, std::vector<uint8_t>& hit, std::vector<uint8_t>& halvings) {
     const size_t W = m.points.size() / 3;
     const shells_detail::SurfaceIndex index(m.points, m.triangles);
-    shells_detail::CrossingTest crossing(index);
+    const Rings rings = rings_of(m);
+    shells_detail::CrossingTest crossing(index, rings.start.data(), rings.faces.data());
     std::vector<double> shell(m.points);
     std::vector<uint8_t> moving(W, 0);
     for (size_t v = 0; v < W; ++v) {
@@ -389,14 +408,8 @@ TEST(coherent_order, ABatchAnswersEachQueryAsAlone) {
     const TriSoup m = from_primitive(shapes::torus(1.0f, 0.3f, 48, 24));
     const shells_detail::SurfaceIndex index(m.points, m.triangles);
     const size_t W = m.points.size() / 3;
-    std::vector<uint32_t> start(W + 1, 0), faces;
-    for (const auto& t : m.triangles)
-        for (uint32_t v : t) ++start[v + 1];
-    for (size_t v = 0; v < W; ++v) start[v + 1] += start[v];
-    faces.resize(start[W]);
-    std::vector<uint32_t> fill(start.begin(), start.end() - 1);
-    for (size_t f = 0; f < m.triangles.size(); ++f)
-        for (uint32_t v : m.triangles[f]) faces[fill[v]++] = uint32_t(f);
+    const Rings rings = rings_of(m);
+    const std::vector<uint32_t>&start = rings.start, &faces = rings.faces;
     // Every vertex (in reverse, so that query order and vertex order differ), along a random direction.
     uint64_t seed = 5;
     std::vector<uint32_t> qv;
