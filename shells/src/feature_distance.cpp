@@ -530,9 +530,12 @@ struct CrossingTest::State {
     }
     // Do shell triangles a and b share a corner whose fan is certainly embedded (then they do not cross)?
     bool share_flat_fan(const std::array<uint32_t, 3>& a, const std::array<uint32_t, 3>& b) const {
-        bool apart = false; // without branches: which corners are shared is a coin toss to the predictor
-        for (uint32_t id : a) apart |= ((id == b[0]) | (id == b[1]) | (id == b[2])) & bool(flat_fan[id >= W ? id - W : id]);
-        return apart;
+        unsigned apart = 0; // without branches: which corners are shared is a coin toss to the predictor
+        for (uint32_t id : a) {
+            const unsigned shared = unsigned(id == b[0]) | unsigned(id == b[1]) | unsigned(id == b[2]);
+            apart |= shared & flat_fan[id >= W ? id - W : id];
+        }
+        return apart != 0;
     }
     Box3 box_of_ids(const std::array<uint32_t, 3>& t) const {
         Box3 box;
