@@ -132,12 +132,12 @@ bool certainly_apart_by_planes(const std::vector<Exact::Point_3>& pts, const std
     return off_one_side(b, a, side_a) || off_one_side(a, b, kernel::CertainSide(pts[b[0]], pts[b[1]], pts[b[2]]));
 }
 
-// Do the spokes (a_i, b_i), i < n (the corners after c of each triangle (c, a_i, b_i) around c, in the mesh's
-// winding) close into a fan: no corner is c, every a_i is distinct, every b_i is distinct and each a_i is some b_j?
-// Then a_i -> b_i is a permutation of the ring (one or more cycles). Topology only: checked once per vertex.
 // The most triangles a certified fan may have (the checks are quadratic in them; a mesh's fans have about 6).
 constexpr size_t kMaxFan = 32;
 
+// Do the spokes (a_i, b_i), i < n (the corners after c of each triangle (c, a_i, b_i) around c, in the mesh's
+// winding) close into a fan: no corner is c, every a_i is distinct, every b_i is distinct and each a_i is some b_j?
+// Then a_i -> b_i is a permutation of the ring (one or more cycles). Topology only: checked once per vertex.
 // next[i]: the spoke j whose a_j is b_i (where they close).
 bool spokes_close(uint32_t c, const std::array<uint32_t, 2>* spokes, size_t n, uint8_t* next) {
     if (n < 3 || n > kMaxFan) return false;
