@@ -531,9 +531,9 @@ private:
     }
 
     // The paired descent below node pair xy: every primitive pair whose boxes overlap to leaf(a, b, i, j) (i, j:
-    // their positions in the leaf order). A child
-    // pair is tested before it is stacked, so the stack (on the frame: a step replaces one pair by at most
-    // four and goes one level down in at least one tree, so 3 x (both depths) + 1 entries suffice) holds only
+    // their positions in the leaf order); two leaves that both have blocks (refit) go to leaf_pair. A child pair
+    // is tested before it is stacked, so the stack (on the frame: a step replaces one pair by at most four and
+    // goes one level down in at least one tree, so 3 x (both depths) + 1 entries suffice) holds only
     // overlapping pairs. Stanford bunny's crossing test (callgrind, `furrow -j 1 -q shells --layers 2
     // --length 0.003`): 394 k node pairs were stacked and popped, 235 k of them overlapping; verify_crossings
     // 312.6 -> 298.5 M instructions.
