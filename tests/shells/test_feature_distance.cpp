@@ -438,49 +438,95 @@ TEST(coherent_order, ABatchAnswersEachQueryAsAlone) {
     EXPECT_GT(clamped, n / 20); // the bisection ran, not only the first test
 }
 
-// BoxBvh::build splits on an array of (box centre, id) instead of on the ids with their centres looked up:
-// the same tree, leaf for leaf (the clamps' searches report the first face they meet, so the tree's order is
-// part of their answer). Held to the split on ids alone (the previous build, as a reference), on random boxes
-// with many ties (centres on a coarse grid).
-TEST(box_bvh, BuildsTheTreeTheIdsAloneGave) {
+// BoxBvh::build (binned SAH down to kSahDepth, median below) depends on nothing but the input (the clamps'
+// searches report the first face they meet, so the tree's order is part of their answer): the same boxes give
+// the same leaf order, which holds every box once, and every box is found by a query on itself (the
+// bottom-up node boxes hold their leaves). Random boxes with many ties (centres on a coarse grid), and a
+// grid where every centre is the same (no bin boundary to split at: the median split alone).
+TEST(box_bvh, BuildIsDeterminedByTheInput) {
     using shells_detail::Box3;
     uint64_t seed = 31;
     for (size_t n : {1u, 3u, 4u, 5u, 17u, 1000u, 4099u}) {
-        std::vector<Box3> boxes(n);
-        for (Box3& b : boxes) {
-            double lo[3], hi[3];
-            for (int k = 0; k < 3; ++k) lo[k] = double(splitmix64(seed) % 16), hi[k] = lo[k] + double(splitmix64(seed) % 3);
-            b.add(lo), b.add(hi);
+        for (bool same_centre : {false, true}) {
+            std::vector<Box3> boxes(n);
+            for (Box3& b : boxes) {
+                double lo[3], hi[3];
+                for (int k = 0; k < 3; ++k) {
+                    const double half = double(splitmix64(seed) % 3);
+                    lo[k] = (same_centre ? 8.0 : double(splitmix64(seed) % 16)) - half, hi[k] = lo[k] + 2 * half;
+                }
+                b.add(lo), b.add(hi);
+            }
+            shells_detail::BoxBvh a, b;
+            a.build(boxes);
+            b.build(std::vector<Box3>(boxes));
+            EXPECT_EQ(a.leaf_order(), b.leaf_order()) << n << " boxes";
+            std::vector<uint32_t> ids = a.leaf_order();
+            std::sort(ids.begin(), ids.end());
+            ASSERT_EQ(ids.size(), n);
+            for (uint32_t i = 0; i < n; ++i) ASSERT_EQ(ids[i], i);
+            for (uint32_t i = 0; i < n; ++i) {
+                bool found = false;
+                a.for_overlapping(boxes[i], [&](uint32_t f) { found = found || f == i; });
+                ASSERT_TRUE(found) << i;
+            }
         }
-        shells_detail::BoxBvh bvh;
-        bvh.build(boxes);
-        // The reference: median split along the longest extent of the centres, ties by id, leaves of 4.
-        std::vector<uint32_t> ids(n);
-        for (uint32_t i = 0; i < n; ++i) ids[i] = i;
-        auto centre = [&](uint32_t i, int k) { return 0.5 * (boxes[i].lo[k] + boxes[i].hi[k]); };
-        std::function<void(uint32_t, uint32_t)> split = [&](uint32_t begin, uint32_t end) {
-            if (end - begin <= 4) return;
-            double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
-            for (uint32_t j = begin; j < end; ++j)
-                for (int k = 0; k < 3; ++k) lo[k] = std::min(lo[k], centre(ids[j], k)), hi[k] = std::max(hi[k], centre(ids[j], k));
-            int axis = 0;
-            for (int k = 1; k < 3; ++k)
-                if (hi[k] - lo[k] > hi[axis] - lo[axis]) axis = k;
-            const uint32_t mid = begin + (end - begin) / 2;
-            std::nth_element(ids.begin() + begin, ids.begin() + mid, ids.begin() + end, [&](uint32_t a, uint32_t b) {
-                const double ca = centre(a, axis), cb = centre(b, axis);
-                return ca < cb || (ca == cb && a < b);
-            });
-            split(begin, mid);
-            split(mid, end);
-        };
-        split(0, uint32_t(n));
-        EXPECT_EQ(bvh.leaf_order(), ids) << n << " boxes";
-        // Every box is found by a query on itself (the bottom-up node boxes hold their leaves).
+    }
+}
+
+// The surface area heuristic can split one box off at a time (boxes doubling in size and distance: every
+// bin boundary but the last few leaves one side nearly empty), so the build falls back to the median below
+// kSahDepth: the depth, and with it every descent's stack, stays bounded. 400 boxes at x = 2^(i/2), each
+// descent (box, ray, nearest on binary and wide nodes, the paired one) meets what it should (ASan would
+// report a stack overflow).
+TEST(box_bvh, SkewedBoxesStayWithinTheStacks) {
+    using shells_detail::Box3;
+    const size_t n = 400;
+    std::vector<Box3> boxes(n);
+    for (size_t i = 0; i < n; ++i) {
+        const double x = std::ldexp(1.0, int(i / 2)) * (i % 2 ? 1.5 : 1.0);
+        const double lo[3] = {x, 0, 0}, hi[3] = {2 * x, 1, 1};
+        boxes[i].add(lo), boxes[i].add(hi);
+    }
+    shells_detail::BoxBvh bvh;
+    bvh.build(boxes);
+    EXPECT_GT(bvh.depth(), 24); // a balanced tree of 400 boxes has 8 levels: the heuristic peeled boxes off
+    EXPECT_LE(bvh.depth(), shells_detail::BoxBvh::kMaxDepth);
+    // The searches (boxes grown by a margin of 1e-9 of the extent: they meet more than these boxes overlap)
+    // meet every box they should.
+    auto contains = [](std::vector<uint32_t> v, uint32_t i) { return std::find(v.begin(), v.end(), i) != v.end(); };
+    for (uint32_t i = 0; i < n; ++i) {
+        std::vector<uint32_t> found;
+        bvh.for_overlapping(boxes[i], [&](uint32_t f) { found.push_back(f); });
+        for (uint32_t j = 0; j < n; ++j) {
+            if (boxes[j].overlaps(boxes[i])) {
+                ASSERT_TRUE(contains(found, j)) << i << " " << j;
+            }
+        }
+    }
+    std::vector<std::pair<uint32_t, uint32_t>> pairs;
+    bvh.overlapping_pairs(bvh, [](uint32_t a, uint32_t b, uint32_t, uint32_t, std::vector<std::pair<uint32_t, uint32_t>>& list) {
+        list.emplace_back(std::min(a, b), std::max(a, b));
+    }, pairs);
+    std::sort(pairs.begin(), pairs.end());
+    for (uint32_t a = 0; a + 1 < n; ++a) {
+        if (boxes[a].overlaps(boxes[a + 1])) {
+            ASSERT_TRUE(std::binary_search(pairs.begin(), pairs.end(), std::make_pair(a, a + 1))) << a;
+        }
+    }
+    for (bool wide : {false, true}) {
+        if (wide) bvh.widen();
         for (uint32_t i = 0; i < n; ++i) {
-            bool found = false;
-            bvh.for_overlapping(boxes[i], [&](uint32_t f) { found = found || f == i; });
-            ASSERT_TRUE(found) << i;
+            const double p[3] = {boxes[i].lo[0], 0.5, 0.5};
+            double r2 = 1e-6;
+            std::vector<uint32_t> met;
+            bvh.for_near(p, r2, [&](uint32_t f, double&) { met.push_back(f); return false; });
+            ASSERT_TRUE(contains(met, i)) << i << (wide ? " (wide)" : "");
+            const double o[3] = {p[0], -1.0, 0.5}, d[3] = {0, 1, 0};
+            double t_max = HUGE_VAL;
+            std::vector<uint32_t> hit;
+            bvh.for_ray(o, d, t_max, [&](uint32_t f, double&) { hit.push_back(f); });
+            ASSERT_TRUE(contains(hit, i)) << i << (wide ? " (wide)" : "");
         }
     }
 }
