@@ -413,6 +413,24 @@ struct SurfaceIndex::Impl {
             return true;
         });
     }
+    // any_within(x, r2(), witness, skip, skip_end) for a caller that knows a bound >= r2() but would rather
+    // not compute r2() (owned_lengths: it takes a distance to each of a vertex's faces): the search runs within
+    // the bound, and r2() is asked for (once) when a face comes within the bound. The faces met within r2() are
+    // those any_within meets, in the same order (the descent is ordered by box distances, which r2 only
+    // prunes): the same answer and witness.
+    template <class R2>
+    bool any_within_bounded(const Point& x, double bound, R2&& r2, uint32_t* witness, const uint32_t* skip, const uint32_t* skip_end) const {
+        const double p[3] = {x.x(), x.y(), x.z()};
+        const double r = std::sqrt(bound) * (1 + 1e-12);
+        double exact = -1;
+        return bvh.for_near(p, bound, [&](uint32_t f, double&, uint32_t j) {
+            if (!within(planes[j], f, x, p, r, bound, skip, skip_end)) return false;
+            if (exact < 0) exact = r2();
+            if (!(squared_distance_to(x, tris[f]) < exact)) return false;
+            *witness = f;
+            return true;
+        });
+    }
     // Squared distance from x (= p) to triangle f below r2 (r: sqrt(r2), rounded up), f not in [skip, skip_end)?
     // Its plane first, then the list (a caller's own faces mostly pass the plane test: it is the cheaper
     // filter), then the distance.
@@ -933,8 +951,21 @@ void owned_lengths(double* out, const SurfaceIndex& index, const uint32_t* ring_
                 const uint32_t* own_end = ratio <= 1 ? ring_faces + ring_start[v + 1] : own_begin;
                 return !ix.any_within(x, r2, &witness, own_begin, own_end);
             };
+            // The first test, at the full length (own faces not prepared yet: most vertices need nothing more),
+            // searches within ratio² × the squared distance to v's first own face, a bound on owned_r2 (with
+            // 1e-12 to spare for rounding), and measures the other own faces only if a face comes within it:
+            // the same answer and witness as owned(t). Bunny callgrind (`furrow -j 1 -q shells --layers 2
+            // --length 0.004`): owned_lengths 256.9 -> 221.9 M instructions; stage timer 46.1-49.3 -> 45.3-45.9 ms.
+            auto owned_first = [&](double t) {
+                const Point x = p + t * d;
+                const double first = own_count ? squared_distance_to(x, ix.tris[ring_faces[ring_start[v]]]) : HUGE_VAL;
+                if (!(first < HUGE_VAL)) return owned(t);
+                const uint32_t* own_begin = ring_faces + ring_start[v];
+                const uint32_t* own_end = ratio <= 1 ? ring_faces + ring_start[v + 1] : own_begin;
+                return !ix.any_within_bounded(x, ratio * ratio * first * (1 + 1e-12), [&] { return owned_r2(x); }, &witness, own_begin, own_end);
+            };
             const double h = lengths[q];
-            if (!(h > 0) || owned(h)) {
+            if (!(h > 0) || owned_first(h)) {
                 out[q] = h;
                 continue;
             }

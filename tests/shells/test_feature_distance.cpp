@@ -438,6 +438,61 @@ TEST(coherent_order, ABatchAnswersEachQueryAsAlone) {
     EXPECT_GT(clamped, n / 20); // the bisection ran, not only the first test
 }
 
+// owned_lengths against its definition, over every face: a length is kept whole exactly where no other face
+// comes nearer to x = p + h·d than `ratio` × x's distance to v's own faces, and a clamped length ends where x
+// is still owned. The first test searches within a bound from one own face and measures the others only when
+// a face comes within it (any_within_bounded): held here to the distances to all faces (CGAL's, whose bits the
+// clamp's own distance reproduces). A torus (inner corners: the hole) with random directions and lengths.
+TEST(owned_lengths, KeepsExactlyTheLengthsEveryFaceAllows) {
+    using K = CGAL::Simple_cartesian<double>;
+    const TriSoup m = from_primitive(shapes::torus(1.0f, 0.3f, 32, 16));
+    const shells_detail::SurfaceIndex index(m.points, m.triangles);
+    const size_t W = m.points.size() / 3;
+    const Rings rings = rings_of(m);
+    uint64_t seed = 17;
+    std::vector<uint32_t> qv;
+    std::vector<double> dirs, lengths;
+    for (uint32_t v = 0; v < W; ++v) {
+        double d[3], len = 0;
+        for (double& x : d) x = 2 * unit_uniform(seed) - 1, len += x * x;
+        len = std::sqrt(len);
+        qv.push_back(v);
+        dirs.insert(dirs.end(), {d[0] / len, d[1] / len, d[2] / len});
+        lengths.push_back(0.6 * unit_uniform(seed));
+    }
+    const double ratio = 0.98;
+    std::vector<double> out(qv.size(), -1);
+    shells_detail::owned_lengths(out.data(), index, rings.start.data(), rings.faces.data(), qv.data(), dirs.data(), lengths.data(), ratio,
+                                 qv.size());
+    auto tri = [&](uint32_t f) {
+        auto pt = [&](uint32_t v) { return K::Point_3(m.points[3 * v], m.points[3 * v + 1], m.points[3 * v + 2]); };
+        return K::Triangle_3(pt(m.triangles[f][0]), pt(m.triangles[f][1]), pt(m.triangles[f][2]));
+    };
+    auto owned_at = [&](size_t q, double t) {
+        const uint32_t v = qv[q];
+        const K::Point_3 x = K::Point_3(m.points[3 * v], m.points[3 * v + 1], m.points[3 * v + 2]) +
+                             t * K::Vector_3(dirs[3 * q], dirs[3 * q + 1], dirs[3 * q + 2]);
+        double own = HUGE_VAL, other = HUGE_VAL;
+        const uint32_t* begin = &rings.faces[rings.start[v]];
+        const uint32_t* end = &rings.faces[0] + rings.start[v + 1];
+        for (uint32_t f = 0; f < m.triangles.size(); ++f) {
+            double& nearest = std::find(begin, end, f) != end ? own : other;
+            nearest = std::min(nearest, CGAL::squared_distance(x, tri(f)));
+        }
+        return !(other < ratio * ratio * own);
+    };
+    size_t whole = 0, clamped = 0;
+    for (size_t q = 0; q < qv.size(); ++q) {
+        const bool kept = out[q] == lengths[q];
+        ASSERT_EQ(kept, owned_at(q, lengths[q])) << "vertex " << qv[q];
+        ASSERT_TRUE(owned_at(q, out[q])) << "vertex " << qv[q];
+        ASSERT_LE(out[q], lengths[q]);
+        whole += kept, clamped += !kept;
+    }
+    EXPECT_GT(whole, qv.size() / 4);
+    EXPECT_GT(clamped, qv.size() / 20);
+}
+
 // BoxBvh::build (binned SAH down to kSahDepth, median below) depends on nothing but the input (the clamps'
 // searches report the first face they meet, so the tree's order is part of their answer): the same boxes give
 // the same leaf order, which holds every box once, and every box is found by a query on itself (the
