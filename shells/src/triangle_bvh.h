@@ -604,6 +604,7 @@ private:
     }
     static constexpr int kBins = 16;
     static constexpr int kSahDepth = 24;
+    static_assert(kMaxDepth >= kSahDepth + 31, "below kSahDepth, median splits of at most 2^32 primitives into leaves of kLeaf");
     // The split of keyed[begin, end) along the longest axis of the centres' box (centres) that the surface area
     // heuristic prefers: the centres binned in kBins slabs, each bin boundary costed as left area × left count
     // + right area × right count, and the primitives partitioned at the cheapest (in place; mid its end).
