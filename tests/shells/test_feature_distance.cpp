@@ -55,6 +55,26 @@ Rings rings_of(const TriSoup& m) {
     return r;
 }
 
+// One query per vertex (vertex order, or reversed), along a random unit direction, with a random length below
+// max_length: the per-vertex clamps' input.
+struct VertexQueries {
+    std::vector<uint32_t> vertex;
+    std::vector<double> dirs, lengths;
+};
+VertexQueries vertex_queries(size_t W, uint64_t seed, double max_length, bool reversed) {
+    VertexQueries q;
+    for (size_t k = 0; k < W; ++k) {
+        const uint32_t v = uint32_t(reversed ? W - 1 - k : k);
+        double d[3], len = 0;
+        for (double& x : d) x = 2 * unit_uniform(seed) - 1, len += x * x;
+        len = std::sqrt(len);
+        q.vertex.push_back(v);
+        q.dirs.insert(q.dirs.end(), {d[0] / len, d[1] / len, d[2] / len});
+        q.lengths.push_back(max_length * unit_uniform(seed));
+    }
+    return q;
+}
+
 // A primitive's triangles on its welded positions (exact weld), faces with a repeated corner left out.
 TriSoup from_primitive(Primitive p) {
     if (!p.face_sizes.empty()) triangulate(p);
@@ -411,17 +431,9 @@ TEST(coherent_order, ABatchAnswersEachQueryAsAlone) {
     const Rings rings = rings_of(m);
     const std::vector<uint32_t>&start = rings.start, &faces = rings.faces;
     // Every vertex (in reverse, so that query order and vertex order differ), along a random direction.
-    uint64_t seed = 5;
-    std::vector<uint32_t> qv;
-    std::vector<double> dirs, lengths;
-    for (uint32_t v = uint32_t(W); v-- > 0;) {
-        double d[3], len = 0;
-        for (double& x : d) x = 2 * unit_uniform(seed) - 1, len += x * x;
-        len = std::sqrt(len);
-        qv.push_back(v);
-        dirs.insert(dirs.end(), {d[0] / len, d[1] / len, d[2] / len});
-        lengths.push_back(0.8 * unit_uniform(seed));
-    }
+    const VertexQueries vq = vertex_queries(W, 5, 0.8, true);
+    const std::vector<uint32_t>& qv = vq.vertex;
+    const std::vector<double>&dirs = vq.dirs, &lengths = vq.lengths;
     const size_t n = qv.size();
     std::vector<double> owned(n, -1), rays(n, -1);
     shells_detail::owned_lengths(owned.data(), index, start.data(), faces.data(), qv.data(), dirs.data(), lengths.data(), 0.98, n);
@@ -449,17 +461,9 @@ TEST(owned_lengths, KeepsExactlyTheLengthsEveryFaceAllows) {
     const shells_detail::SurfaceIndex index(m.points, m.triangles);
     const size_t W = m.points.size() / 3;
     const Rings rings = rings_of(m);
-    uint64_t seed = 17;
-    std::vector<uint32_t> qv;
-    std::vector<double> dirs, lengths;
-    for (uint32_t v = 0; v < W; ++v) {
-        double d[3], len = 0;
-        for (double& x : d) x = 2 * unit_uniform(seed) - 1, len += x * x;
-        len = std::sqrt(len);
-        qv.push_back(v);
-        dirs.insert(dirs.end(), {d[0] / len, d[1] / len, d[2] / len});
-        lengths.push_back(0.6 * unit_uniform(seed));
-    }
+    const VertexQueries vq = vertex_queries(W, 17, 0.6, false);
+    const std::vector<uint32_t>& qv = vq.vertex;
+    const std::vector<double>&dirs = vq.dirs, &lengths = vq.lengths;
     const double ratio = 0.98;
     std::vector<double> out(qv.size(), -1);
     shells_detail::owned_lengths(out.data(), index, rings.start.data(), rings.faces.data(), qv.data(), dirs.data(), lengths.data(), ratio,
