@@ -46,6 +46,10 @@
 #include <optional>
 #include <type_traits>
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 namespace furrow {
 namespace {
 
@@ -141,16 +145,31 @@ constexpr size_t kMaxFan = 32;
 // next[i]: the spoke j whose a_j is b_i (where they close).
 bool spokes_close(uint32_t c, const std::array<uint32_t, 2>* spokes, size_t n, uint8_t* next) {
     if (n < 3 || n > kMaxFan) return false;
-    bool ok = true; // counted without branches: a vertex's spokes are few, and which match is unpredictable
+    // Each spoke against all: the corners side by side (padded with an id no vertex has), four compared at once,
+    // the matches as bits (SSE2, the x86-64 baseline). Bunny callgrind (`furrow -j 1 -q shells --layers 2
+    // --length 0.004`), the crossing test's state: 46.1 -> 36.4 M instructions (spokes_close 31.4 -> 20.9 M).
+    alignas(16) uint32_t A[kMaxFan], B[kMaxFan];
+    const size_t lanes = (n + 3) & ~size_t(3);
+    for (size_t i = 0; i < lanes; ++i) A[i] = i < n ? spokes[i][0] : UINT32_MAX, B[i] = i < n ? spokes[i][1] : UINT32_MAX;
+    auto one = [](uint32_t m) { return m != 0 && (m & (m - 1)) == 0; };
+    bool ok = true; // decided without branches: which spokes match is unpredictable
     for (size_t i = 0; i < n; ++i) {
-        const auto [a, b] = spokes[i];
-        unsigned as = 0, bs = 0, closes = 0, at = 0;
-        for (size_t j = 0; j < n; ++j) {
-            as += spokes[j][0] == a, bs += spokes[j][1] == b, closes += spokes[j][1] == a;
-            at = spokes[j][0] == b ? unsigned(j) : at;
+        const uint32_t a = A[i], b = B[i];
+        uint32_t as = 0, bs = 0, closes = 0, at = 0; // bit j: a_j == a, b_j == b, b_j == a, a_j == b
+#if defined(__SSE2__)
+        const __m128i av = _mm_set1_epi32(int(a)), bv = _mm_set1_epi32(int(b));
+        auto bits = [](__m128i x, __m128i y) { return uint32_t(_mm_movemask_ps(_mm_castsi128_ps(_mm_cmpeq_epi32(x, y)))); };
+        for (size_t j = 0; j < lanes; j += 4) {
+            const __m128i x = _mm_load_si128(reinterpret_cast<const __m128i*>(&A[j]));
+            const __m128i y = _mm_load_si128(reinterpret_cast<const __m128i*>(&B[j]));
+            as |= bits(x, av) << j, bs |= bits(y, bv) << j, closes |= bits(y, av) << j, at |= bits(x, bv) << j;
         }
-        ok &= (a != c) & (b != c) & (a != b) & (as == 1) & (bs == 1) & (closes == 1);
-        next[i] = uint8_t(at);
+#else
+        for (size_t j = 0; j < n; ++j)
+            as |= uint32_t(A[j] == a) << j, bs |= uint32_t(B[j] == b) << j, closes |= uint32_t(B[j] == a) << j, at |= uint32_t(A[j] == b) << j;
+#endif
+        ok &= (a != c) & (b != c) & (a != b) & one(as) & one(bs) & one(closes);
+        next[i] = uint8_t(at ? 31 - __builtin_clz(at) : 0); // the spoke whose a is b (the only one, when the fan closes)
     }
     return ok;
 }
@@ -277,6 +296,11 @@ bool planes_rule_out(const std::vector<double>& points, const std::array<uint32_
     for (size_t v = 0; v < pts.size(); ++v) pts[v] = Exact::Point_3(points[3 * v], points[3 * v + 1], points[3 * v + 2]);
     if (crosses) *crosses = pair_intersects(pts, a, b);
     return certainly_apart_by_planes(pts, a, kernel::CertainSide(pts[a[0]], pts[a[1]], pts[a[2]]), b);
+}
+
+bool spokes_close_into_fan(uint32_t centre, const std::vector<std::array<uint32_t, 2>>& spokes, std::vector<uint8_t>& next) {
+    next.assign(spokes.size(), 0);
+    return spokes_close(centre, spokes.data(), spokes.size(), next.data());
 }
 
 bool fan_rules_out(const std::vector<double>& points, uint32_t centre, const std::vector<std::array<uint32_t, 2>>& spokes) {

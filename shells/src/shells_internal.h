@@ -133,6 +133,11 @@ bool planes_rule_out(const std::vector<double>& points, const std::array<uint32_
 // them cross. Exposed for the test that holds it to the full pair test.
 bool fan_rules_out(const std::vector<double>& points, uint32_t centre, const std::vector<std::array<uint32_t, 2>>& spokes);
 
+// Its topological half: do the spokes (a_i, b_i) around `centre` close into a fan (3 to 32 spokes, no corner
+// is the centre, the a_i distinct, the b_i distinct, each a_i some b_j)? next[i] receives the spoke j whose
+// a_j is b_i when they do. Exposed for the test that holds it to that definition.
+bool spokes_close_into_fan(uint32_t centre, const std::vector<std::array<uint32_t, 2>>& spokes, std::vector<uint8_t>& next);
+
 // owned_lengths' bisection test for one point x (xyz): is the witness face (an index into triangles) nearer
 // to x than `ratio` × x's distance to the faces `own`, with distances as CGAL's Simple_cartesian computes
 // them? *hint: where in `own` to start (updated). Exposed for the test that holds it to that definition.

@@ -422,6 +422,53 @@ TEST(crossing_fans, CertifiedFansHaveNoCrossingPair) {
     EXPECT_GT(gentle_certified, gentle * 9 / 10); // gently curved fans with wide enough sectors
 }
 
+// spokes_close (SSE2 compares) against its definition: random spoke sets around centre 0, most of them a
+// cyclic fan of 3 to 32 spokes (some with the centre, a repeated corner, a spoke removed or reversed, or two
+// fans together), others random pairs; next[i] checked where the fan closes.
+TEST(crossing_fans, SpokesCloseAsTheDefinition) {
+    uint64_t seed = 77;
+    size_t closed = 0, open = 0;
+    for (int trial = 0; trial < 20000; ++trial) {
+        const size_t n = 1 + splitmix64(seed) % 34;
+        std::vector<std::array<uint32_t, 2>> spokes;
+        if (splitmix64(seed) % 4) { // a fan: a permutation of ring corners 1..n, a_i -> b_i one cycle (or two)
+            std::vector<uint32_t> ring(n);
+            for (size_t i = 0; i < n; ++i) ring[i] = uint32_t(1 + i * 7);
+            for (size_t i = n; i > 1; --i) std::swap(ring[i - 1], ring[splitmix64(seed) % i]);
+            const size_t cut = splitmix64(seed) % 5 == 0 ? n / 2 : n; // two cycles
+            for (size_t i = 0; i < n; ++i) {
+                const size_t next = i < cut ? (i + 1 < cut ? i + 1 : 0) : (i + 1 < n ? i + 1 : cut);
+                spokes.push_back({ring[i], ring[next]});
+            }
+            switch (splitmix64(seed) % 8) {
+            case 0: spokes[splitmix64(seed) % n][splitmix64(seed) % 2] = 0; break;               // the centre
+            case 1: spokes[splitmix64(seed) % n][1] = spokes[splitmix64(seed) % n][0]; break;   // a repeat
+            case 2: spokes.erase(spokes.begin() + std::ptrdiff_t(splitmix64(seed) % n)); break; // open
+            case 3: std::swap(spokes[0][0], spokes[0][1]); break;                                // reversed
+            default: break;
+            }
+            for (size_t i = spokes.size(); i > 1; --i) std::swap(spokes[i - 1], spokes[splitmix64(seed) % i]);
+        } else {
+            for (size_t i = 0; i < n; ++i) spokes.push_back({uint32_t(splitmix64(seed) % 6), uint32_t(splitmix64(seed) % 6)});
+        }
+        // The definition.
+        const size_t m = spokes.size();
+        bool expected = m >= 3 && m <= 32;
+        for (size_t i = 0; i < m; ++i) {
+            const auto [a, b] = spokes[i];
+            size_t as = 0, bs = 0, closes = 0;
+            for (const auto& s : spokes) as += s[0] == a, bs += s[1] == b, closes += s[1] == a;
+            expected = expected && a != 0 && b != 0 && a != b && as == 1 && bs == 1 && closes == 1;
+        }
+        std::vector<uint8_t> next;
+        ASSERT_EQ(shells_detail::spokes_close_into_fan(0, spokes, next), expected) << "trial " << trial;
+        for (size_t i = 0; expected && i < m; ++i) ASSERT_EQ(spokes[next[i]][0], spokes[i][1]) << "trial " << trial;
+        closed += expected, open += !expected;
+    }
+    EXPECT_GT(closed, 5000u);
+    EXPECT_GT(open, 5000u);
+}
+
 // The per-vertex queries answer in a spatially coherent order (coherent_order): a batch answers every query as
 // that query alone does.
 TEST(coherent_order, ABatchAnswersEachQueryAsAlone) {
