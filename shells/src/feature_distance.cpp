@@ -448,9 +448,11 @@ struct SurfaceIndex::Impl {
         const double r = std::sqrt(bound) * (1 + 1e-12);
         double exact = -1;
         return bvh.for_near(p, bound, [&](uint32_t f, double&, uint32_t j) {
-            if (!within(planes[j], f, x, p, r, bound, skip, skip_end)) return false;
+            if (!may_be_within(planes[j], f, p, r, skip, skip_end)) return false;
+            const double d2 = squared_distance_to(x, tris[f]);
+            if (!(d2 < bound)) return false;
             if (exact < 0) exact = r2();
-            if (!(squared_distance_to(x, tris[f]) < exact)) return false;
+            if (!(d2 < exact)) return false;
             *witness = f;
             return true;
         });
@@ -460,11 +462,14 @@ struct SurfaceIndex::Impl {
     // filter), then the distance.
     bool within(const Plane& pl, uint32_t f, const Point& x, const double* p, double r, double r2, const uint32_t* skip = nullptr,
                 const uint32_t* skip_end = nullptr) const {
+        return may_be_within(pl, f, p, r, skip, skip_end) && squared_distance_to(x, tris[f]) < r2;
+    }
+    // within's filters: f's plane within r of p (within the rounding allowed), f not in [skip, skip_end).
+    static bool may_be_within(const Plane& pl, uint32_t f, const double* p, double r, const uint32_t* skip, const uint32_t* skip_end) {
         const double d[3] = {p[0] - pl.a[0], p[1] - pl.a[1], p[2] - pl.a[2]};
         const double plane = std::abs(pl.n[0] * d[0] + pl.n[1] * d[1] + pl.n[2] * d[2]);
         if (plane > r + pl.slack * (std::abs(d[0]) + std::abs(d[1]) + std::abs(d[2]))) return false;
-        if (std::find(skip, skip_end, f) != skip_end) return false;
-        return squared_distance_to(x, tris[f]) < r2;
+        return std::find(skip, skip_end, f) == skip_end;
     }
     // Squared distance from x to the mesh.
     double squared_distance(const Point& x) const {
