@@ -593,7 +593,8 @@ private:
     // A primitive's box centre and id, moved with it by the split: the partition reads its keys in order instead
     // of gathering them (on the 69k-triangle bunny, `perf record furrow -j 1 shells`, the split and the boxes
     // went from 5.0 % of the samples to 3.5 %).
-    // nth_element's moves depend only on its comparisons, so the tree is the one the ids alone gave.
+    // nth_element's and partition's moves depend only on their comparisons: the tree depends on nothing but the
+    // input.
     struct Keyed {
         double centre[3];
         uint32_t id;
