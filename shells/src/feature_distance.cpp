@@ -948,6 +948,10 @@ void owned_lengths(double* out, const SurfaceIndex& index, const uint32_t* ring_
             const Point p = ix.pt(v);
             const Vector d(dirs[3 * q], dirs[3 * q + 1], dirs[3 * q + 2]);
             const uint32_t own_count = ring_start[v + 1] - ring_start[v];
+            const uint32_t* own_begin = ring_faces + ring_start[v];
+            // The searches leave v's own faces out: they are no nearer than owned_r2 (ratio <= 1), which
+            // measured them.
+            const uint32_t* own_skip_end = ratio <= 1 ? own_begin + own_count : own_begin;
             own.clear(); // prepared once v is clamped (most vertices need one distance per own face)
             // Owned: no part of the mesh is nearer than `ratio` × the distance to v's own faces. v's own faces
             // are never nearer than that (ratio < 1), so "anything nearer?" with an early exit decides it.
@@ -958,7 +962,7 @@ void owned_lengths(double* out, const SurfaceIndex& index, const uint32_t* ring_
             auto owned_r2 = [&](const Point& x) {
                 double nearest = std::numeric_limits<double>::infinity();
                 if (own.empty())
-                    nearest = nearest_of(ix.tris, x, ring_faces + ring_start[v], own_count);
+                    nearest = nearest_of(ix.tris, x, own_begin, own_count);
                 else
                     for (const PreparedTriangle& t : own) nearest = std::min(nearest, squared_distance(t, xyz(x)));
                 return ratio * ratio * nearest;
@@ -975,10 +979,7 @@ void owned_lengths(double* out, const SurfaceIndex& index, const uint32_t* ring_
                 const Point x = p + t * d;
                 const double r2 = owned_r2(x);
                 if (taken_by_witness(x, r2)) return false;
-                // v's own faces are no nearer than own >= r2 (ratio <= 1): measured above, not searched again.
-                const uint32_t* own_begin = ring_faces + ring_start[v];
-                const uint32_t* own_end = ratio <= 1 ? ring_faces + ring_start[v + 1] : own_begin;
-                return !ix.any_within(x, r2, &witness, own_begin, own_end);
+                return !ix.any_within(x, r2, &witness, own_begin, own_skip_end);
             };
             // The first test, at the full length (own faces not prepared yet: most vertices need nothing more),
             // searches within ratio² × the squared distance to v's first own face, a bound on owned_r2 (with
@@ -987,11 +988,10 @@ void owned_lengths(double* out, const SurfaceIndex& index, const uint32_t* ring_
             // --length 0.004`): owned_lengths 256.9 -> 221.9 M instructions; stage timer 46.1-49.3 -> 45.3-45.9 ms.
             auto owned_first = [&](double t) {
                 const Point x = p + t * d;
-                const double first = own_count ? squared_distance_to(x, ix.tris[ring_faces[ring_start[v]]]) : HUGE_VAL;
+                const double first = own_count ? squared_distance_to(x, ix.tris[*own_begin]) : HUGE_VAL;
                 if (!(first < HUGE_VAL)) return owned(t);
-                const uint32_t* own_begin = ring_faces + ring_start[v];
-                const uint32_t* own_end = ratio <= 1 ? ring_faces + ring_start[v + 1] : own_begin;
-                return !ix.any_within_bounded(x, ratio * ratio * first * (1 + 1e-12), [&] { return owned_r2(x); }, &witness, own_begin, own_end);
+                return !ix.any_within_bounded(x, ratio * ratio * first * (1 + 1e-12), [&] { return owned_r2(x); }, &witness, own_begin,
+                                              own_skip_end);
             };
             const double h = lengths[q];
             if (!(h > 0) || owned_first(h)) {
@@ -999,7 +999,7 @@ void owned_lengths(double* out, const SurfaceIndex& index, const uint32_t* ring_
                 continue;
             }
             own.resize(own_count);
-            for (uint32_t i = 0; i < own_count; ++i) prepare_face(own[i], ix.tris[ring_faces[ring_start[v] + i]]);
+            for (uint32_t i = 0; i < own_count; ++i) prepare_face(own[i], ix.tris[own_begin[i]]);
             // Ownership is lost once along the ray and (in practice) not regained: the boundary is bracketed
             // to 1/4096 of the length, owned at lo (a whole search says so), not at hi (a face comes within).
             // Bisected against the witness alone (v's own faces and one more distance, no search), then one
