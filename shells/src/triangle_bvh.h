@@ -137,14 +137,10 @@ public:
         pair_blocks_.clear();
         // Boxes in leaf order, grown by the margin, so that a leaf reads them contiguously.
         std::vector<Keyed> keyed(prims_.size());
-        for (size_t j = 0; j < prims_.size(); ++j) {
-            const uint32_t i = prims_[j];
-            keyed[j].id = i;
-            for (int k = 0; k < 3; ++k) keyed[j].centre[k] = 0.5 * (boxes[i].lo[k] + boxes[i].hi[k]);
-        }
+        for (size_t j = 0; j < prims_.size(); ++j) keyed[j] = Keyed::of(boxes[prims_[j]], prims_[j]);
         nodes_.reserve(2 * (prims_.size() / kLeaf + 1));
         nodes_.emplace_back();
-        build_node(0, 0, uint32_t(prims_.size()), boxes, keyed);
+        build_node(0, 0, uint32_t(prims_.size()), boxes, keyed, centres_of(keyed, 0, uint32_t(keyed.size())));
         for (size_t j = 0; j < prims_.size(); ++j) prims_[j] = keyed[j].id;
         boxes_.resize(prims_.size());
         for (size_t j = 0; j < prims_.size(); ++j) {
@@ -590,68 +586,118 @@ private:
         }
     }
 
-    // A primitive's box centre and id, moved with it by the split: the partition reads its keys in order instead
-    // of gathering them (on the 69k-triangle bunny, `perf record furrow -j 1 shells`, the split and the boxes
-    // went from 5.0 % of the samples to 3.5 %).
+    // A primitive's box in float and its id, moved with it by the split: the binning and the partition read
+    // their keys in order. The float box only guides the split (the node boxes are the double boxes' unions,
+    // below); it is the double box rounded to nearest, clamped to +-1e37 (so that lo + hi, twice the centre,
+    // stays finite; a NaN goes to -1e37). The keys used to hold the centre in double, and every level gathered
+    // each primitive's double box by id, a cache miss once the partitions had shuffled them; the bins' boxes
+    // and the centres' box were scalar minima and maxima through memory, each waiting on the last store; the
+    // partition computed each bin again; and every node measured its centres, which its parent's bins know.
+    // Build alone on the 69k-triangle Stanford bunny (a micro-benchmark, best of 30): 18.1-18.9 -> 14.2-14.7
+    // ms; `bench shells` set-up (bunny, 32 layers, -j 1, four interleaved rounds, medians of 5) 151.1-160.7 ->
+    // 146.4-158.6 ms. The tree changes with the keys' rounding: of the md5 check set (bunny,
+    // creature, spot, fox, suzanne, alligator) only suzanne's bytes moved (1913 of 109604 positions, by at
+    // most 3.9e-6 of a 0.01 length).
     // nth_element's and partition's moves depend only on their comparisons: the tree depends on nothing but the
     // input.
     struct Keyed {
-        double centre[3];
+        float lo[3];
         uint32_t id;
+        float hi[3];
+        uint32_t bin; // sah_split's, for its partition
+        static float key(double d) { return d >= -1e37 ? (d <= 1e37 ? float(d) : 1e37f) : -1e37f; }
+        static Keyed of(const Box3& b, uint32_t id) {
+            return {{key(b.lo[0]), key(b.lo[1]), key(b.lo[2])}, id, {key(b.hi[0]), key(b.hi[1]), key(b.hi[2])}, 0};
+        }
+        float centre2(int axis) const { return lo[axis] + hi[axis]; } // twice the centre
     };
-    static double half_area(const Box3& b) {
-        const double e[3] = {b.hi[0] - b.lo[0], b.hi[1] - b.lo[1], b.hi[2] - b.lo[2]};
-        return e[0] * e[1] + e[1] * e[2] + e[2] * e[0];
+    // A box of keys (bins, centres), in float, three lanes of four (the fourth is not read): GCC/Clang vector
+    // extension, one SSE operation for the three axes.
+    typedef float V4 __attribute__((vector_size(16)));
+    struct KeyBox {
+        V4 lo = {HUGE_VALF, HUGE_VALF, HUGE_VALF, HUGE_VALF};
+        V4 hi = {-HUGE_VALF, -HUGE_VALF, -HUGE_VALF, -HUGE_VALF};
+        void add(V4 l, V4 h) {
+            lo = l < lo ? l : lo;
+            hi = h > hi ? h : hi;
+        }
+        double half_area() const { // the extents in double (float products could overflow)
+            const V4 e = hi - lo; // (float differences: the costs only rank the splits)
+            return double(e[0]) * e[1] + double(e[1]) * e[2] + double(e[2]) * e[0];
+        }
+    };
+    static V4 lo_of(const Keyed& k) {
+        V4 v;
+        std::memcpy(&v, k.lo, sizeof v); // lo[0..2] and the id's bits (not read)
+        return v;
+    }
+    static V4 hi_of(const Keyed& k) {
+        V4 v;
+        std::memcpy(&v, k.hi, sizeof v);
+        return v;
     }
     static constexpr int kBins = 16;
     static constexpr int kSahDepth = 24;
     static_assert(kMaxDepth >= kSahDepth + 31, "below kSahDepth, median splits of at most 2^32 primitives into leaves of kLeaf");
-    // The split of keyed[begin, end) along the longest axis of the centres' box (centres) that the surface area
-    // heuristic prefers: the centres binned in kBins slabs, each bin boundary costed as left area × left count
-    // + right area × right count, and the primitives partitioned at the cheapest (in place; mid its end).
-    // False when all centres share one bin (then the median split). Tighter boxes than the median's where the
-    // triangles are uneven: Stanford bunny (`bench shells`, -j 1, stage timers, three interleaved runs) the
-    // medial-axis queries 57.4-62.1 -> 51.1-56.0 ms, the rays 19.8-21.5 -> 18.8-20.1, the crossing test
-    // 38.0-41.1 -> 35.4-38.5, the build the same (binning on the three axes instead: 10 ms slower to build).
-    bool sah_split(uint32_t begin, uint32_t end, int axis, const Box3& centres, const std::vector<Box3>& boxes, std::vector<Keyed>& keyed,
-                   uint32_t& mid) const {
-        const double lo = centres.lo[axis], extent = centres.hi[axis] - lo;
-        if (!(extent > 0) || !std::isfinite(extent)) return false;
-        const double scale = kBins / extent;
-        auto bin_of = [&](const Keyed& k) {
-            const double f = (k.centre[axis] - lo) * scale;
-            return f >= 0 ? (f < kBins ? int(f) : kBins - 1) : 0;
-        };
-        Box3 bin_box[kBins];
+    // The split of keyed[begin, end) along the longest axis of the centres' box (centres, of twice the centres)
+    // that the surface area heuristic prefers: the centres binned in kBins slabs, each bin boundary costed as
+    // left area × left count + right area × right count, and the primitives partitioned at the cheapest (in
+    // place; mid its end). False when all centres share one bin (then the median split). Tighter boxes than the
+    // median's where the triangles are uneven: Stanford bunny (`bench shells`, -j 1, stage timers, three
+    // interleaved runs) the medial-axis queries 57.4-62.1 -> 51.1-56.0 ms, the rays 19.8-21.5 -> 18.8-20.1, the
+    // crossing test 38.0-41.1 -> 35.4-38.5 (binning on the three axes instead: 10 ms slower to build).
+    bool sah_split(uint32_t begin, uint32_t end, int axis, const KeyBox& centres, std::vector<Keyed>& keyed, uint32_t& mid,
+                   KeyBox& left_centres, KeyBox& right_centres) const {
+        const float lo = centres.lo[axis], extent = centres.hi[axis] - lo;
+        const float scale = kBins / extent;
+        if (!(extent > 0) || !std::isfinite(scale)) return false;
+        KeyBox bin_box[kBins], bin_centres[kBins];
         uint32_t bin_n[kBins] = {};
         for (uint32_t j = begin; j < end; ++j) {
-            const int b = bin_of(keyed[j]);
+            Keyed& k = keyed[j];
+            const V4 l = lo_of(k), h = hi_of(k), c = l + h;
+            // c[axis] >= lo (lo is the least of them), so f >= 0; f may round to kBins at the far end.
+            const int b = std::min(int((c[axis] - lo) * scale), kBins - 1);
+            k.bin = uint32_t(b);
             ++bin_n[b];
-            bin_box[b].add(boxes[keyed[j].id]);
+            bin_box[b].add(l, h);
+            bin_centres[b].add(c, c);
         }
         double right_area[kBins];
         uint32_t right_n[kBins];
-        Box3 acc;
+        KeyBox acc;
         uint32_t n = 0;
         for (int b = kBins - 1; b > 0; --b) {
-            acc.add(bin_box[b]), n += bin_n[b];
-            right_area[b] = n ? half_area(acc) : 0, right_n[b] = n;
+            acc.add(bin_box[b].lo, bin_box[b].hi), n += bin_n[b];
+            right_area[b] = n ? acc.half_area() : 0, right_n[b] = n;
         }
         double best = HUGE_VAL;
         int best_bin = -1;
-        acc = Box3{}, n = 0;
+        acc = KeyBox{}, n = 0;
         for (int b = 0; b + 1 < kBins; ++b) {
-            acc.add(bin_box[b]), n += bin_n[b];
+            acc.add(bin_box[b].lo, bin_box[b].hi), n += bin_n[b];
             if (n == 0 || right_n[b + 1] == 0) continue;
-            const double cost = half_area(acc) * n + right_area[b + 1] * right_n[b + 1];
+            const double cost = acc.half_area() * n + right_area[b + 1] * right_n[b + 1];
             if (cost < best) best = cost, best_bin = b;
         }
         if (best_bin < 0) return false; // one bin holds them all, or costs that overflow
-        mid = uint32_t(std::partition(keyed.begin() + begin, keyed.begin() + end, [&](const Keyed& k) { return bin_of(k) <= best_bin; }) -
+        for (int b = 0; b < kBins; ++b) (b <= best_bin ? left_centres : right_centres).add(bin_centres[b].lo, bin_centres[b].hi);
+        mid = uint32_t(std::partition(keyed.begin() + begin, keyed.begin() + end, [&](const Keyed& k) { return k.bin <= uint32_t(best_bin); }) -
                        keyed.begin());
         return true;
     }
-    void build_node(uint32_t node, uint32_t begin, uint32_t end, const std::vector<Box3>& boxes, std::vector<Keyed>& keyed, int depth = 0) {
+    // The centres' box of keyed[begin, end) (of twice the centres).
+    static KeyBox centres_of(const std::vector<Keyed>& keyed, uint32_t begin, uint32_t end) {
+        KeyBox centres;
+        for (uint32_t j = begin; j < end; ++j) {
+            const V4 c = lo_of(keyed[j]) + hi_of(keyed[j]); // (the fourth lane: not read)
+            centres.add(c, c);
+        }
+        return centres;
+    }
+    // Node `node` over keyed[begin, end), whose centres' box is `centres` (its parent's split found it).
+    void build_node(uint32_t node, uint32_t begin, uint32_t end, const std::vector<Box3>& boxes, std::vector<Keyed>& keyed,
+                    const KeyBox& centres, int depth = 0) {
         if (end - begin <= kLeaf) {
             Box3 box;
             for (uint32_t j = begin; j < end; ++j) box.add(boxes[keyed[j].id]);
@@ -660,27 +706,28 @@ private:
             nodes_[node].count = end - begin;
             return;
         }
-        Box3 centres;
-        for (uint32_t j = begin; j < end; ++j) centres.add(keyed[j].centre);
         int axis = 0;
         for (int k = 1; k < 3; ++k)
             if (centres.hi[k] - centres.lo[k] > centres.hi[axis] - centres.lo[axis]) axis = k;
         uint32_t mid = 0;
-        if (!(depth < kSahDepth && sah_split(begin, end, axis, centres, boxes, keyed, mid))) {
+        KeyBox left_centres, right_centres;
+        if (!(depth < kSahDepth && sah_split(begin, end, axis, centres, keyed, mid, left_centres, right_centres))) {
             mid = begin + (end - begin) / 2;
             // Ties broken by primitive index: the split, hence the tree, depends on nothing but the input.
             std::nth_element(keyed.begin() + begin, keyed.begin() + mid, keyed.begin() + end, [axis](const Keyed& a, const Keyed& b) {
-                const double ca = a.centre[axis], cb = b.centre[axis];
+                const float ca = a.centre2(axis), cb = b.centre2(axis);
                 return ca < cb || (ca == cb && a.id < b.id);
             });
+            left_centres = centres_of(keyed, begin, mid);
+            right_centres = centres_of(keyed, mid, end);
         }
         const uint32_t left = uint32_t(nodes_.size());
         nodes_.emplace_back();
         nodes_.emplace_back();
         nodes_[node].first = left;
         nodes_[node].count = 0;
-        build_node(left, begin, mid, boxes, keyed, depth + 1);
-        build_node(left + 1, mid, end, boxes, keyed, depth + 1);
+        build_node(left, begin, mid, boxes, keyed, left_centres, depth + 1);
+        build_node(left + 1, mid, end, boxes, keyed, right_centres, depth + 1);
         // The box bottom-up: the union of the children's (min and max are exact, so it is the box of the
         // primitives below, as a pass over them would give).
         Box3 box;
