@@ -25,6 +25,7 @@
 #include <tbb/task_group.h>
 
 #include <algorithm>
+#include <bit>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -409,6 +410,9 @@ struct ShellSource {
     size_t m = 0;  // output vertices per shell
     Primitive proto; // the attributes every shell copies (normals, UVs, skin, morph deltas)
     std::vector<float> len, dir, root, lean, sag, albedo;
+    // Every component of lean (of sag) is +0, bit for bit (no comb; no droop): the shells pass none, which
+    // instanced_shell_positions takes as +0, the same bits, and read 12 bytes a vertex less each.
+    bool no_lean = false, no_sag = false;
 };
 
 ShellSource shell_source(const Grown& g, const ShellVertices& sv, const Primitive& base) {
@@ -418,20 +422,25 @@ ShellSource shell_source(const Grown& g, const ShellVertices& sv, const Primitiv
     copy_attributes(r.proto, base, sv.src, sv.uv0);
     r.proto.uv1 = sv.uv1;
     r.len.resize(m), r.dir.resize(3 * m), r.root.resize(3 * m), r.lean.resize(3 * m), r.sag.resize(3 * m), r.albedo.resize(3 * m);
-// Everything a shell vertex is made of, gathered once per output vertex: each shell is then one
-// streaming pass over these arrays (no indirection through the base vertex per shell).
-parallel(m, 4096, [&](size_t i) {
-    const uint32_t v = sv.src[i];
-    r.len[i] = g.frame.length[v];
-    for (size_t k = 0; k < 3; ++k) {
-        const size_t j = 3 * size_t(v) + k;
-        r.root[3 * i + k] = base.positions[j];
-        r.dir[3 * i + k] = g.frame.direction[j];
-        r.lean[3 * i + k] = g.frame.lean[j];
-        r.sag[3 * i + k] = g.frame.sag[j];
-        r.albedo[3 * i + k] = g.albedo[j];
-    }
-});
+    // Everything a shell vertex is made of, gathered once per output vertex: each shell is then one
+    // streaming pass over these arrays (no indirection through the base vertex per shell).
+    parallel(m, 4096, [&](size_t i) {
+        const uint32_t v = sv.src[i];
+        r.len[i] = g.frame.length[v];
+        for (size_t k = 0; k < 3; ++k) {
+            const size_t j = 3 * size_t(v) + k;
+            r.root[3 * i + k] = base.positions[j];
+            r.dir[3 * i + k] = g.frame.direction[j];
+            r.lean[3 * i + k] = g.frame.lean[j];
+            r.sag[3 * i + k] = g.frame.sag[j];
+            r.albedo[3 * i + k] = g.albedo[j];
+        }
+    });
+    auto positive_zeros = [](const std::vector<float>& v) {
+        return std::all_of(v.begin(), v.end(), [](float x) { return std::bit_cast<uint32_t>(x) == 0; });
+    };
+    r.no_lean = positive_zeros(r.lean);
+    r.no_sag = positive_zeros(r.sag);
     return r;
 }
 
@@ -439,8 +448,8 @@ parallel(m, 4096, [&](size_t i) {
 void fill_shell(const ShellSource& r, const FurOptions& opt, int layer, int layers, float* positions, float* colors) {
     // The one shell formula (shell_positions, the instanced layout's reference): copies of a position land on
     // the same float, and an instanced shader rebuilds exactly these positions.
-    instanced_shell_positions(positions, r.root.data(), r.dir.data(), r.len.data(), r.lean.data(), r.sag.data(), r.m, layer, layers,
-                              opt.shells.spacing_power);
+    instanced_shell_positions(positions, r.root.data(), r.dir.data(), r.len.data(), r.no_lean ? nullptr : r.lean.data(),
+                              r.no_sag ? nullptr : r.sag.data(), r.m, layer, layers, opt.shells.spacing_power);
     const double s = shell_height_fraction(layer, layers, opt.shells.spacing_power);
     const float shade = float(opt.root_shade + (1.0 - opt.root_shade) * s);
     for (size_t i = 0; i < r.m; ++i) {

@@ -2,6 +2,7 @@
 // by instanced_shell_positions (the README's vertex-shader formula), must give the engine layout's shells;
 // its file must be valid glTF in every encoding, load back, stay out of the default scene and be about 1/N of
 // the engine layout's size.
+#include "shells_internal.h"
 #include "test_support.h"
 
 #include <furrow/shapes.h>
@@ -10,6 +11,8 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
+#include <cstdint>
 #include <cmath>
 #include <cstdio>
 
@@ -316,6 +319,46 @@ TEST(instanced_layout, AddsAboutOneNthOfTheEngineLayoutsBytes) {
     std::printf("bytes: bare %.0f, engine %.0f, instanced %.0f; added by the shells: instanced / engine = %.4f (1/N = %.4f)\n", bare,
                 engine, instanced, ratio, 1.0 / 32);
     EXPECT_LT(ratio, 2.5 / 32);
+}
+
+// instanced_shell_positions computes runs without droop (every sag component 0) in one vectorised loop, and
+// the rest vertex by vertex through strand_offset: both must give the reference formula's bits, float of
+// root + H·strand_offset, with signed zeros (roots, directions, lean and sag of -0), lean and sag passed or
+// null, runs of 1024 vertices with and without droop, and every layer of a curved spacing.
+TEST(instanced_layout, StraightRunsGiveTheStrandFormulasBits) {
+    const size_t n = 3000; // blocks of 1024: straight, one bent vertex, sag of -0 and +0 only
+    uint64_t seed = 71;
+    auto uniform = [&seed](double lo, double hi) { return lo + (hi - lo) * double(test::splitmix64(seed) >> 11) * 0x1p-53; };
+    std::vector<float> root(3 * n), dir(3 * n), len(n), lean(3 * n), sag(3 * n, 0.0f);
+    for (size_t j = 0; j < 3 * n; ++j) {
+        auto pick = [&seed] { return test::splitmix64(seed) % 4; }; // zeros in a quarter of each, independently
+        root[j] = pick() == 0 ? (pick() % 2 ? -0.0f : 0.0f) : float(uniform(-1e3, 1e3));
+        dir[j] = pick() == 0 ? (pick() % 2 ? -0.0f : 0.0f) : float(uniform(-1, 1));
+        lean[j] = pick() == 0 ? (pick() % 2 ? -0.0f : 0.0f) : float(uniform(-0.3, 0.3));
+    }
+    for (size_t v = 0; v < n; ++v) len[v] = test::splitmix64(seed) % 5 == 0 ? 0.0f : float(uniform(0, 0.05));
+    sag[3 * 1500 + 1] = 0.7f;                                            // one bent vertex in the second block
+    for (size_t j = 3 * 2048; j < 3 * n; j += 2) sag[j] = -0.0f;         // zeros of either sign: straight
+    const float zero[3] = {0, 0, 0};
+    for (bool with_lean : {false, true})
+        for (bool with_sag : {false, true}) {
+            const float* l = with_lean ? lean.data() : nullptr;
+            const float* g = with_sag ? sag.data() : nullptr;
+            const int layers = 7;
+            for (int layer = 1; layer <= layers; ++layer) {
+                std::vector<float> out(3 * n);
+                instanced_shell_positions(out.data(), root.data(), dir.data(), len.data(), l, g, n, layer, layers, 1.7);
+                const double s = shell_height_fraction(layer, layers, 1.7);
+                for (size_t v = 0; v < n; ++v) {
+                    const auto o = shells_detail::strand_offset(&dir[3 * v], l ? l + 3 * v : zero, g ? g + 3 * v : zero, s);
+                    for (size_t k = 0; k < 3; ++k) {
+                        const float want = float(double(root[3 * v + k]) + double(len[v]) * o[k]);
+                        ASSERT_EQ(std::bit_cast<uint32_t>(out[3 * v + k]), std::bit_cast<uint32_t>(want))
+                            << "vertex " << v << " axis " << k << " layer " << layer << (with_lean ? " lean" : "") << (with_sag ? " sag" : "");
+                    }
+                }
+            }
+        }
 }
 
 } // namespace
