@@ -689,9 +689,9 @@ Status grow_base(Grown& g, const Scene& scene, const Placement& pl, const FurOpt
     if (s.ok() && opt.refine_starved) {
         // Coarse faces whose corners are all clamped: bisected until fur grows inside them (the base
         // primitive is then replaced by its refinement, committed with the shells).
-        Primitive q = p;
+        Primitive q; // p's refinement (a copy made at the first split)
         size_t split = 0;
-        s = shells_detail::refine_starved_faces(q, g.tris, g.frame, o.length,
+        s = shells_detail::refine_starved_faces(p, q, g.tris, g.frame, o.length,
                                          [&](const Primitive& r, const std::vector<uint32_t>& t, ShellFrame& f) { return grow_frame(f, r, t, opt, o); },
                                          refine_budget(g.tris.size() / 3, all_base, opt), split);
         if (s.ok() && split > 0) {

@@ -133,18 +133,22 @@ std::vector<int> mark(const Primitive& p, const std::vector<uint32_t>& tris, con
 
 } // namespace
 
-Status refine_starved_faces(Primitive& p, std::vector<uint32_t>& tris, ShellFrame& frame, double length, const RegrowFrame& regrow,
-                            size_t budget, size_t& faces_split) {
+Status refine_starved_faces(const Primitive& base, Primitive& p, std::vector<uint32_t>& tris, ShellFrame& frame, double length,
+                            const RegrowFrame& regrow, size_t budget, size_t& faces_split) {
     faces_split = 0;
+    // Read from base until the first split copies it into p (most meshes need no split: the Stanford bunny's
+    // every attribute and index was copied for nothing).
+    const Primitive* cur = &base;
     std::vector<uint8_t> blocked(tris.size() / 3, 0);
     std::vector<std::array<uint32_t, 3>> made; // this round's new vertices: (midpoint, edge end, edge end)
     for (int round = 0; round < kMaxRounds; ++round) {
-        const std::vector<int> split = mark(p, tris, frame, blocked, length);
+        const std::vector<int> split = mark(*cur, tris, frame, blocked, length);
         // The edges to bisect (welded), each with the triangles that have it.
         std::map<EdgeKey, std::vector<size_t>> edges;
         for (size_t t = 0; t < split.size(); ++t)
-            if (split[t] >= 0) edges[edge_key(p, tris[3 * t + size_t(split[t])], tris[3 * t + size_t((split[t] + 1) % 3)])];
+            if (split[t] >= 0) edges[edge_key(*cur, tris[3 * t + size_t(split[t])], tris[3 * t + size_t((split[t] + 1) % 3)])];
         if (edges.empty() || tris.size() / 3 + 2 * edges.size() > budget) break;
+        if (cur == &base) p = base, cur = &p;
         for (size_t t = 0; t < tris.size() / 3; ++t)
             for (int k = 0; k < 3; ++k) {
                 auto it = edges.find(edge_key(p, tris[3 * t + size_t(k)], tris[3 * t + size_t((k + 1) % 3)]));

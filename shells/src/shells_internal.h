@@ -15,11 +15,12 @@
 namespace furrow::shells_detail {
 
 // ---- refine_starved_faces.cpp: bisects the triangles of p whose corners the clamps starve (see the file),
-// recomputing `frame` with `regrow` after each round; p gains the new vertices (every attribute at the mean
-// of an edge's ends), `tris` the new triangles, never more than `max_triangles` of them in all.
+// recomputing `frame` with `regrow` after each round; at its first split p becomes a copy of `base`, which then
+// gains the new vertices (every attribute at the mean of an edge's ends), `tris` the new triangles, never more
+// than `max_triangles` of them in all. p is left as it was when no face is split (faces_split 0).
 using RegrowFrame = std::function<Status(const Primitive&, const std::vector<uint32_t>&, ShellFrame&)>;
-Status refine_starved_faces(Primitive& p, std::vector<uint32_t>& tris, ShellFrame& frame, double length, const RegrowFrame& regrow,
-                            size_t max_triangles, size_t& faces_split);
+Status refine_starved_faces(const Primitive& base, Primitive& p, std::vector<uint32_t>& tris, ShellFrame& frame, double length,
+                            const RegrowFrame& regrow, size_t max_triangles, size_t& faces_split);
 
 // Droop as a bent strand that keeps its length: at arc fraction u its direction has turned from the extrusion
 // direction D toward ĝ (gravity along the surface) by θ(u) = θ_tip·u², curving more toward the tip, as a
