@@ -790,10 +790,10 @@ constexpr size_t kShellBlock = 1024;
 // Component j of a straight strand's shell point: root + h·(s·direction + 0·sag + s·lean), in double (see
 // instanced_shell_positions), for n components with their lengths h3 (lean, sag null = zero). One loop over
 // the components with no dependence between them, compiled for AVX-512 and AVX2 as well (GCC's target clones,
-// an ifunc resolved at load; not under AddressSanitizer, whose runtime may not be up when the resolver runs):
-// each lane does one component's operations in the same order, without fusing (-ffp-contract=off), so the
-// same bits at every width.
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__SANITIZE_ADDRESS__)
+// an ifunc resolved at load; not under AddressSanitizer, whose runtime may not be up when the resolver runs,
+// nor with Clang, which builds the fuzzers with it): each lane does one component's operations in the same
+// order, without fusing (-ffp-contract=off), so the same bits at every width.
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(__SANITIZE_ADDRESS__)
 __attribute__((target_clones("avx512f", "avx2", "default")))
 #endif
 void straight_positions(float* __restrict out, const float* __restrict roots, const float* __restrict direction, const float* __restrict h3,
