@@ -196,7 +196,7 @@ public:
             if (n.count > 0) {
                 for (uint32_t j = n.first; j < n.first + n.count; ++j) n.box.add(boxes_[j]);
                 block_of_node_[i] = uint32_t(pair_blocks_.size());
-                pair_blocks_.push_back(leaf_block(n));
+                pair_blocks_.push_back(pair_block(n));
             } else {
                 n.box.add(nodes_[n.first].box), n.box.add(nodes_[n.first + 1].box);
             }
@@ -924,15 +924,33 @@ private:
         }
         return m;
     }
+    // A leaf's boxes side by side for the paired descent, in float: four boxes in 96 bytes (two cache lines
+    // where the double blocks took three), each box of a leaf tested against another leaf's four in one 4-lane
+    // comparison per side. Rounding to nearest is monotone, so lo <= hi in double gives lo <= hi in float: no
+    // overlapping pair is lost (a NaN stays NaN and overlaps nothing); a pair that misses by less than the
+    // rounding may be met too, and the caller's exact tests reject it (the same output bytes). Bunny (`bench
+    // shells`, -j 1, stage timers, three interleaved runs): the crossing test's self-descent 11.7-12.1 -> 9.9-10.6
+    // ms, refit 3.0-3.2 -> 2.4-2.5 ms (half the bytes to write).
+    struct alignas(32) PairBlock {
+        float lo[3][4] = {{HUGE_VALF, HUGE_VALF, HUGE_VALF, HUGE_VALF}, {HUGE_VALF, HUGE_VALF, HUGE_VALF, HUGE_VALF}, {HUGE_VALF, HUGE_VALF, HUGE_VALF, HUGE_VALF}};
+        float hi[3][4] = {{-HUGE_VALF, -HUGE_VALF, -HUGE_VALF, -HUGE_VALF}, {-HUGE_VALF, -HUGE_VALF, -HUGE_VALF, -HUGE_VALF}, {-HUGE_VALF, -HUGE_VALF, -HUGE_VALF, -HUGE_VALF}};
+    };
+    // Binary leaf node c's boxes as a pair block.
+    PairBlock pair_block(const Node& c) const {
+        PairBlock b;
+        for (uint32_t i = 0; i < c.count; ++i)
+            for (int k = 0; k < 3; ++k) b.lo[k][i] = float(boxes_[c.first + i].lo[k]), b.hi[k][i] = float(boxes_[c.first + i].hi[k]);
+        return b;
+    }
     // A pair of leaves a (this tree's, boxes in block A) and b (other's, block B): leaf(...) for each pair of their
     // primitives whose boxes overlap, in the scalar loop's order (i, then j; j > i within one leaf), each box of
-    // a tested against b's four at once (the comparisons of Box3::overlaps, so the same pairs: a NaN or empty
-    // box overlaps nothing). Bunny (`bench shells`, -j 1): the crossing test's self-descent tests 1.34 M box
-    // pairs in 123 k leaf pairs, whose branches the scalar loop mispredicted; `furrow -j 1 shells --length
-    // 0.005`, stage timers, three interleaved runs: self-descent 19.8-20.9 -> 16.6-17.4 ms, for 0.7-1.1 ms more
-    // in refit (the blocks).
+    // a tested against b's four at once: every pair whose double boxes overlap, and those that miss by less
+    // than the float rounding (PairBlock), which the caller's exact tests reject.
+    // Bunny (`bench shells`, -j 1): the crossing test's self-descent tests 1.34 M box pairs in 123 k leaf pairs,
+    // whose branches the scalar loop mispredicted; `furrow -j 1 shells --length 0.005`, stage timers, three
+    // interleaved runs: self-descent 19.8-20.9 -> 16.6-17.4 ms, for 0.7-1.1 ms more in refit (the blocks).
     template <class Leaf>
-    void leaf_pair(const LeafBoxes& A, const Node& a, const LeafBoxes& B, const Node& b, const BoxBvh& other, bool same, Leaf& leaf) const {
+    void leaf_pair(const PairBlock& A, const Node& a, const PairBlock& B, const Node& b, const BoxBvh& other, bool same, Leaf& leaf) const {
         for (uint32_t i = 0; i < a.count; ++i) {
             unsigned m = overlap_mask(A, int(i), B);
             if (same) m &= ~((2u << i) - 1); // j > i
@@ -942,17 +960,18 @@ private:
             }
         }
     }
-    // Bit j set where box i of block A overlaps box j of block B (two lanes at a time).
-    static unsigned overlap_mask(const LeafBoxes& A, int i, const LeafBoxes& B) {
-        unsigned m = 0;
-        for (int h = 0; h < 4; h += 2) {
-            V2 lo[3], hi[3];
-            for (int k = 0; k < 3; ++k) std::memcpy(&lo[k], &B.lo[k][h], sizeof(V2)), std::memcpy(&hi[k], &B.hi[k][h], sizeof(V2));
-            const auto c = (A.lo[0][i] <= hi[0]) & (lo[0] <= A.hi[0][i]) & (A.lo[1][i] <= hi[1]) & (lo[1] <= A.hi[1][i]) &
-                           (A.lo[2][i] <= hi[2]) & (lo[2] <= A.hi[2][i]);
-            m |= lane_bits(c, h);
-        }
-        return m;
+    // Bit j set where box i of block A overlaps box j of block B (the four at once).
+    static unsigned overlap_mask(const PairBlock& A, int i, const PairBlock& B) {
+        typedef float F4 __attribute__((vector_size(16)));
+        F4 lo[3], hi[3];
+        for (int k = 0; k < 3; ++k) std::memcpy(&lo[k], B.lo[k], sizeof(F4)), std::memcpy(&hi[k], B.hi[k], sizeof(F4));
+        const auto c = (A.lo[0][i] <= hi[0]) & (lo[0] <= A.hi[0][i]) & (A.lo[1][i] <= hi[1]) & (lo[1] <= A.hi[1][i]) &
+                       (A.lo[2][i] <= hi[2]) & (lo[2] <= A.hi[2][i]);
+#if defined(__SSE2__)
+        return unsigned(__builtin_ia32_movmskps((F4)c));
+#else
+        return unsigned(c[0] & 1) | unsigned(c[1] & 1) << 1 | unsigned(c[2] & 1) << 2 | unsigned(c[3] & 1) << 3;
+#endif
     }
 
     struct Slab {
@@ -963,7 +982,7 @@ private:
     std::vector<Wide> wide_;      // the 4-wide nodes, or none (widen)
     std::vector<LeafBoxes> leaf_boxes_; // the wide nodes' leaves: their boxes (widen)
     std::vector<uint32_t> leaf_first_;  // and where their primitives start in prims_/boxes_
-    std::vector<LeafBoxes> pair_blocks_; // every leaf's boxes side by side (refit; the paired descent)
+    std::vector<PairBlock> pair_blocks_; // every leaf's boxes side by side, in float (refit; the paired descent)
     std::vector<uint32_t> block_of_node_; // a leaf node's block in pair_blocks_
     double margin_ = 0;           // the boxes' growth at the build
     std::vector<uint32_t> prims_; // primitive ids in leaf order

@@ -768,6 +768,62 @@ TEST(box_bvh, PairedDescentMeetsEveryOverlappingPair) {
     }
 }
 
+// The paired descent tests leaf pairs on float copies of the boxes (rounded to nearest, which keeps lo <= hi
+// between boxes): it meets every pair whose boxes overlap, and besides (within float's range) only pairs that
+// miss by about the float rounding (here: pairs that overlap once each box grows by 1e-6 of the scale).
+// Coordinates in float's denormals, around 1, near float's largest and beyond it (the float boxes then reach
+// infinity: more pairs, none missed), with boxes that touch exactly, boxes that overlap by a quarter of a
+// float's spacing, and boxes at +-0.
+TEST(box_bvh, PairedDescentInFloatMissesNoOverlap) {
+    using shells_detail::Box3;
+    using Pair = std::pair<uint32_t, uint32_t>;
+    uint64_t seed = 59;
+    for (double scale : {1e-41, 1.0, 3e37, 1e39}) {
+        const size_t n = 600;
+        std::vector<Box3> boxes(n);
+        for (size_t i = 0; i < n; ++i) {
+            double lo[3], hi[3];
+            for (int k = 0; k < 3; ++k) {
+                const double u = double(splitmix64(seed) % 6001) / 1000 - 3, w = double(splitmix64(seed) % 1001) / 1000;
+                lo[k] = i % 50 == 0 ? (i % 100 ? -0.0 : 0.0) : scale * u, hi[k] = lo[k] + scale * w;
+            }
+            if (i % 7 == 3) // touching the previous box exactly on x
+                lo[0] = boxes[i - 1].hi[0], hi[0] = lo[0] + scale;
+            if (i % 7 == 5) { // overlapping the previous box on x by a quarter of a float's spacing there
+                const double x = boxes[i - 1].hi[0];
+                lo[0] = x - std::abs(x) * 0x1p-26, hi[0] = lo[0] + scale;
+                for (int k = 1; k < 3; ++k) lo[k] = boxes[i - 1].lo[k], hi[k] = boxes[i - 1].hi[k];
+            }
+            boxes[i].add(lo), boxes[i].add(hi);
+        }
+        shells_detail::BoxBvh a, b;
+        a.build(boxes);
+        b.refit(a, boxes); // refit: the leaf blocks the paired descent reads
+        std::vector<Pair> found;
+        b.overlapping_pairs(b, [](uint32_t f, uint32_t g, uint32_t, uint32_t, std::vector<Pair>& out) {
+            out.emplace_back(std::min(f, g), std::max(f, g));
+        }, found);
+        std::sort(found.begin(), found.end());
+        EXPECT_TRUE(std::adjacent_find(found.begin(), found.end()) == found.end()) << scale << ": a pair met twice";
+        auto grown = [&](Box3 x, double by) {
+            for (int k = 0; k < 3; ++k) x.lo[k] -= by, x.hi[k] += by;
+            return x;
+        };
+        size_t overlapping = 0;
+        for (uint32_t i = 0; i < n; ++i)
+            for (uint32_t j = i + 1; j < n; ++j) {
+                const bool met = std::binary_search(found.begin(), found.end(), Pair{i, j});
+                if (boxes[i].overlaps(boxes[j])) {
+                    ++overlapping;
+                    ASSERT_TRUE(met) << scale << ": " << i << " " << j << " overlap";
+                } else if (met && scale < 1e38) {
+                    ASSERT_TRUE(grown(boxes[i], 1e-6 * scale).overlaps(grown(boxes[j], 1e-6 * scale))) << scale << ": " << i << " " << j;
+                }
+            }
+        EXPECT_GT(overlapping, n) << scale; // (the test has pairs to miss)
+    }
+}
+
 // BoxBvh::add_slabs: for_near skips nodes whose slab lies out of reach; every primitive within reach is still
 // met, in the same order (the clamps' searches report the first face they meet), and the slabs do skip
 // nodes. Queries above the torus's surface (the medial-axis clamp's kind) and anywhere around it.
