@@ -626,16 +626,19 @@ private:
             return double(e[0]) * e[1] + double(e[1]) * e[2] + double(e[2]) * e[0];
         }
     };
-    static V4 lo_of(const Keyed& k) {
-        V4 v;
-        std::memcpy(&v, k.lo, sizeof v); // lo[0..2] and the id's bits (not read)
-        return v;
+    // A key's lo and hi as vectors, the fourth lane (the id's or the bin's bits) cleared: as a float it is
+    // mostly a denormal, and arithmetic on denormals is slow (a microcode assist an operation on x86).
+    static V4 three_lanes(const float* x) {
+        typedef uint32_t U4 __attribute__((vector_size(16)));
+        U4 v;
+        std::memcpy(&v, x, sizeof v);
+        v &= U4{~0u, ~0u, ~0u, 0u};
+        V4 f;
+        std::memcpy(&f, &v, sizeof f);
+        return f;
     }
-    static V4 hi_of(const Keyed& k) {
-        V4 v;
-        std::memcpy(&v, k.hi, sizeof v);
-        return v;
-    }
+    static V4 lo_of(const Keyed& k) { return three_lanes(k.lo); }
+    static V4 hi_of(const Keyed& k) { return three_lanes(k.hi); }
     static constexpr int kBins = 16;
     static constexpr int kSahDepth = 24;
     static_assert(kMaxDepth >= kSahDepth + 31, "below kSahDepth, median splits of at most 2^32 primitives into leaves of kLeaf");
