@@ -244,12 +244,17 @@ public:
             if (end - begin > max_prims || !(len >= 0.5 * si[3]) || !(len > 0) || !std::isfinite(len)) continue;
             Slab& sl = slabs_[i];
             for (int k = 0; k < 3; ++k) sl.n[k] = si[k] / len;
-            double lo = HUGE_VAL, hi = -HUGE_VAL;
-            for (size_t q = 9 * size_t(begin); q < 9 * size_t(end); q += 3) {
-                const double d = sl.n[0] * c[q] + sl.n[1] * c[q + 1] + sl.n[2] * c[q + 2];
-                lo = std::min(lo, d), hi = std::max(hi, d);
-            }
-            sl.lo = lo - margin_, sl.hi = hi + margin_;
+            // A primitive's three corners into three pairs of bounds, merged after: one pair waited on its own
+            // last minimum and maximum at every corner. (A minimum does not depend on the order it is taken in;
+            // which of +0 and -0 it keeps does, and the margin's subtraction makes both the same.)
+            double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
+            for (size_t q = 9 * size_t(begin); q < 9 * size_t(end); q += 9)
+                for (int k = 0; k < 3; ++k) {
+                    const double* x = &c[q + 3 * size_t(k)];
+                    const double d = sl.n[0] * x[0] + sl.n[1] * x[1] + sl.n[2] * x[2];
+                    lo[k] = std::min(lo[k], d), hi[k] = std::max(hi[k], d);
+                }
+            sl.lo = std::min({lo[0], lo[1], lo[2]}) - margin_, sl.hi = std::max({hi[0], hi[1], hi[2]}) + margin_;
         }
     }
 
