@@ -792,7 +792,9 @@ constexpr size_t kShellBlock = 1024;
 // the components with no dependence between them, compiled for AVX-512 and AVX2 as well (GCC's target clones,
 // an ifunc resolved at load; not under AddressSanitizer, whose runtime may not be up when the resolver runs,
 // nor with Clang, which builds the fuzzers with it): each lane does one component's operations in the same
-// order, without fusing (-ffp-contract=off), so the same bits at every width.
+// order, without fusing (-ffp-contract=off), so the same bits at every width. One loop for each of lean and
+// sag null or not: one loop reading a zero array for a null one took 3.1-3.2 ms against 2.6-2.8 for the
+// bunny's 32 shells (a timer around the calls, three interleaved runs).
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(__SANITIZE_ADDRESS__)
 __attribute__((target_clones("avx512f", "avx2", "default")))
 #endif

@@ -15,7 +15,7 @@
 namespace furrow::shells_detail {
 
 // ---- refine_starved_faces.cpp: bisects the triangles of p whose corners the clamps starve (see the file),
-// recomputing `frame` with `regrow` after each round; at its first split p becomes a copy of `base`, which then
+// recomputing `frame` with `regrow` after each round. At the first split p becomes a copy of `base`; p then
 // gains the new vertices (every attribute at the mean of an edge's ends), `tris` the new triangles, never more
 // than `max_triangles` of them in all. p is left as it was when no face is split (faces_split 0).
 using RegrowFrame = std::function<Status(const Primitive&, const std::vector<uint32_t>&, ShellFrame&)>;

@@ -970,13 +970,12 @@ private:
     }
     // Bit j set where box i of block A overlaps box j of block B (the four at once).
     static unsigned overlap_mask(const PairBlock& A, int i, const PairBlock& B) {
-        typedef float F4 __attribute__((vector_size(16)));
-        F4 lo[3], hi[3];
-        for (int k = 0; k < 3; ++k) std::memcpy(&lo[k], B.lo[k], sizeof(F4)), std::memcpy(&hi[k], B.hi[k], sizeof(F4));
+        V4 lo[3], hi[3];
+        for (int k = 0; k < 3; ++k) std::memcpy(&lo[k], B.lo[k], sizeof(V4)), std::memcpy(&hi[k], B.hi[k], sizeof(V4));
         const auto c = (A.lo[0][i] <= hi[0]) & (lo[0] <= A.hi[0][i]) & (A.lo[1][i] <= hi[1]) & (lo[1] <= A.hi[1][i]) &
                        (A.lo[2][i] <= hi[2]) & (lo[2] <= A.hi[2][i]);
 #if defined(__SSE2__)
-        return unsigned(__builtin_ia32_movmskps((F4)c));
+        return unsigned(__builtin_ia32_movmskps((V4)c));
 #else
         return unsigned(c[0] & 1) | unsigned(c[1] & 1) << 1 | unsigned(c[2] & 1) << 2 | unsigned(c[3] & 1) << 3;
 #endif
