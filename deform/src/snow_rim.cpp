@@ -37,6 +37,7 @@
 
 #include <algorithm>
 #include <bit>
+#include <cstdint>
 #include <cstring>
 #include <numbers>
 
@@ -53,8 +54,10 @@ struct Scratch {
     std::vector<uint32_t> count2;
     std::vector<uint8_t> near_source;
     std::vector<int> near_d2, near_rows;
-    std::vector<int16_t> columns16, min16; // the nearest-column search's rows, in 16-bit or 32-bit lanes
+    std::vector<int64_t> near_d2_wide;     // near_d2 for a rim wider than 32766 texels (its squares pass 2^31)
+    std::vector<int16_t> columns16, min16; // the nearest-column search's rows, in 16-, 32- or 64-bit lanes
     std::vector<int> columns32, min32;
+    std::vector<int64_t> columns64, min64;
     std::vector<float> profile_of;         // the profile per integer squared distance
     std::vector<int> sum_columns;          // the sums' column indices, per column of the ring
     std::vector<float> ring, ring_tmp;
