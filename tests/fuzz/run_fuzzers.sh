@@ -10,9 +10,12 @@
 # when any target found something, with the path of each finding on stderr.
 #
 # FUZZ_RUNS=K is what CI does: libFuzzer's random seed is fixed (-seed=1), each target stops after K inputs
-# (SECONDS stays as a cap) and its working corpus starts empty. Runs are then bounded by work, not by machine
-# speed, and start alike; they are not bit-identical (libFuzzer also learns from compared pointer values,
-# which move with the address-space layout), so repeat a run on a fresh build folder before trusting "nothing".
+# (SECONDS stays as a cap), its working corpus starts empty, and the address space is not randomised
+# (setarch -R, where the kernel allows it): libFuzzer also learns from compared values, pointers among them,
+# which moved with the layout, so the same code could pass one CI run and fail the next (2026-11-27: the stamp
+# fuzzer's 2^20-texel rim). Runs are then bounded by work, not by machine speed, and repeat: two runs of
+# 1500 inputs gave the same coverage and the same corpus for stamp, the same coverage for render (a few
+# corpus files differed), where without it both differed. Fuzz longer, or with another -seed, to explore.
 #
 # To keep a finding as a regression test: minimise it (BUILD_DIR/tests/fuzz/fuzz_<target> -minimize_crash=1
 # -runs=10000 FILE), fix the bug, and commit the input as tests/fuzz/regressions/<target>/<what-it-was>.
@@ -41,10 +44,11 @@ run_one() {
   [ -x "$exe" ] || { echo "$exe is missing: build the target furrow_fuzzers of a FURROW_FUZZ=ON build" >&2; return 1; }
   # Findings are per run (the log of an earlier run still names its own).
   rm -rf "$fuzz/findings/$t"
-  local budget=()
+  local budget=() fixed=()
   if [ -n "${FUZZ_RUNS:-}" ]; then
     budget=(-seed=1 -runs="$FUZZ_RUNS")
     rm -rf "$fuzz/corpus/$t"
+    setarch "$(uname -m)" -R true 2>/dev/null && fixed=(setarch "$(uname -m)" -R)
   fi
   mkdir -p "$fuzz/corpus/$t" "$fuzz/findings/$t" "$fuzz/logs"
   local extra=()
@@ -54,7 +58,7 @@ run_one() {
   # -timeout: one input runs in milliseconds, so 10 s is a hang. -rss_limit_mb: a size guard that lets a
   # 2 GB allocation through is a finding too. The first folder is the working corpus (written to), the
   # others are read only.
-  "$exe" -max_total_time="$seconds" "${budget[@]}" -timeout=10 -rss_limit_mb=2048 -print_final_stats=1 \
+  "${fixed[@]}" "$exe" -max_total_time="$seconds" "${budget[@]}" -timeout=10 -rss_limit_mb=2048 -print_final_stats=1 \
     -artifact_prefix="$fuzz/findings/$t/" "${dict[@]}" \
     "$fuzz/corpus/$t" "$fuzz/seeds/$t" "${extra[@]}" >"$fuzz/logs/$t.log" 2>&1 || true
   local execs
