@@ -13,8 +13,9 @@
 # (SECONDS stays as a cap), its working corpus starts empty, the address space is not randomised (setarch -R,
 # where the kernel allows it) and the corpus is not reloaded on a timer (-reload=0). libFuzzer also learns
 # from compared values, pointers among them, which moved with the layout, and the timed reload re-reads the
-# corpus folder at moments the clock sets; with either, the same code could pass one CI run and fail the next (2026-11-27:
-# the stamp fuzzer's 2^20-texel rim). Runs are then bounded by work, not by machine speed, and repeat closely:
+# corpus folder at moments the clock sets; with either, the same code could pass one CI run and fail the next
+# (2026-11-27: the stamp fuzzer's 2^20-texel rim). Runs are then bounded by work, not by machine speed, and
+# repeat closely:
 # run one after the other, two runs of 3000 inputs of load_scene, and of 1500 of render, gave the same coverage
 # and the same corpus file for file (with the reload, load_scene's coverage still moved: 7948 against 7818
 # edges); run two at a time, as here, two CI runs still differed in a few corpus files (6 of 460 for
