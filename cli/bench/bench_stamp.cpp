@@ -381,6 +381,9 @@ struct FrameRun {
     double max_scratch_diff = 0;  // max |incremental − from scratch| over the heightmap
     bool scratch_bytes_equal = false;
     std::vector<float> heightmap;  // final output, to compare thread counts
+    // DisplacedGround::update's own account, per frame (mean): work counts and phase seconds.
+    double shifted = 0, faces = 0, normals = 0;
+    double phase_s[5] = {};        // search, displace, sweep, terms, normals (DisplaceUpdateStats)
 };
 
 void stamp_walkers(SnowField& f, const std::vector<WalkerStamp>& ws, const Collider& ball, const Collider& foot) {
@@ -432,7 +435,8 @@ FrameRun run_walker_frames(const Args& a, const DemoGround& d, const TessellateO
         SnowUpdateStats us;
         const auto dirty = f.update(&us);
         const auto t2 = clock::now();
-        const size_t m = dg.update(f.heightmap(), dirty, pos.data(), nor.data());
+        DisplaceUpdateStats ds;
+        const size_t m = dg.update(f.heightmap(), dirty, pos.data(), nor.data(), &ds);
         const auto t3 = clock::now();
         history.insert(history.end(), ws.begin(), ws.end());
         if (fnum == 0) continue; // warm-up
@@ -440,8 +444,13 @@ FrameRun run_walker_frames(const Args& a, const DemoGround& d, const TessellateO
         run.redisplace_ms += ms(t2, t3);
         frame_times.push_back(ms(t0, t3));
         run.moved += double(m), run.rects += double(dirty.size()), run.rim_texels += double(us.rim_texels);
+        run.shifted += double(ds.shifted), run.faces += double(ds.faces), run.normals += double(ds.normals);
+        const double phases[5] = {ds.search_seconds, ds.displace_seconds, ds.sweep_seconds, ds.terms_seconds, ds.normals_seconds};
+        for (int k = 0; k < 5; ++k) run.phase_s[k] += phases[k];
     }
-    for (double* v : {&run.stamp_ms, &run.rim_ms, &run.update_ms, &run.redisplace_ms, &run.moved, &run.rects, &run.rim_texels}) *v /= frames;
+    for (double* v : {&run.stamp_ms, &run.rim_ms, &run.update_ms, &run.redisplace_ms, &run.moved, &run.rects, &run.rim_texels, &run.shifted,
+                      &run.faces, &run.normals, &run.phase_s[0], &run.phase_s[1], &run.phase_s[2], &run.phase_s[3], &run.phase_s[4]})
+        *v /= frames;
     run.grid_texels = double(f.frame().width) * double(f.frame().height);
     std::sort(frame_times.begin(), frame_times.end());
     run.frame_ms = frame_times[frame_times.size() / 2];
@@ -469,6 +478,10 @@ void bench_walker_frame(const Args& a, const DemoGround& d, bool text, nlohmann:
     const TessellateOutput tess = tessellate_ground(d, a.quick ? 2 : 6);
     Table fr({"frame", "-j", "ground tris", "dirty rects", "points moved", "rim texels", "stamp ms", "rim ms", "update ms", "redisplace ms", "frame ms",
               "full redisplace ms", "us/pt incr", "us/pt full", "incr/full per pt", "full rim ms", "max|incr-full|", "= scratch"});
+    // Where the re-displacement's time goes, per moved point (DisplaceUpdateStats), against the full pass's
+    // time per welded point: what each moved point brings (shifted, faces, normals) and each phase's ns.
+    Table ph({"frame", "-j", "points moved", "shifted", "faces / moved", "normals / moved", "search ns", "displace ns", "sweep ns",
+              "terms ns", "normals ns", "update ns", "full pass ns / pt"});
     for (bool rim : {false, true}) {
         std::vector<float> first;
         for (int asked : {1, 2}) {
@@ -492,6 +505,21 @@ void bench_walker_frame(const Args& a, const DemoGround& d, bool text, nlohmann:
                                   {"welded_points", r.welded}, {"per_point_ratio", inc_us / full_us}, {"full_rim_ms", r.full_rim_ms},
                                   {"max_displace_diff", r.max_displace_diff}, {"max_scratch_diff", r.max_scratch_diff},
                                   {"scratch_bytes_equal", r.scratch_bytes_equal}});
+            const double per = r.moved > 0 ? 1e9 / r.moved : 0; // a frame's seconds -> ns a moved point
+            std::vector<std::string> row{rim ? "with rim 6 cm" : "no rim", std::to_string(threads), fmt(r.moved, 0),
+                                         fmt(r.moved > 0 ? 100 * r.shifted / r.moved : 0, 0) + " %", fmt(r.moved > 0 ? r.faces / r.moved : 0, 2),
+                                         fmt(r.moved > 0 ? r.normals / r.moved : 0, 2)};
+            double total = 0;
+            for (double s : r.phase_s) row.push_back(fmt(s * per, 0)), total += s * per;
+            row.push_back(fmt(total, 0));
+            row.push_back(fmt(1e6 * r.full_ms / double(r.welded), 0));
+            ph.add(row);
+            J["frame"].back()["update_phases_ns_per_moved_point"] = {{"search", r.phase_s[0] * per}, {"displace", r.phase_s[1] * per},
+                                                                     {"sweep", r.phase_s[2] * per}, {"terms", r.phase_s[3] * per},
+                                                                     {"normals", r.phase_s[4] * per}};
+            J["frame"].back()["shifted_points"] = r.shifted;
+            J["frame"].back()["faces_recomputed"] = r.faces;
+            J["frame"].back()["normals_recomputed"] = r.normals;
         }
     }
     if (text) {
@@ -504,6 +532,10 @@ void bench_walker_frame(const Args& a, const DemoGround& d, bool text, nlohmann:
                     "median); the heightmap is checked equal at 1 and 2 threads.\n",
                     a.quick ? 2 : 5);
         fr.print();
+        std::printf("\nThe re-displacement's phases (DisplacedGround::update's own stats, mean of the frames), in ns per point\n"
+                    "moved, against the full pass's ns per welded point: shifted = moved points whose position changed in bits;\n"
+                    "faces and normals = recomputed around them, per moved point (a full pass: about 2 faces and 1 normal a point).\n");
+        ph.print();
     }
 }
 

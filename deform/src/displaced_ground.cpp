@@ -49,6 +49,7 @@
 
 #include <algorithm>
 #include <bit>
+#include <chrono>
 #include <utility>
 #include <cstdlib>
 #include <new>
@@ -536,8 +537,25 @@ static void points_under(DisplacedGround::Impl& m, const std::vector<TexelRect>&
     }
 }
 
-size_t DisplacedGround::update(const Heightmap& h, const std::vector<TexelRect>& rects, float* pos, float* nor) {
+// The phases' clock, read only when the caller asked for stats.
+namespace {
+struct PhaseClock {
+    using clock = std::chrono::steady_clock;
+    DisplaceUpdateStats* stats;
+    clock::time_point last = stats ? clock::now() : clock::time_point{};
+    void lap(double DisplaceUpdateStats::*phase) {
+        if (!stats) return;
+        const clock::time_point now = clock::now();
+        stats->*phase = std::chrono::duration<double>(now - last).count();
+        last = now;
+    }
+};
+} // namespace
+
+size_t DisplacedGround::update(const Heightmap& h, const std::vector<TexelRect>& rects, float* pos, float* nor,
+                               DisplaceUpdateStats* stats) {
     Impl& m = *impl_;
+    if (stats) *stats = DisplaceUpdateStats{};
     if (m.rest.empty()) return 0;
     m.face_index();
     m.tile_index();
@@ -546,10 +564,12 @@ size_t DisplacedGround::update(const Heightmap& h, const std::vector<TexelRect>&
         every_face_term(m.terms, m.cur.data(), m.tris);
         m.terms_current = true;
     }
+    PhaseClock phase{stats};
     std::fill(m.mark.begin(), m.mark.end(), 0); // a bit a point: 27 KB at 221k points, cleared in microseconds
     std::fill(m.face_mark.begin(), m.face_mark.end(), 0);
     points_under(m, rects);
     marked(m.moved, m.mark);
+    phase.lap(&DisplaceUpdateStats::search_seconds);
     if (m.moved.empty()) return 0;
     // Re-displaced; a point whose position came out bit-identical (its texels did not change: a dirty tile is
     // rarely dirty everywhere) changes no face, and is already in the buffers.
@@ -560,6 +580,7 @@ size_t DisplacedGround::update(const Heightmap& h, const std::vector<TexelRect>&
             m.shifted[k] = m.displace(m.moved[k], h);
         }
     });
+    phase.lap(&DisplaceUpdateStats::displace_seconds);
     // The faces around a shifted point change; every corner of such a face gets a new normal. Found in one
     // sweep with plain bit marks: claiming them in parallel chunks took an atomic or per face and per point,
     // which cost more than the faces' own arithmetic (`bench stamp` section 4, no rim: 1.35 ms of claims for
@@ -585,9 +606,11 @@ size_t DisplacedGround::update(const Heightmap& h, const std::vector<TexelRect>&
     }
     marked(m.redo_faces, m.face_mark);
     marked(m.redo_points, m.mark);
+    phase.lap(&DisplaceUpdateStats::sweep_seconds);
     tbb::parallel_for(tbb::blocked_range<size_t>(0, m.redo_faces.size(), 512), [&](const tbb::blocked_range<size_t>& r) {
         kernel::face_terms(m.terms.data(), m.cur.data(), m.tris.data(), 0, m.redo_faces.data() + r.begin(), r.size());
     });
+    phase.lap(&DisplaceUpdateStats::terms_seconds);
     tbb::parallel_for(tbb::blocked_range<size_t>(0, m.redo_points.size(), 512), [&](const tbb::blocked_range<size_t>& r) {
         for (size_t k = r.begin(); k != r.end(); ++k) {
             const uint32_t p = m.redo_points[k];
@@ -596,6 +619,13 @@ size_t DisplacedGround::update(const Heightmap& h, const std::vector<TexelRect>&
             m.write(p, pos, nor);
         }
     });
+    phase.lap(&DisplaceUpdateStats::normals_seconds);
+    if (stats) {
+        stats->moved = m.moved.size();
+        stats->shifted = size_t(std::count(m.shifted.begin(), m.shifted.end(), uint8_t(1)));
+        stats->faces = m.redo_faces.size();
+        stats->normals = m.redo_points.size();
+    }
     return m.moved.size();
 }
 

@@ -73,6 +73,41 @@ TEST(DisplacedGround, IncrementalUpdatesEqualAFullPass) {
     EXPECT_GT(moved_total, 100u);
 }
 
+// DisplaceUpdateStats accounts for what an update did: its moved count is the result; the shifted points are
+// those whose buffer entries changed; every corner of a recomputed face is renormalised; the same rectangles
+// again, with nothing changed, shift nothing and recompute nothing.
+TEST(DisplacedGround, UpdateStatsCountTheWorkDone) {
+    Prepared p;
+    std::vector<float> pos, nor;
+    displaced_hill(p, 100, pos, nor);
+    ASSERT_TRUE(p.field.stamp(sphere(0.15, {}), ColliderPose{{0.3, hill_height(0.3, -0.2) + 0.1, -0.2}, 0, 0}).ok());
+    const auto r = p.field.update();
+    const std::vector<float> before = pos;
+    DisplaceUpdateStats st;
+    const size_t moved = p.dg.update(p.field.heightmap(), r, pos.data(), nor.data(), &st);
+    EXPECT_EQ(st.moved, moved);
+    EXPECT_GT(st.shifted, 0u);
+    EXPECT_LT(st.shifted, st.moved); // a dirty rectangle is not dirty everywhere
+    // Only a shifted point's vertex can change in the buffer (the hill has no seams: a vertex per point); not
+    // every one does, a change in double may round to the same float.
+    ASSERT_EQ(p.dg.welded_count(), p.dg.vertex_count());
+    size_t changed = 0;
+    for (size_t v = 0; 3 * v < pos.size(); ++v)
+        changed += !std::equal(&pos[3 * v], &pos[3 * v] + 3, &before[3 * v]);
+    EXPECT_GT(changed, 0u);
+    EXPECT_LE(changed, st.shifted);
+    EXPECT_GT(st.faces, 0u);
+    EXPECT_GE(st.normals, st.shifted);
+    for (double s : {st.search_seconds, st.displace_seconds, st.sweep_seconds, st.terms_seconds, st.normals_seconds}) EXPECT_GE(s, 0.0);
+    DisplaceUpdateStats again;
+    EXPECT_EQ(p.dg.update(p.field.heightmap(), r, pos.data(), nor.data(), &again), moved);
+    EXPECT_EQ(again.moved, moved);
+    EXPECT_EQ(again.shifted, 0u);
+    EXPECT_EQ(again.faces, 0u);
+    EXPECT_EQ(again.normals, 0u);
+    expect_full_pass_bits(p, pos, nor);
+}
+
 // keep_face_terms = false (the one-shot path of `furrow stamp`, which keeps no per-face cache) gives the same
 // bits as the cached path, in displace_all and in the updates that follow it.
 TEST(DisplacedGround, WithoutTheFaceTermCacheTheSameBits) {

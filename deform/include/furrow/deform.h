@@ -271,6 +271,20 @@ struct DisplaceOptions {
                                  // the same bits; an update() after a displace_all() computes them all again)
 };
 
+// What one DisplacedGround::update() did and where its time went (`furrow bench stamp` section 4 prints it per
+// moved point). The counts say how much work a moved point brings; the phases are wall-clock seconds.
+struct DisplaceUpdateStats {
+    size_t moved = 0;              // welded points under the dirty rectangles (update()'s result)
+    size_t shifted = 0;            // of those, the points whose position changed in bits
+    size_t faces = 0;              // faces whose terms were recomputed: those around the shifted points
+    size_t normals = 0;            // points renormalised and written: the corners of those faces
+    double search_seconds = 0;     // finding the points under the rectangles
+    double displace_seconds = 0;   // re-displacing them
+    double sweep_seconds = 0;      // finding the faces and points to recompute
+    double terms_seconds = 0;      // the faces' terms
+    double normals_seconds = 0;    // the points' normals, and writing every copy of each
+};
+
 class DisplacedGround {
 public:
     DisplacedGround();
@@ -293,8 +307,10 @@ public:
     // of the faces around them (exactly those whose normal can change);
     // other entries of the buffers are not touched (they must hold a previous displace_all/update result).
     // Returns the number of welded points moved. The first call after prepare() builds the indexes (an update
-    // with no rectangle builds them alone: an engine can do so at load time).
-    size_t update(const Heightmap& heightmap, const std::vector<TexelRect>& dirty, float* positions_out, float* normals_out);
+    // with no rectangle builds them alone: an engine can do so at load time). `stats`, when given, receives
+    // what this call did (the index building of a first call is not in its phases).
+    size_t update(const Heightmap& heightmap, const std::vector<TexelRect>& dirty, float* positions_out, float* normals_out,
+                  DisplaceUpdateStats* stats = nullptr);
     size_t update(const Heightmap& heightmap, const TexelRect& dirty, float* positions_out, float* normals_out);
 
     size_t vertex_count() const;
