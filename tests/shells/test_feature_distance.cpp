@@ -939,6 +939,104 @@ TEST(box_bvh, WideNodesMeetWhatTheBinaryDescentMeets) {
     check_wide(torus, 6, true);
 }
 
+// BoxBvh::for_near_packet (owned_lengths' first tests, eight balls at once): each ball of a packet meets
+// exactly the primitives for_near_wide meets for it alone, on AVX-512 and AVX2 lanes (where the processor has
+// them) and ball by ball; and a ball is settled exactly when its own search returns true, with f settling a ball at
+// primitives within a fraction of its reach (so that some balls settle early and others never do). Packets of
+// 1 to 8 balls around neighbouring surface points, lifted as owned_lengths lifts them or anywhere around,
+// far from the origin too.
+namespace {
+void check_packets(const TriSoup& m, uint64_t seed, bool lifted) {
+    using K = CGAL::Simple_cartesian<double>;
+    auto [boxes, tris, all, size, binary] = soup_hierarchy(m);
+    binary.add_slabs([&](uint32_t f, double* out) {
+        for (size_t c = 0; c < 3; ++c)
+            for (size_t k = 0; k < 3; ++k) out[3 * c + k] = m.points[3 * size_t(m.triangles[f][c]) + k];
+    }, 256);
+    shells_detail::BoxBvh bvh = binary;
+    bvh.widen();
+    constexpr int P = shells_detail::BoxBvh::kPacket;
+    size_t met_total = 0, settled_total = 0, balls_total = 0;
+    for (int trial = 0; trial < 400; ++trial) {
+        double centre[P][3], r2[P];
+        unsigned balls = 0;
+        const int n = 1 + int(splitmix64(seed) % P);
+        const size_t f0 = splitmix64(seed) % tris.size();
+        for (int k = 0; k < n; ++k) {
+            if (splitmix64(seed) % 5 == 0) continue; // a lane left out
+            K::Point_3 x;
+            double r;
+            const size_t f = std::min(tris.size() - 1, f0 + splitmix64(seed) % 8); // neighbours in the soup's order
+            if (lifted && trial % 4 != 0) {
+                const double h = size * (0.01 + 0.1 * unit_uniform(seed));
+                x = CGAL::centroid(tris[f]) + h * CGAL::unit_normal(tris[f][0], tris[f][1], tris[f][2]);
+                r = h * (0.9 + 0.1 * unit_uniform(seed));
+            } else {
+                x = K::Point_3(all.lo[0] + (all.hi[0] - all.lo[0]) * (1.4 * unit_uniform(seed) - 0.2),
+                               all.lo[1] + (all.hi[1] - all.lo[1]) * (1.4 * unit_uniform(seed) - 0.2),
+                               all.lo[2] + (all.hi[2] - all.lo[2]) * (1.4 * unit_uniform(seed) - 0.2));
+                r = size * 0.2 * unit_uniform(seed);
+            }
+            centre[k][0] = x.x(), centre[k][1] = x.y(), centre[k][2] = x.z(), r2[k] = r * r;
+            balls |= 1u << k;
+        }
+        const double settle = 0.25 + 0.5 * unit_uniform(seed); // f settles a ball at a primitive within settle x its reach
+        auto takes = [&](int k, uint32_t g) {
+            const K::Point_3 x(centre[k][0], centre[k][1], centre[k][2]);
+            return CGAL::squared_distance(x, tris[g]) < settle * settle * r2[k];
+        };
+        for (int lanes : {8, 4, 1}) { // (at most what the processor runs)
+            // Every primitive met, per ball, against each ball searched alone.
+            std::vector<std::vector<uint32_t>> met(P);
+            const unsigned none = bvh.for_near_packet(centre, r2, balls, [&](int k, uint32_t g, uint32_t) {
+                met[size_t(k)].push_back(g);
+                return false;
+            }, lanes);
+            ASSERT_EQ(none, 0u);
+            unsigned settled_alone = 0;
+            for (int k = 0; k < P; ++k) {
+                std::vector<uint32_t> alone;
+                if (balls >> k & 1) {
+                    double rr = r2[k];
+                    bvh.for_near_wide(centre[k], rr, [&](uint32_t g, double&) {
+                        alone.push_back(g);
+                        return false;
+                    });
+                    double rs = r2[k];
+                    if (bvh.for_near_wide(centre[k], rs, [&](uint32_t g, double&) { return takes(k, g); })) settled_alone |= 1u << k;
+                }
+                std::sort(alone.begin(), alone.end());
+                std::sort(met[size_t(k)].begin(), met[size_t(k)].end());
+                ASSERT_EQ(met[size_t(k)], alone) << "trial " << trial << " ball " << k << " lanes " << lanes;
+                met_total += alone.size();
+            }
+            // Settling: the same balls as their own searches, each ball meeting nothing once settled.
+            unsigned done = 0;
+            const unsigned settled = bvh.for_near_packet(centre, r2, balls, [&](int k, uint32_t g, uint32_t) {
+                EXPECT_FALSE(done >> k & 1) << "trial " << trial << " ball " << k;
+                if (!takes(k, g)) return false;
+                done |= 1u << k;
+                return true;
+            }, lanes);
+            ASSERT_EQ(settled, settled_alone) << "trial " << trial << " lanes " << lanes;
+            settled_total += size_t(__builtin_popcount(settled));
+            balls_total += size_t(__builtin_popcount(balls));
+        }
+    }
+    EXPECT_GT(met_total, 1000u);
+    EXPECT_GT(settled_total, balls_total / 20); // both kinds of ball, settled and not, in every call
+    EXPECT_LT(settled_total, balls_total * 19 / 20);
+}
+} // namespace
+
+TEST(box_bvh, PacketMeetsWhatEachBallMeetsAlone) {
+    for (uint64_t seed = 1; seed <= 2; ++seed) check_packets(random_soup(seed, 400, 600), seed * 41, false);
+    TriSoup torus = from_primitive(shapes::torus(1.0f, 0.3f, 96, 48));
+    check_packets(torus, 9, true);
+    for (size_t i = 0; i < torus.points.size(); i += 3) torus.points[i] += 1e6, torus.points[i + 1] -= 1e6, torus.points[i + 2] += 1e6;
+    check_packets(torus, 10, true);
+}
+
 // BoxBvh::for_ray after widen (for_ray_wide, oblique rays): the same primitives as the binary descent, each
 // once, with t_max fixed (every box the ray enters before it) and, with t_max lowered to each hit as it is found
 // (free_distances' nearest-hit search), the same nearest hit as brute force over all faces. Rays from the faces'
