@@ -869,6 +869,37 @@ TEST(box_bvh, SlabsSkipOnlyWhatIsOutOfReach) {
     EXPECT_LT(slab_visits, plain_visits - plain_visits / 200); // the slabs prune
 }
 
+namespace {
+// The slabs of a soup's faces (add_slabs over its corners), as SurfaceIndex gives them.
+void add_soup_slabs(shells_detail::BoxBvh& bvh, const TriSoup& m) {
+    bvh.add_slabs([&](uint32_t f, double* out) {
+        for (size_t c = 0; c < 3; ++c)
+            for (size_t k = 0; k < 3; ++k) out[3 * c + k] = m.points[3 * size_t(m.triangles[f][c]) + k];
+    }, 256);
+}
+// A test ball for the near searches: with `lifted`, the centroid of face f lifted along its normal by h and a
+// reach just short of h (owned_lengths' kind: the ball nearly touches the surface), else anywhere around the
+// soup's box `all` (size: its extent) with a reach up to `reach` x size.
+std::pair<CGAL::Simple_cartesian<double>::Point_3, double> test_ball(const std::vector<CGAL::Simple_cartesian<double>::Triangle_3>& tris,
+                                                                      const shells_detail::Box3& all, double size, size_t f, bool lifted,
+                                                                      double reach, uint64_t& seed) {
+    using K = CGAL::Simple_cartesian<double>;
+    if (lifted) {
+        const double h = size * (0.01 + 0.1 * unit_uniform(seed));
+        return {CGAL::centroid(tris[f]) + h * CGAL::unit_normal(tris[f][0], tris[f][1], tris[f][2]), h * (0.9 + 0.1 * unit_uniform(seed))};
+    }
+    const K::Point_3 x(all.lo[0] + (all.hi[0] - all.lo[0]) * (1.4 * unit_uniform(seed) - 0.2),
+                       all.lo[1] + (all.hi[1] - all.lo[1]) * (1.4 * unit_uniform(seed) - 0.2),
+                       all.lo[2] + (all.hi[2] - all.lo[2]) * (1.4 * unit_uniform(seed) - 0.2));
+    return {x, size * reach * unit_uniform(seed)};
+}
+// The soup moved 1e6 from the origin (where the boxes' margin is largest against the faces).
+TriSoup far_off(TriSoup m) {
+    for (size_t i = 0; i < m.points.size(); i += 3) m.points[i] += 1e6, m.points[i + 1] -= 1e6, m.points[i + 2] += 1e6;
+    return m;
+}
+} // namespace
+
 // BoxBvh::widen: for_near on the 4-wide nodes meets every primitive within reach that the binary descent
 // meets (the same set, in nearest-box-first order of its own), finds the same nearest distance, and never
 // drops a primitive that lies within reach (brute force over all faces). Random soups, queries just above a
@@ -876,29 +907,14 @@ TEST(box_bvh, SlabsSkipOnlyWhatIsOutOfReach) {
 // (where the boxes' margin is largest against the faces).
 namespace {
 void check_wide(const TriSoup& m, uint64_t seed, bool lifted) {
-    using K = CGAL::Simple_cartesian<double>;
-    using shells_detail::Box3;
     auto [boxes, tris, all, size, binary] = soup_hierarchy(m);
-    binary.add_slabs([&](uint32_t f, double* out) {
-        for (size_t c = 0; c < 3; ++c)
-            for (size_t k = 0; k < 3; ++k) out[3 * c + k] = m.points[3 * size_t(m.triangles[f][c]) + k];
-    }, 256);
+    add_soup_slabs(binary, m);
     shells_detail::BoxBvh wide = binary;
     wide.widen();
     size_t found = 0;
     for (int trial = 0; trial < 1500; ++trial) {
-        K::Point_3 x;
-        double r;
         const size_t f = splitmix64(seed) % tris.size();
-        if (lifted && trial % 4 != 0) { // a surface point lifted along its face's normal by h, reach just short of h
-            const double h = size * (0.01 + 0.1 * unit_uniform(seed));
-            x = CGAL::centroid(tris[f]) + h * CGAL::unit_normal(tris[f][0], tris[f][1], tris[f][2]);
-            r = h * (0.9 + 0.1 * unit_uniform(seed));
-        } else {
-            x = K::Point_3(all.lo[0] + (all.hi[0] - all.lo[0]) * (1.4 * unit_uniform(seed) - 0.2), all.lo[1] + (all.hi[1] - all.lo[1]) * (1.4 * unit_uniform(seed) - 0.2),
-                           all.lo[2] + (all.hi[2] - all.lo[2]) * (1.4 * unit_uniform(seed) - 0.2));
-            r = size * 0.3 * unit_uniform(seed);
-        }
+        const auto [x, r] = test_ball(tris, all, size, f, lifted && trial % 4 != 0, 0.3, seed);
         const double p[3] = {x.x(), x.y(), x.z()};
         auto within = [&](const shells_detail::BoxBvh& bvh, bool wide_nodes) {
             std::vector<uint32_t> met;
@@ -933,10 +949,9 @@ void check_wide(const TriSoup& m, uint64_t seed, bool lifted) {
 
 TEST(box_bvh, WideNodesMeetWhatTheBinaryDescentMeets) {
     for (uint64_t seed = 1; seed <= 3; ++seed) check_wide(random_soup(seed, 400, 600), seed * 31, false);
-    TriSoup torus = from_primitive(shapes::torus(1.0f, 0.3f, 96, 48));
+    const TriSoup torus = from_primitive(shapes::torus(1.0f, 0.3f, 96, 48));
     check_wide(torus, 5, true);
-    for (size_t i = 0; i < torus.points.size(); i += 3) torus.points[i] += 1e6, torus.points[i + 1] -= 1e6, torus.points[i + 2] += 1e6;
-    check_wide(torus, 6, true);
+    check_wide(far_off(torus), 6, true);
 }
 
 // BoxBvh::for_near_packet (owned_lengths' first tests, eight balls at once): each ball of a packet meets
@@ -949,10 +964,7 @@ namespace {
 void check_packets(const TriSoup& m, uint64_t seed, bool lifted) {
     using K = CGAL::Simple_cartesian<double>;
     auto [boxes, tris, all, size, binary] = soup_hierarchy(m);
-    binary.add_slabs([&](uint32_t f, double* out) {
-        for (size_t c = 0; c < 3; ++c)
-            for (size_t k = 0; k < 3; ++k) out[3 * c + k] = m.points[3 * size_t(m.triangles[f][c]) + k];
-    }, 256);
+    add_soup_slabs(binary, m);
     shells_detail::BoxBvh bvh = binary;
     bvh.widen();
     constexpr int P = shells_detail::BoxBvh::kPacket;
@@ -964,19 +976,8 @@ void check_packets(const TriSoup& m, uint64_t seed, bool lifted) {
         const size_t f0 = splitmix64(seed) % tris.size();
         for (int k = 0; k < n; ++k) {
             if (splitmix64(seed) % 5 == 0) continue; // a lane left out
-            K::Point_3 x;
-            double r;
             const size_t f = std::min(tris.size() - 1, f0 + splitmix64(seed) % 8); // neighbours in the soup's order
-            if (lifted && trial % 4 != 0) {
-                const double h = size * (0.01 + 0.1 * unit_uniform(seed));
-                x = CGAL::centroid(tris[f]) + h * CGAL::unit_normal(tris[f][0], tris[f][1], tris[f][2]);
-                r = h * (0.9 + 0.1 * unit_uniform(seed));
-            } else {
-                x = K::Point_3(all.lo[0] + (all.hi[0] - all.lo[0]) * (1.4 * unit_uniform(seed) - 0.2),
-                               all.lo[1] + (all.hi[1] - all.lo[1]) * (1.4 * unit_uniform(seed) - 0.2),
-                               all.lo[2] + (all.hi[2] - all.lo[2]) * (1.4 * unit_uniform(seed) - 0.2));
-                r = size * 0.2 * unit_uniform(seed);
-            }
+            const auto [x, r] = test_ball(tris, all, size, f, lifted && trial % 4 != 0, 0.2, seed);
             centre[k][0] = x.x(), centre[k][1] = x.y(), centre[k][2] = x.z(), r2[k] = r * r;
             balls |= 1u << k;
         }
@@ -1031,10 +1032,9 @@ void check_packets(const TriSoup& m, uint64_t seed, bool lifted) {
 
 TEST(box_bvh, PacketMeetsWhatEachBallMeetsAlone) {
     for (uint64_t seed = 1; seed <= 2; ++seed) check_packets(random_soup(seed, 400, 600), seed * 41, false);
-    TriSoup torus = from_primitive(shapes::torus(1.0f, 0.3f, 96, 48));
+    const TriSoup torus = from_primitive(shapes::torus(1.0f, 0.3f, 96, 48));
     check_packets(torus, 9, true);
-    for (size_t i = 0; i < torus.points.size(); i += 3) torus.points[i] += 1e6, torus.points[i + 1] -= 1e6, torus.points[i + 2] += 1e6;
-    check_packets(torus, 10, true);
+    check_packets(far_off(torus), 10, true);
 }
 
 // BoxBvh::for_ray after widen (for_ray_wide, oblique rays): the same primitives as the binary descent, each
@@ -1096,10 +1096,9 @@ void check_wide_rays(const TriSoup& m, uint64_t seed) {
 
 TEST(box_bvh, WideNodesMeetWhatTheBinaryRayDescentMeets) {
     for (uint64_t seed = 1; seed <= 3; ++seed) check_wide_rays(random_soup(seed, 400, 600), seed * 37);
-    TriSoup torus = from_primitive(shapes::torus(1.0f, 0.3f, 96, 48));
+    const TriSoup torus = from_primitive(shapes::torus(1.0f, 0.3f, 96, 48));
     check_wide_rays(torus, 7);
-    for (size_t i = 0; i < torus.points.size(); i += 3) torus.points[i] += 1e6, torus.points[i + 1] -= 1e6, torus.points[i + 2] += 1e6;
-    check_wide_rays(torus, 8);
+    check_wide_rays(far_off(torus), 8);
 }
 
 // BoxBvh::widen's leaf blocks (near_in_block): a leaf's boxes tested four at once, the slots within reach met
