@@ -524,7 +524,7 @@ public:
     // for_near_wide for a packet of up to kPacket balls at once (centre p[k], squared reach r2[k], ball k taking
     // part where bit k of `balls` is set): each ball meets exactly the primitives for_near_wide meets for it (the
     // same box and slab tests, bit for bit), in another order, and a node is read once for the whole packet,
-    // its tests made for all the balls at once (eight lanes with AVX-512, chosen at run time; else ball by ball).
+    // its tests made for all the balls at once (AVX-512 or AVX2 lanes, chosen at run time; else ball by ball).
     // f(k, prim, j) for ball k and the primitive at leaf-order position j; true settles ball k (it meets no
     // more). Returns the settled balls as bits: with a yes-or-no f, ball k is settled exactly when
     // for_near_wide(p[k], r2[k], f_k) returns true. `lanes`: 8 (AVX-512), 4 (AVX2) or 1 (ball by ball), at most
