@@ -140,6 +140,37 @@ TEST(DisplacedGround, WithoutTheFaceTermCacheTheSameBits) {
     EXPECT_EQ(na, nb);
 }
 
+// An update() straight after prepare(), with no displace_all() before it, starts from the rest positions:
+// the points it does not move keep them (prepare() leaves the current positions unwritten, and the first update
+// copies the rest positions in; displace_all() writes them all without that copy). The reference moves every
+// point by a zero heightmap first, which leaves every position at its rest bits; both then take the same
+// stamp, into buffers holding that zero pass. With and without the face-term cache.
+TEST(DisplacedGround, AnUpdateStraightAfterPrepareStartsFromTheRestPositions) {
+    for (bool keep : {true, false}) {
+        DisplaceOptions o;
+        o.keep_face_terms = keep;
+        Prepared ref, direct;
+        ref.ground = direct.ground = hill_ground(4, 40);
+        prepare(ref, o);
+        prepare(direct, o);
+        ASSERT_TRUE(ref.field.stamp(sphere(0.3, {}), ColliderPose{{0.2, hill_height(0.2, 0.1) + 0.1, 0.1}, 0, 0}).ok());
+        const std::vector<TexelRect> dirty = ref.field.update();
+        ASSERT_FALSE(dirty.empty());
+        Heightmap zero = ref.field.heightmap();
+        std::fill(zero.values.begin(), zero.values.end(), 0.0f);
+        std::vector<float> pos(ref.ground.positions.size(), -1.0f), nor(pos.size(), -1.0f);
+        ref.dg.displace_all(zero, pos.data(), nor.data());
+        EXPECT_EQ(pos, ref.ground.positions); // the zero pass left every point where it was
+        std::vector<float> direct_pos = pos, direct_nor = nor;
+        const size_t moved = ref.dg.update(ref.field.heightmap(), dirty, pos.data(), nor.data());
+        EXPECT_GT(moved, 10u);
+        EXPECT_EQ(direct.dg.update(ref.field.heightmap(), dirty, direct_pos.data(), direct_nor.data()), moved);
+        EXPECT_EQ(direct_pos, pos);
+        EXPECT_EQ(direct_nor, nor);
+        EXPECT_NE(pos, ref.ground.positions); // the stamp moved points
+    }
+}
+
 // prepare() on a prepared ground takes over its old storage when the new mesh fits in it and needs at least
 // half of it (no page faults: see Arena in displaced_ground.cpp). Each re-prepare, into the old block or a new
 // one, with and without the face-term cache, gives the bits of a fresh object, in displace_all and in an
