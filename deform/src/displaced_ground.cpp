@@ -41,10 +41,9 @@
 #include <furrow_kernel/huge_pages.h>
 #include <furrow_kernel/welded_ids.h>
 #include <furrow_kernel/no_throw.h>
+#include <furrow_kernel/threads.h>
 
 #include <tbb/blocked_range.h>
-#include <tbb/global_control.h>
-#include <tbb/task_arena.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -186,11 +185,7 @@ void gather_normal(double* o, uint32_t v, const Term& term, const Indices& off, 
     unit_or_zero(o, sum);
 }
 
-// Whether this call runs on one thread (every limit in force: the arena's and a global_control's).
-bool one_thread() {
-    return std::min(tbb::this_task_arena::max_concurrency(),
-                    int(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism))) <= 1;
-}
+using kernel::one_thread;
 
 // All points' normals on one thread, in one streaming pass over the faces: each block's terms, then each
 // term added to its three corners' sums. A point's row of `faces` lists its corners in increasing order

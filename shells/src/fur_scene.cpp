@@ -51,12 +51,7 @@ std::array<double, 3> solve3(const Mat4& m, const std::array<double, 3>& b) {
     return {det_cols(b, col(1), col(2)) / d, det_cols(col(0), b, col(2)) / d, det_cols(col(0), col(1), b) / d};
 }
 
-template <class F>
-void parallel(size_t n, size_t grain, F&& f) {
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, n, grain), [&](const tbb::blocked_range<size_t>& r) {
-        for (size_t i = r.begin(); i != r.end(); ++i) f(i);
-    });
-}
+using shells_detail::parallel;
 
 // How one mesh sits in the world: object units per world unit and gravity in object space.
 struct Placement {

@@ -12,7 +12,19 @@
 #include <memory>
 #include <vector>
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 namespace furrow::shells_detail {
+
+// f(i) for i in [0, n), in parallel chunks of at least `grain`: for loops whose iterations each write their own
+// slots (so the result does not depend on the thread count).
+template <class F>
+void parallel(size_t n, size_t grain, F&& f) {
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, n, grain), [&](const tbb::blocked_range<size_t>& r) {
+        for (size_t i = r.begin(); i != r.end(); ++i) f(i);
+    });
+}
 
 // ---- refine_starved_faces.cpp: bisects the triangles of p whose corners the clamps starve (see the file),
 // recomputing `frame` with `regrow` after each round. At the first split p becomes a copy of `base`; p then
