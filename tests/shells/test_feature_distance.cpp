@@ -10,6 +10,8 @@
 #include <furrow/shapes.h>
 
 #include <gtest/gtest.h>
+#include <tbb/global_control.h>
+#include <tbb/task_arena.h>
 
 #include "test_support.h"
 
@@ -577,6 +579,36 @@ TEST(box_bvh, BuildIsDeterminedByTheInput) {
                 ASSERT_TRUE(found) << i;
             }
         }
+    }
+}
+
+// On more than one thread, BoxBvh::build splits the first levels, builds the subtrees of at most 4096 boxes
+// in parallel and places every node where one thread numbers it: the same tree, node for node and bit for
+// bit, as one thread builds. Random boxes of mixed sizes (tens of thousands, so that there are subtrees to
+// share out), a coarse grid with many ties, and one where every centre is the same (median splits only).
+TEST(box_bvh, BuildOnTwoThreadsIsTheOneThreadTree) {
+    using shells_detail::Box3;
+    uint64_t seed = 77;
+    for (int shape = 0; shape < 3; ++shape) {
+        const size_t n = shape == 0 ? 50000 : 12000;
+        std::vector<Box3> boxes(n);
+        for (Box3& b : boxes) {
+            double lo[3], hi[3];
+            for (int k = 0; k < 3; ++k) {
+                const double u = double(splitmix64(seed) % 1000000) / 1e6, size = double(splitmix64(seed) % 1000) / 1e5;
+                lo[k] = shape == 0 ? u : shape == 1 ? double(splitmix64(seed) % 32) : 5.0;
+                hi[k] = lo[k] + (shape == 0 ? size : double(splitmix64(seed) % 3));
+            }
+            b.add(lo), b.add(hi);
+        }
+        shells_detail::BoxBvh one, two;
+        tbb::task_arena(1).execute([&] { one.build(boxes); });
+        {
+            const tbb::global_control allow(tbb::global_control::max_allowed_parallelism, 2); // (on a 1-core machine too)
+            tbb::task_arena(2).execute([&] { two.build(boxes); });
+        }
+        EXPECT_TRUE(one.same_tree(two)) << "shape " << shape;
+        EXPECT_EQ(one.leaf_order().size(), n);
     }
 }
 
