@@ -388,28 +388,26 @@ struct SurfaceIndex::Impl {
     BoxBvh bvh;
 
     Impl(const std::vector<double>& p, const std::vector<std::array<uint32_t, 3>>& t) : points(p), triangles(t) {
-        // Per face, in parallel (each writes its own slot; the bounds after, in face order).
-        tris.resize(t.size());
+        tris.reserve(t.size());
         std::vector<Box3> boxes(t.size());
-        parallel(t.size(), 1024, [&](size_t f) {
-            tris[f] = Triangle(pt(t[f][0]), pt(t[f][1]), pt(t[f][2]));
+        for (size_t f = 0; f < t.size(); ++f) {
+            tris.emplace_back(pt(t[f][0]), pt(t[f][1]), pt(t[f][2]));
             boxes[f] = box_of(tris[f][0], tris[f][1], tris[f][2]);
-        });
-        for (const Box3& b : boxes) bounds.add(b);
+            bounds.add(boxes[f]);
+        }
         bvh.build(std::move(boxes));
         // The corners in leaf order, gathered once for the slabs and the planes (each gathered them itself, the
         // slabs into a zeroed buffer): bunny callgrind, the build outside BoxBvh::build 59.4 -> 54.4 M instructions.
         const std::vector<uint32_t>& leaf = bvh.leaf_order();
         const std::unique_ptr<double[]> c(new double[9 * leaf.size()]); // every entry written below
-        parallel(leaf.size(), 1024, [&](size_t j) {
+        for (size_t j = 0; j < leaf.size(); ++j)
             for (size_t k = 0; k < 3; ++k) std::memcpy(&c[9 * j + 3 * k], &p[3 * size_t(t[leaf[j]][k])], 3 * sizeof(double));
-        });
         bvh.add_slabs_gathered(c.get(), kSlabPrims);
         bvh.widen(); // for_near on 4-wide nodes (owned_lengths' ball queries)
         // A leaf's planes side by side: a search reads one or two cache lines for a leaf's four instead of four
         // scattered ones (bunny owned_lengths 70.3-72.2 -> 67.9-68.7 ms, stage timer).
         planes.resize(leaf.size());
-        parallel(leaf.size(), 1024, [&](size_t j) {
+        for (size_t j = 0; j < leaf.size(); ++j) {
             const double* a = &c[9 * j];
             const double* b = a + 3;
             const double* cc = a + 6;
@@ -421,7 +419,7 @@ struct SurfaceIndex::Impl {
             Plane& pl = planes[j];
             for (int k = 0; k < 3; ++k) pl.a[k] = a[k], pl.n[k] = len > 0 ? n[k] / len : 0.0;
             pl.slack = len > 0 && std::isfinite(len) ? 1e-14 * (l1 * l2 / len + 1) : HUGE_VAL;
-        });
+        }
     }
     Point pt(uint32_t v) const { return Point(points[3 * size_t(v)], points[3 * size_t(v) + 1], points[3 * size_t(v) + 2]); }
 
@@ -533,31 +531,31 @@ struct CrossingTest::State {
     State(const SurfaceIndex::Impl& index, const uint32_t* rings, const uint32_t* ring_faces)
         : ix(index), W(index.points.size() / 3), T(index.triangles.size()), ring_start(rings) {
         pts.resize(2 * W);
-        parallel(W, 1024, [&](size_t v) { pts[v] = pts[W + v] = Exact::Point_3(ix.points[3 * v], ix.points[3 * v + 1], ix.points[3 * v + 2]); });
+        for (size_t v = 0; v < W; ++v)
+            pts[v] = pts[W + v] = Exact::Point_3(ix.points[3 * v], ix.points[3 * v + 1], ix.points[3 * v + 2]);
         shell_id.resize(W);
         std::iota(shell_id.begin(), shell_id.end(), 0u);
         base_ok.resize(T);
-        parallel(T, 1024, [&](size_t f) {
+        for (size_t f = 0; f < T; ++f) {
             const auto& t = ix.triangles[f];
             base_ok[f] = !CGAL::collinear(pts[t[0]], pts[t[1]], pts[t[2]]);
-        });
+        }
         stri.resize(T);
         is_shell.assign(T, 0);
         sbox.resize(T);
         shells.take_shape(ix.bvh); // refitted by run, to the shell boxes
         // Each vertex's spokes (its faces' other corners, in their winding), kept where they close into a fan.
         spokes.resize(ring_start[W]);
-        fan_closes.resize(W);
-        spoke_next.resize(spokes.size());
-        parallel(W, 1024, [&](size_t vi) {
-            const uint32_t v = uint32_t(vi);
+        for (uint32_t v = 0; v < W; ++v)
             for (uint32_t i = ring_start[v]; i < ring_start[v + 1]; ++i) {
                 const auto& t = ix.triangles[ring_faces[i]];
                 const size_t at = t[0] == v ? 0 : t[1] == v ? 1 : 2;
                 spokes[i] = {t[(at + 1) % 3], t[(at + 2) % 3]};
             }
+        fan_closes.resize(W);
+        spoke_next.resize(spokes.size());
+        for (uint32_t v = 0; v < W; ++v)
             fan_closes[v] = spokes_close(v, &spokes[ring_start[v]], ring_start[v + 1] - ring_start[v], &spoke_next[ring_start[v]]);
-        });
         flat_fan.assign(W, 0);
         slot.resize(T);
         const std::vector<uint32_t>& leaves = ix.bvh.leaf_order();
