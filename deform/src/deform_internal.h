@@ -147,6 +147,9 @@ double collider_bottom_offset(const Collider& shape);
 double collider_top_offset(const Collider& shape);
 
 // ---- snow_rim.cpp -----------------------------------------------------------------------------------------
+// The cosmetic rim ring's builds, narrowest first (snow_rim.cpp): every one gives the same bits.
+enum class RingBuild : uint8_t { baseline, avx2, avx512, widest = avx512 };
+
 struct RimInput {
     const float* carve = nullptr;  // current carve layer
     const float* base = nullptr;   // base layer or null (= 0)
@@ -164,7 +167,7 @@ struct RimInput {
     bool parallel = true;           // false: one thread per window (the caller runs windows in parallel)
     bool full_window = false;       // cosmetic: every step over the whole window (the reference the ring-only
                                     // evaluation must equal byte for byte; tests), not only around `out`
-    bool baseline_ring = false;     // cosmetic: the ring's baseline x86-64 build even where AVX-512 runs (tests)
+    RingBuild ring_build = RingBuild::widest; // cosmetic: which build of the ring runs (tests ask for narrower ones)
 };
 // The texels a rim computation owns: the tiles of one connected dirty region. It counts only the imprints
 // inside them and writes only them.

@@ -27,9 +27,10 @@
 // a bounded search, nearest row per column then nearest column, gives the same integers); the gathered sums
 // are fixed point (2^-20 m) added in 64-bit integers, where a running sum is exact wherever it starts
 // (floating-point running sums round differently from different starts); the blur adds its few terms in one
-// fixed order per texel. That evaluation (snow_rim_ring.inc) is built twice, for baseline x86-64 and for
-// AVX-512, and chosen at run time: per-texel arithmetic with no fused multiply-add gives both builds the same
-// bits (`furrow -j 1 bench stamp --section 4`, rim 6 cm: rim 8.85-9.29 -> 7.33-7.41 ms a frame).
+// fixed order per texel. That evaluation (snow_rim_ring.inc) is built three times, for baseline x86-64, AVX2
+// and AVX-512, and chosen at run time: per-texel arithmetic with no fused multiply-add gives every build the
+// same bits (`furrow -j 1 bench stamp --section 4`, rim 6 cm: rim 8.85-9.29 -> 7.33-7.41 ms a frame with
+// AVX-512; the AVX2 build's figures are in deform/README.md).
 #include "deform_internal.h"
 
 #include <tbb/blocked_range.h>
@@ -285,12 +286,18 @@ double quantum_cap(int n) {
 // emulation of one cost a branch per texel in the rim's sums.
 uint64_t quantized(double x, double cap) { return x > 0 ? uint64_t(int64_t(std::min(x / kQuantum, cap) + 0.5)) : 0; }
 
-// The ring's two builds (snow_rim_ring.inc). Clang (the fuzzing build) and other targets get the baseline one.
+// The ring's three builds (snow_rim_ring.inc). Clang (the fuzzing build) and other targets get the baseline one.
 namespace ring {
 #include "snow_rim_ring.inc"
 } // namespace ring
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-#define FURROW_RIM_AVX512 1
+#define FURROW_RIM_WIDE 1
+#pragma GCC push_options
+#pragma GCC target("avx2,bmi,bmi2,lzcnt,popcnt")
+namespace ring_avx2 {
+#include "snow_rim_ring.inc"
+} // namespace ring_avx2
+#pragma GCC pop_options
 #pragma GCC push_options
 #pragma GCC target("avx512f,avx512bw,avx512dq,avx512vl")
 namespace ring_avx512 {
@@ -299,15 +306,18 @@ namespace ring_avx512 {
 #pragma GCC pop_options
 #endif
 
-// Whether the AVX-512 build of the ring runs here (unless a test asks for the baseline one).
-bool ring_avx512_here(const RimInput& in) {
-#ifdef FURROW_RIM_AVX512
-    static const bool here = __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
-                             __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512vl");
-    return here && !in.baseline_ring;
+// The build of the ring that runs here: the widest this processor has, or a narrower one a test asks for.
+RingBuild ring_build_here(const RimInput& in) {
+#ifdef FURROW_RIM_WIDE
+    static const RingBuild widest = __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
+                                            __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512vl")
+                                        ? RingBuild::avx512
+                                    : __builtin_cpu_supports("avx2") && __builtin_cpu_supports("bmi2") ? RingBuild::avx2
+                                                                                                        : RingBuild::baseline;
+    return std::min(widest, in.ring_build);
 #else
     (void)in;
-    return false;
+    return RingBuild::baseline;
 #endif
 }
 
@@ -418,12 +428,12 @@ double compute_rim(float* rim, const RimInput& in, const TexelRect& win, const R
         return 0.0;
     }
     if (!in.conserve && !in.full_window) { // (a window without imprints comes out zero here too)
-        if (ring_avx512_here(in)) {
-#ifdef FURROW_RIM_AVX512
-            ring_avx512::cosmetic_ring(S, W, in, win, out);
+        switch (ring_build_here(in)) {
+#ifdef FURROW_RIM_WIDE
+        case RingBuild::avx512: ring_avx512::cosmetic_ring(S, W, in, win, out); break;
+        case RingBuild::avx2: ring_avx2::cosmetic_ring(S, W, in, win, out); break;
 #endif
-        } else {
-            ring::cosmetic_ring(S, W, in, win, out);
+        default: ring::cosmetic_ring(S, W, in, win, out); break;
         }
         write(W.result);
         return 0.0;

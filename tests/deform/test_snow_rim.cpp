@@ -85,14 +85,14 @@ TEST(SnowRim, RingOnlyCosmeticRimEqualsTheWholeWindowPathByteForByte) {
             std::vector<float> ref(size_t(w) * size_t(h), -1.0f);
             compute_rim(ref.data(), input_of(f, width_m, true, true), grid, RimOwner{all.data(), TX, T}, grid);
             ASSERT_GT(*std::max_element(ref.begin(), ref.end()), 0.0f); // a rim rose
-            // The ring's AVX-512 build (where it runs) and its baseline one, at one and two threads.
-            for (int run = 0; run < 4; ++run) {
+            // The ring's AVX-512, AVX2 and baseline builds (each where it runs), at one and two threads.
+            for (int run = 0; run < 6; ++run) {
                 const int threads = 1 + run % 2;
-                const bool baseline = run >= 2;
-                SCOPED_TRACE(baseline ? "baseline ring" : "widest ring");
+                const RingBuild build = run < 2 ? RingBuild::avx512 : run < 4 ? RingBuild::avx2 : RingBuild::baseline;
+                SCOPED_TRACE(run < 2 ? "AVX-512 ring" : run < 4 ? "AVX2 ring" : "baseline ring");
                 auto ring_input = [&](bool parallel) {
                     RimInput in = input_of(f, width_m, false, parallel);
-                    in.baseline_ring = baseline;
+                    in.ring_build = build;
                     return in;
                 };
                 tbb::global_control limit(tbb::global_control::max_allowed_parallelism, size_t(threads));
