@@ -177,11 +177,18 @@ float atomic_min(float* cell, float value) {
     return cur;
 }
 
+// Every texel of a row may be in the shape (rasterise's default row span).
+struct WholeRows {
+    bool operator()(double, double&, double&) const { return true; }
+};
+
 // Evaluates `offset(qu, qv, ground)` (an offset <= 0 to composite, or >= 0 / NaN for none) on every texel of
-// the box [u0, u1] × [v0, v1] (metres) and composites it into the carve layer.
-template <class Offset>
+// the box [u0, u1] × [v0, v1] (metres) and composites it into the carve layer. `span(qv, lo, hi)` may narrow
+// a row to the texels within [lo, hi] (metres; a bound, widened here by a texel: the offset decides), or
+// return false when no texel of the row is in the shape: the same bytes, fewer texels tested.
+template <class Offset, class Span = WholeRows>
 void rasterise(const StampTarget& T, double u0, double u1, double v0, double v1, double decay, StampResult& res,
-               const Offset& offset) {
+               const Offset& offset, const Span& span = {}) {
     const double t = T.texel;
     const int i0 = clamped_int(std::ceil(u0 / t), 0, T.width), i1 = clamped_int(std::floor(u1 / t), -1, T.width - 1);
     const int j0 = clamped_int(std::ceil(v0 / t), 0, T.height), j1 = clamped_int(std::floor(v1 / t), -1, T.height - 1);
@@ -193,7 +200,11 @@ void rasterise(const StampTarget& T, double u0, double u1, double v0, double v1,
     auto row_range = [&](int ja, int jb, Acc& acc) {
         for (int j = ja; j < jb; ++j) {
             const double qv = j * t;
-            for (int i = i0; i <= i1; ++i) {
+            double lo = u0, hi = u1;
+            if (!span(qv, lo, hi)) continue;
+            const int ia = std::max(i0, clamped_int(std::ceil(lo / t) - 1, -1, T.width)),
+                      ib = std::min(i1, clamped_int(std::floor(hi / t) + 1, -1, T.width));
+            for (int i = ia; i <= ib; ++i) {
                 const size_t idx = size_t(j) * size_t(T.width) + size_t(i);
                 const float g = T.ground[idx];
                 if (std::isnan(g)) continue;
@@ -321,6 +332,29 @@ void sweep_fixed(const StampTarget& T, const Collider& c, const LocalPose& p0, c
     }
 }
 
+// The u span (metres) of row rv (from the brush's centre at u = cu) inside the rectangle |lx| <= hx,
+// |lz| <= hz of a brush turned to axes `ax`: each bound is a slab in u, or (axis along v) all or nothing.
+// Widened by a margin far above the rounding of brush()'s own test, so that it only ever adds texels.
+bool brush_row(const Axes& ax, double hx, double hz, double cu, double rv, double texel, double& lo, double& hi) {
+    const double margin = texel + 1e-9 * (std::abs(cu) + std::abs(rv) + hx + hz);
+    double a = -kInf, b = kInf;
+    auto slab = [&](double cu_coef, double cv_coef, double half) {
+        const double off = rv * cv_coef;
+        if (cu_coef == 0) {
+            if (std::abs(off) > half + margin) a = kInf, b = -kInf;
+            return;
+        }
+        double x0 = (-half - off) / cu_coef, x1 = (half - off) / cu_coef;
+        if (x0 > x1) std::swap(x0, x1);
+        a = std::max(a, x0), b = std::min(b, x1);
+    };
+    slab(ax.ex_u, ax.ex_v, hx);
+    slab(ax.ez_u, ax.ez_v, hz);
+    if (!(a <= b)) return false;
+    lo = std::max(lo, cu + a - margin), hi = std::min(hi, cu + b + margin);
+    return lo <= hi;
+}
+
 void stamp_image(const StampTarget& T, const Collider& c, const LocalPose& p, double decay, StampResult& res) {
     if (!(p.penetration > 0) || !c.brush) return;
     const ImageF& im = *c.brush;
@@ -348,7 +382,7 @@ void stamp_image(const StampTarget& T, const Collider& c, const LocalPose& p, do
         i = std::clamp(i, 0, W - 1), j = std::clamp(j, 0, H - 1);
         return double(im.pixels[(size_t(j) * size_t(W) + size_t(i)) * size_t(C)]);
     };
-    rasterise(T, p.u - R, p.u + R, p.v - R, p.v + R, decay, res, [&](double qu, double qv, double) {
+    auto brush = [&](double qu, double qv, double) {
         const double ru = qu - p.u, rv = qv - p.v;
         const double lx = ru * ax.ex_u + rv * ax.ex_v, lz = ru * ax.ez_u + rv * ax.ez_v;
         if (std::abs(lx) > 0.5 * sx || std::abs(lz) > 0.5 * sz) return 0.0;
@@ -358,7 +392,12 @@ void stamp_image(const StampTarget& T, const Collider& c, const LocalPose& p, do
         const double fi = xi - i0, fj = yj - j0;
         const double v = (px(i0, j0) * (1 - fi) + px(i0 + 1, j0) * fi) * (1 - fj) + (px(i0, j0 + 1) * (1 - fi) + px(i0 + 1, j0 + 1) * fi) * fj;
         return -std::clamp(v, 0.0, 1.0) * p.penetration;
-    });
+    };
+    // A turned brush covers a third to a half of its bounding square: each row is cut to the brush's span
+    // there (`bench stamp` section 4, where 3 in 4 walkers stamp a brush; figures in deform/README.md).
+    auto rows = [&](double qv, double& lo, double& hi) { return brush_row(ax, hx, hz, p.u, qv - p.v, T.texel, lo, hi); };
+    if (T.whole_boxes) rasterise(T, p.u - R, p.u + R, p.v - R, p.v + R, decay, res, brush);
+    else rasterise(T, p.u - R, p.u + R, p.v - R, p.v + R, decay, res, brush, rows);
 }
 
 LocalPose lerp(const LocalPose& a, const LocalPose& b, double t) {

@@ -117,6 +117,7 @@ struct StampTarget {
     int width = 0, height = 0;
     double texel = 0;
     double snow_depth = 0; // 0 = unlimited
+    bool whole_boxes = false; // tests: rasterise each image stamp's whole bounding box, not its rows' spans
 };
 
 // A pose in the heightmap's frame: u, v in metres from the origin along axis_u / axis_v, w along up.
