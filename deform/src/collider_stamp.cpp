@@ -199,6 +199,11 @@ void rasterise(const StampTarget& T, double u0, double u1, double v0, double v1,
     };
     auto row_range = [&](int ja, int jb, Acc& acc) {
         for (int j = ja; j < jb; ++j) {
+            if (j + 2 < jb) { // the rows are a grid row apart: no hardware prefetcher follows them
+                const size_t ahead = size_t(j + 2) * size_t(T.width) + size_t(i0), last = ahead + size_t(i1 - i0);
+                for (size_t k = ahead; k <= last; k += 16) __builtin_prefetch(T.ground + k), __builtin_prefetch(T.carve + k, 1);
+                __builtin_prefetch(T.ground + last), __builtin_prefetch(T.carve + last, 1);
+            }
             const double qv = j * t;
             double lo = u0, hi = u1;
             if (!span(qv, lo, hi)) continue;
