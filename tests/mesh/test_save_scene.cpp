@@ -155,6 +155,90 @@ TEST(save_scene, BadSceneIsRefusedAndNothingIsWritten) {
     EXPECT_TRUE(list_dir(dir).empty());
 }
 
+// Saved to `out`, then read back as stored.
+Scene saved_and_reloaded(const Scene& s, const std::filesystem::path& out, const SaveOptions& options) {
+    const Status st = save_scene(s, out.string(), options);
+    EXPECT_TRUE(st.ok()) << st.message;
+    Scene b;
+    LoadOptions as_stored;
+    as_stored.recentre = false;
+    EXPECT_TRUE(load_scene(b, out.string(), as_stored).ok());
+    return b;
+}
+
+// The primitive `p` of mesh 0 as it reads back when saved alone, and as `together` holds it.
+void expect_as_saved_alone(const Scene& together, size_t p, const Primitive& alone, const SaveOptions& options,
+                           const std::filesystem::path& dir) {
+    const Scene solo = saved_and_reloaded(make_scene(alone, "solo"), dir / "solo.glb", options);
+    ASSERT_EQ(solo.meshes.size(), 1u);
+    ASSERT_GT(together.meshes[0].primitives.size(), p);
+    const Primitive& a = solo.meshes[0].primitives[0];
+    const Primitive& b = together.meshes[0].primitives[p];
+    EXPECT_EQ(a.indices, b.indices) << "primitive " << p;
+    if (options.encoding != Encoding::plain) return; // quantized on the grid of its mesh, which differs alone
+    EXPECT_EQ(a.positions, b.positions) << "primitive " << p;
+    EXPECT_EQ(a.uv0, b.uv0) << "primitive " << p;
+}
+
+TEST(save_scene, RepeatedTrianglesShareOneIndexAccessorAndEachKeepsItsOrder) {
+    // Fur shells repeat the base's triangles over new vertices: the writer orders them once and writes one index
+    // accessor for the run; each primitive still reads back exactly as it does saved alone.
+    const Primitive a = shapes::torus(1.0f, 0.25f, 24, 12);
+    Primitive b = a;
+    for (float& x : b.positions) x = x * 1.5f + 0.25f;
+    const Primitive c = shapes::uv_sphere(1.0f, 16, 8);
+    Scene s = make_scene(a, "shells");
+    s.meshes[0].primitives.push_back(b);
+    s.meshes[0].primitives.push_back(c);
+    s.meshes[0].primitives.push_back(c);
+    Primitive d = c; // the same vertices and as many indices, every triangle turned over: not a repeat
+    for (size_t t = 0; t + 2 < d.indices.size(); t += 3) std::swap(d.indices[t + 1], d.indices[t + 2]);
+    s.meshes[0].primitives.push_back(d);
+    const auto dir = temp_dir();
+    for (Encoding e : {Encoding::plain, Encoding::quantize, Encoding::compress})
+        for (bool optimize : {true, false}) {
+            SaveOptions o;
+            o.encoding = e, o.optimize = optimize;
+            const auto out = dir / ("repeated" + std::to_string(int(e)) + (optimize ? "o" : "k") + ".glb");
+            const Scene back = saved_and_reloaded(s, out, o);
+            ASSERT_EQ(back.meshes[0].primitives.size(), 5u);
+            EXPECT_VALID_GLTF(out);
+            const nlohmann::json j = gltf_json(out);
+            const auto& prim = j["meshes"][0]["primitives"];
+            EXPECT_EQ(prim[0]["indices"], prim[1]["indices"]);
+            EXPECT_EQ(prim[2]["indices"], prim[3]["indices"]);
+            EXPECT_NE(prim[0]["indices"], prim[2]["indices"]);
+            EXPECT_NE(prim[3]["indices"], prim[4]["indices"]);
+            EXPECT_NE(prim[0]["attributes"]["POSITION"], prim[1]["attributes"]["POSITION"]);
+            expect_as_saved_alone(back, 1, b, o, dir);
+            expect_as_saved_alone(back, 3, c, o, dir);
+            expect_as_saved_alone(back, 4, d, o, dir);
+        }
+}
+
+TEST(save_scene, PolygonsWithTheSameCornersButAnotherShapeAreEachFannedByTheirOwn) {
+    // The fan of a polygon depends on its positions (triangulate_polygons): a square fans from corner 0; a dart
+    // whose corner 1 is reflex cannot (the diagonal 0-2 runs outside it). Same corners, so the same index list,
+    // yet not the same triangles.
+    Primitive square;
+    square.positions = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0};
+    square.indices = {0, 1, 2, 3};
+    square.face_sizes = {4};
+    Primitive dart = square;
+    dart.positions = {0, 0, 0, 0.3f, 0.7f, 0, 1, 1, 0, 0, 1, 0}; // corner 1 pushed in past the diagonal 0-2
+    Scene s = make_scene(square, "polygons");
+    s.meshes[0].primitives.push_back(dart);
+    SaveOptions as_given;
+    as_given.optimize = false;
+    const auto dir = temp_dir();
+    const Scene back = saved_and_reloaded(s, dir / "polygons.glb", as_given);
+    ASSERT_EQ(back.meshes[0].primitives.size(), 2u);
+    EXPECT_VALID_GLTF(dir / "polygons.glb");
+    EXPECT_NE(back.meshes[0].primitives[0].indices, back.meshes[0].primitives[1].indices);
+    expect_as_saved_alone(back, 0, square, as_given, dir);
+    expect_as_saved_alone(back, 1, dart, as_given, dir);
+}
+
 TEST(save_scene, SameSceneGivesSameBytes) {
     Scene s = make_scene(shapes::torus(1.0f, 0.25f, 24, 12), "torus");
     const auto dir = temp_dir();
