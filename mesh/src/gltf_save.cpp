@@ -16,6 +16,7 @@
 #include <map>
 #include <memory>
 #include <sstream>
+#include <unordered_map>
 
 #ifndef FURROW_VERSION_STRING
 #define FURROW_VERSION_STRING "0.1.0"
@@ -92,11 +93,33 @@ public:
         return int(m.bufferViews.size() - 1);
     }
 
+    // Accessor `a` (all but its view) of `bytes` bytes at `data` in a view of `target` and `stride`. An accessor
+    // with the same description over the same bytes is written once and shared, as glTF lets any number of
+    // primitives read one accessor: the viewer layout's fur shells repeat their base's triangles and texture
+    // coordinates once per shell. Candidates are found by a fingerprint (the description and a sample of the
+    // bytes) and compared whole.
+    int add_accessor(tinygltf::Accessor a, const void* data, size_t bytes, int target, size_t stride, std::shared_ptr<const void> owner) {
+        const uint64_t key = fingerprint(a, data, bytes, target, stride);
+        const auto [first, last] = written_.equal_range(key);
+        for (auto it = first; it != last; ++it) {
+            const Written& w = it->second;
+            const tinygltf::Accessor& b = m.accessors[size_t(w.accessor)];
+            if (w.bytes == bytes && w.target == target && w.stride == stride && b.componentType == a.componentType &&
+                b.normalized == a.normalized && b.count == a.count && b.type == a.type && b.minValues == a.minValues &&
+                b.maxValues == a.maxValues && std::memcmp(w.data, data, bytes) == 0)
+                return w.accessor;
+        }
+        a.bufferView = add_view(data, bytes, target, stride, std::move(owner));
+        m.accessors.push_back(std::move(a));
+        const int index = int(m.accessors.size() - 1);
+        written_.emplace(key, Written{index, data, bytes, target, stride});
+        return index;
+    }
+
     // Float accessor of `components` (1,2,3,4,16) per element. min/max when asked (POSITION, animation input).
     int add_floats(const Shared<float>& shared, int components, bool min_max, int target = TINYGLTF_TARGET_ARRAY_BUFFER) {
         const std::vector<float>& v = *shared;
         tinygltf::Accessor a;
-        a.bufferView = add_view(v.data(), v.size() * sizeof(float), target, 0, shared);
         a.componentType = TINYGLTF_COMPONENT_TYPE_FLOAT;
         a.count = v.size() / size_t(components);
         a.type = components == 1 ? TINYGLTF_TYPE_SCALAR
@@ -113,8 +136,7 @@ public:
                 a.maxValues[c] = std::max(a.maxValues[c], double(v[i]));
             }
         }
-        m.accessors.push_back(std::move(a));
-        return int(m.accessors.size() - 1);
+        return add_accessor(std::move(a), v.data(), v.size() * sizeof(float), target, 0, shared);
     }
 
     int add_floats(std::vector<float>&& v, int components, bool min_max, int target = TINYGLTF_TARGET_ARRAY_BUFFER) {
@@ -130,8 +152,6 @@ public:
         const std::vector<T>& v = *shared;
         tinygltf::Accessor a;
         const size_t per = stride / sizeof(T);
-        a.bufferView = add_view(v.data(), v.size() * sizeof(T), TINYGLTF_TARGET_ARRAY_BUFFER,
-                                per == size_t(components) ? 0 : stride, shared);
         a.componentType = component_type;
         a.normalized = normalized;
         a.count = v.size() / per;
@@ -145,37 +165,61 @@ public:
                     a.maxValues[c] = std::max(a.maxValues[c], double(v[i * per + c]));
                 }
         }
-        m.accessors.push_back(std::move(a));
-        return int(m.accessors.size() - 1);
+        return add_accessor(std::move(a), v.data(), v.size() * sizeof(T), TINYGLTF_TARGET_ARRAY_BUFFER,
+                            per == size_t(components) ? 0 : stride, shared);
     }
 
     int add_joints(std::vector<uint16_t>&& joints) {
         const Shared<uint16_t> j = share(std::move(joints));
         tinygltf::Accessor a;
-        a.bufferView = add_view(j->data(), j->size() * sizeof(uint16_t), TINYGLTF_TARGET_ARRAY_BUFFER, 0, j);
         a.componentType = TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT;
         a.count = j->size() / 4;
         a.type = TINYGLTF_TYPE_VEC4;
-        m.accessors.push_back(std::move(a));
-        return int(m.accessors.size() - 1);
+        return add_accessor(std::move(a), j->data(), j->size() * sizeof(uint16_t), TINYGLTF_TARGET_ARRAY_BUFFER, 0, j);
     }
 
     // uint16 when every index fits below the primitive-restart value 65535, else uint32.
     int add_indices(std::vector<uint32_t>&& idx, size_t vertex_count) {
         tinygltf::Accessor a;
         a.count = idx.size();
+        a.type = TINYGLTF_TYPE_SCALAR;
         if (vertex_count <= 65535) {
             const Shared<uint16_t> s = share(std::vector<uint16_t>(idx.begin(), idx.end()));
-            a.bufferView = add_view(s->data(), s->size() * 2, TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER, 0, s);
             a.componentType = TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT;
-        } else {
-            const Shared<uint32_t> s = share(std::move(idx));
-            a.bufferView = add_view(s->data(), s->size() * 4, TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER, 0, s);
-            a.componentType = TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT;
+            return add_accessor(std::move(a), s->data(), s->size() * 2, TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER, 0, s);
         }
-        a.type = TINYGLTF_TYPE_SCALAR;
-        m.accessors.push_back(std::move(a));
-        return int(m.accessors.size() - 1);
+        const Shared<uint32_t> s = share(std::move(idx));
+        a.componentType = TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT;
+        return add_accessor(std::move(a), s->data(), s->size() * 4, TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER, 0, s);
+    }
+
+private:
+    struct Written {
+        int accessor;
+        const void* data; // alive until the file is written: adopted by `bin`, or the Scene's own
+        size_t bytes;
+        int target;
+        size_t stride;
+    };
+    std::unordered_multimap<uint64_t, Written> written_; // by fingerprint
+
+    // The description, the length and up to 64 words spread over the bytes, mixed (splitmix64's finaliser).
+    static uint64_t fingerprint(const tinygltf::Accessor& a, const void* data, size_t bytes, int target, size_t stride) {
+        uint64_t h = 0;
+        auto mix = [&h](uint64_t x) {
+            h ^= x + 0x9e3779b97f4a7c15ull + (h << 6) + (h >> 2);
+            h ^= h >> 30, h *= 0xbf58476d1ce4e5b9ull, h ^= h >> 27, h *= 0x94d049bb133111ebull, h ^= h >> 31;
+        };
+        mix(bytes), mix(uint64_t(a.count)), mix(uint64_t(a.componentType)), mix(uint64_t(a.type)), mix(uint64_t(target)), mix(stride);
+        const auto* p = static_cast<const unsigned char*>(data);
+        const size_t words = bytes / 8, step = std::max<size_t>(1, words / 64);
+        for (size_t i = 0; i < words; i += step) {
+            uint64_t x;
+            std::memcpy(&x, p + 8 * i, 8);
+            mix(x);
+        }
+        for (size_t i = 8 * words; i < bytes; ++i) mix(p[i]);
+        return h;
     }
 };
 
@@ -322,18 +366,17 @@ struct VertexOrder {
 
 // The last primitive's topology as written, for the next one: fur shells (one primitive per shell, the same
 // triangles over a new copy of the vertices) and LOD or variant copies repeat a primitive's index list. A
-// primitive whose mode, vertex count and indices equal the last one's (triangles or lines or points, not
-// polygons) gets its order (meshoptimizer's
-// steps depend on nothing else, vertex_order.cpp) and shares its index accessor, as glTF lets primitives do,
-// instead of writing the same indices again. The Stanford bunny's 32 shells (`furrow -j 1 shells
-// stanford-bunny.obj --layers 32 --length 0.003`, four interleaved runs): 0.94-1.40 -> 0.35-0.45 s, 71237620 ->
-// 58315980 bytes; saving that output again (`furrow -j 1 bench io --quick --repeat 5 x.glb`, two interleaved
-// runs) 563-665 -> 111-137 ms, 77-88x -> 13-18x the memcpy of its bytes. Only the last primitive is kept: a
-// run of shells is consecutive, and the memo holds one index list, not one per distinct primitive.
+// primitive whose mode, vertex count and indices equal the last one's (triangles, lines or points; not
+// polygons, whose fans depend on their positions) takes its order instead of running meshoptimizer again
+// (whose steps depend on nothing else, vertex_order.cpp); its indices are then the same bytes, which
+// BinWriter writes once. The Stanford bunny's 32 shells (`furrow -j 1 shells stanford-bunny.obj --layers 32
+// --length 0.003`, four interleaved runs): 0.94-1.40 -> 0.35-0.45 s; saving that output again (`furrow -j 1
+// bench io --quick --repeat 5 x.glb`, two interleaved runs) 563-665 -> 111-137 ms, 77-88x -> 13-18x the memcpy
+// of its bytes. Only the last primitive is kept: a run of shells is consecutive, and the memo then holds one
+// index list, not one per distinct primitive.
 struct TopologyMemo {
     const Primitive* src = nullptr; // the last primitive written (the Scene outlives the writer)
     VertexOrder order;              // its order, indices included
-    int accessor = -1;              // its index accessor
 
     bool repeats(const Primitive& p) const {
         // Polygons are fanned by their positions (triangulate_polygons), not by their indices alone.
@@ -456,13 +499,8 @@ Status write_primitive(tinygltf::Primitive& out, const Primitive& src, bool need
         }
         out.targets.push_back(std::move(target));
     }
-    if (repeated) {
-        out.indices = memo.accessor;
-    } else {
-        memo.src = &src;
-        memo.order = order;
-        out.indices = memo.accessor = w.add_indices(std::move(order.indices), n);
-    }
+    if (!repeated) memo.src = &src, memo.order = order;
+    out.indices = w.add_indices(std::move(order.indices), n);
     out.mode = order.mode == PrimitiveMode::points ? TINYGLTF_MODE_POINTS
                : order.mode == PrimitiveMode::lines ? TINYGLTF_MODE_LINE
                                                     : TINYGLTF_MODE_TRIANGLES;

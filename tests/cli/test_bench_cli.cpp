@@ -110,13 +110,14 @@ TEST(bench_cli, ShellsAndRenderPlotPoints) {
     EXPECT_LT(j["rows"][0]["max_relative_error"].get<double>(), 0.25);
     EXPECT_EQ(j["rows"][0]["base_triangles"].get<int>(), 16128);
     // The LOD-by-simplification table (bench_shells_lod.cpp): off, then 0.005, 0.01, 0.02; every simplified far
-    // level within its bound, with fewer shell triangles and a smaller file than without simplification.
+    // level within its bound, with fewer shell triangles than without simplification. Not a smaller file: the
+    // unsimplified far levels' shells repeat level 0's, which the file holds once (save_scene shares equal
+    // accessors), while a simplified level brings its own.
     const auto& lod = j["lod_simplify"];
     ASSERT_EQ(lod.size(), 4u);
     EXPECT_EQ(lod[0]["error_bound"].get<double>(), 0.0);
     for (size_t i = 1; i < lod.size(); ++i) {
         EXPECT_LT(lod[i]["shell_triangles"].get<double>(), lod[0]["shell_triangles"].get<double>()) << i;
-        EXPECT_LT(lod[i]["file_bytes"].get<double>(), lod[0]["file_bytes"].get<double>()) << i;
         ASSERT_EQ(lod[i]["far_levels"].size(), 2u);
         for (const auto& level : lod[i]["far_levels"]) {
             EXPECT_GT(level["relative_distance"].get<double>(), 0.0) << i;

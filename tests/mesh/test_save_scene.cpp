@@ -210,6 +210,8 @@ TEST(save_scene, RepeatedTrianglesShareOneIndexAccessorAndEachKeepsItsOrder) {
             EXPECT_NE(prim[0]["indices"], prim[2]["indices"]);
             EXPECT_NE(prim[3]["indices"], prim[4]["indices"]);
             EXPECT_NE(prim[0]["attributes"]["POSITION"], prim[1]["attributes"]["POSITION"]);
+            EXPECT_EQ(prim[0]["attributes"]["TEXCOORD_0"], prim[1]["attributes"]["TEXCOORD_0"]); // the same bytes
+            EXPECT_EQ(prim[0]["attributes"]["NORMAL"], prim[1]["attributes"]["NORMAL"]);
             expect_as_saved_alone(back, 1, b, o, dir);
             expect_as_saved_alone(back, 3, c, o, dir);
             expect_as_saved_alone(back, 4, d, o, dir);
@@ -237,6 +239,26 @@ TEST(save_scene, PolygonsWithTheSameCornersButAnotherShapeAreEachFannedByTheirOw
     EXPECT_NE(back.meshes[0].primitives[0].indices, back.meshes[0].primitives[1].indices);
     expect_as_saved_alone(back, 0, square, as_given, dir);
     expect_as_saved_alone(back, 1, dart, as_given, dir);
+}
+
+TEST(save_scene, EqualAccessorsAreWrittenOnceAndOnlyThey) {
+    // Two attributes with the same description over the same bytes read one accessor; the same bytes with
+    // another description (POSITION carries min and max, a custom attribute does not) get their own.
+    Primitive p = shapes::uv_sphere(2.0f, 16, 8); // radius 2: its positions are not its normals
+    p.uv1 = p.uv0;
+    p.custom = {{"_P", 3, p.positions}, {"_Q", 3, p.positions}};
+    const Scene s = make_scene(p, "twins");
+    round_trip(s, "twins");
+    const auto out = temp_dir() / "twins.glb";
+    ASSERT_TRUE(save_scene(s, out.string()).ok());
+    EXPECT_VALID_GLTF(out);
+    const nlohmann::json j = gltf_json(out);
+    const auto& at = j["meshes"][0]["primitives"][0]["attributes"];
+    EXPECT_EQ(at["TEXCOORD_0"], at["TEXCOORD_1"]);
+    EXPECT_EQ(at["_P"], at["_Q"]);
+    EXPECT_NE(at["_P"], at["POSITION"]);
+    EXPECT_EQ(j["accessors"].size(), j["bufferViews"].size()); // one view each, none left unread
+    EXPECT_EQ(j["accessors"].size(), 5u);                      // POSITION, NORMAL, the UVs, _P and _Q, the indices
 }
 
 TEST(save_scene, SameSceneGivesSameBytes) {

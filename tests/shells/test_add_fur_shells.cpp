@@ -11,6 +11,7 @@
 
 #include <cmath>
 #include <map>
+#include <set>
 
 namespace furrow {
 namespace {
@@ -156,7 +157,18 @@ TEST(add_fur_shells, LodLevelsHaveFewerShellsAndThickerCutoffs) {
     EXPECT_NEAR(s.materials[size_t(lod2_last.material)].alpha_cutoff, 9.0f / 16.0f, 1e-6);
     EXPECT_LT(s.materials[size_t(lod2_last.material)].alpha_cutoff,
               s.materials[size_t(s.meshes[0].primitives[8].material)].alpha_cutoff);
-    save_valid(s, "lod.glb");
+    // A far level's shells sit at heights of level 0's shells, over the same base: the file writes their
+    // positions, colours, texture coordinates and triangles once (save_scene shares equal accessors).
+    const nlohmann::json j = test::gltf_json(save_valid(s, "lod.glb"));
+    std::set<int> positions, others;
+    for (size_t m = 0; m < 3; ++m)
+        for (const auto& p : j["meshes"][m]["primitives"]) {
+            positions.insert(p["attributes"]["POSITION"].get<int>());
+            if (m > 0) others.insert(p["attributes"]["POSITION"].get<int>());
+        }
+    EXPECT_EQ(positions.size(), 9u); // the base and level 0's 8 shells
+    for (const auto& p : j["meshes"][0]["primitives"]) others.erase(p["attributes"]["POSITION"].get<int>());
+    EXPECT_TRUE(others.empty()); // every far level's positions are level 0's
 }
 
 TEST(add_fur_shells, SkinsAndMorphTargetsAreCarried) {

@@ -289,9 +289,10 @@ Status load_scene_from_memory(Scene& out, const uint8_t* data, size_t size, cons
                               const LoadOptions& options = {});
 // Writes .glb or .gltf (+ .bin beside it, named after the .gltf). Output is written to a temporary file in
 // the same folder and renamed into place, so a failure never leaves a half-written file. Validator-clean:
-// POSITION min/max, uint16/uint32 indices as needed, images embedded, no dangling references. A triangle,
-// line or point primitive whose vertex count and indices equal those of the primitive written just before it
-// (fur shells over one base) shares that primitive's index accessor and vertex order.
+// POSITION min/max, uint16/uint32 indices as needed, images embedded, no dangling references. Accessors with
+// the same description over the same bytes are written once and shared (fur shells repeat their base's
+// triangles and texture coordinates); a triangle, line or point primitive whose vertex count and indices equal
+// those of the primitive written just before it takes that one's vertex order (SaveOptions::optimize).
 Status save_scene(const Scene& scene, const std::string& path, const SaveOptions& options = {});
 
 // A scene with one node holding one mesh of one primitive (the shape of an OBJ/STL import).
