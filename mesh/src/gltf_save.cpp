@@ -106,7 +106,7 @@ public:
             const tinygltf::Accessor& b = m.accessors[size_t(w.accessor)];
             if (w.bytes == bytes && w.target == target && w.stride == stride && b.componentType == a.componentType &&
                 b.normalized == a.normalized && b.count == a.count && b.type == a.type && b.minValues == a.minValues &&
-                b.maxValues == a.maxValues && std::memcmp(w.data, data, bytes) == 0)
+                b.maxValues == a.maxValues && (bytes == 0 || std::memcmp(w.data, data, bytes) == 0)) // (no null to memcmp)
                 return w.accessor;
         }
         a.bufferView = add_view(data, bytes, target, stride, std::move(owner));
