@@ -386,8 +386,12 @@ struct FrameRun {
     double phase_s[5] = {};        // search, displace, sweep, terms, normals (DisplaceUpdateStats)
 };
 
+// The frame's walkers in one call (SnowField::stamp over requests: the same field as one call each).
 void stamp_walkers(SnowField& f, const std::vector<WalkerStamp>& ws, const Collider& ball, const Collider& foot) {
-    for (const WalkerStamp& w : ws) require_ok(f.stamp(w.ball ? ball : foot, w.pose, w.swept ? &w.previous : nullptr), "stamp");
+    std::vector<StampRequest> requests(ws.size());
+    for (size_t i = 0; i < ws.size(); ++i)
+        requests[i] = {ws[i].ball ? &ball : &foot, ws[i].pose, ws[i].swept ? &ws[i].previous : nullptr};
+    require_ok(f.stamp(requests.data(), requests.size()), "stamp");
 }
 
 FrameRun run_walker_frames(const Args& a, const DemoGround& d, const TessellateOutput& tess, bool rim) {

@@ -231,14 +231,23 @@ struct Job {
 
 } // namespace
 
-// Turns samples into stamp jobs: heading and time per sample, contact rays, refill sub-steps.
-static void collect_jobs(const SnowField::Impl& m, const Collider& c, std::vector<ColliderPose> poses, std::vector<Job>& jobs,
-                         StampStats& st) {
+// Turns samples into stamp jobs: heading and time per sample, contact rays, refill sub-steps. Two stages, so
+// that a batch casts every request's contact rays in one parallel loop: the samples' local poses and contacts
+// (contacts), then the jobs (jobs_of).
+struct Sampled {
+    std::vector<LocalPose> lp;
+    std::vector<SnowField::Impl::Contact> hits;
+};
+static void locals_of(const SnowField::Impl& m, const std::vector<ColliderPose>& poses, Sampled& s) {
+    s.lp.resize(poses.size());
+    s.hits.resize(poses.size());
+    for (size_t k = 0; k < poses.size(); ++k) s.lp[k] = m.local(poses[k]);
+}
+static void jobs_of(const SnowField::Impl& m, const Collider& c, const std::vector<ColliderPose>& poses, Sampled& s,
+                    std::vector<Job>& jobs, StampStats& st) {
     const size_t n = poses.size();
-    std::vector<LocalPose> lp(n);
-    std::vector<SnowField::Impl::Contact> hits(n);
-    for (size_t k = 0; k < n; ++k) lp[k] = m.local(poses[k]);
-    tbb::parallel_for(size_t(0), n, [&](size_t k) { hits[k] = m.contact(c, lp[k]); });
+    std::vector<LocalPose>& lp = s.lp;
+    const std::vector<SnowField::Impl::Contact>& hits = s.hits;
     for (size_t k = 0; k < n; ++k) {
         ++st.samples;
         ++st.rays;
@@ -254,8 +263,8 @@ static void collect_jobs(const SnowField::Impl& m, const Collider& c, std::vecto
     auto add = [&](const LocalPose& a, const LocalPose& b, double ta, double tb) {
         int steps = 1;
         if (rate > 0) steps = clamped_int(std::ceil(rate * (tb - ta) / 0.005), 1, 10000);
-        for (int s = 0; s < steps; ++s) {
-            const double f0 = double(s) / steps, f1 = double(s + 1) / steps;
+        for (int k = 0; k < steps; ++k) {
+            const double f0 = double(k) / steps, f1 = double(k + 1) / steps;
             auto lerp = [&](double f) {
                 return LocalPose{a.u + (b.u - a.u) * f, a.v + (b.v - a.v) * f, a.w + (b.w - a.w) * f,
                                  a.heading + (b.heading - a.heading) * f, a.penetration + (b.penetration - a.penetration) * f};
@@ -269,6 +278,13 @@ static void collect_jobs(const SnowField::Impl& m, const Collider& c, std::vecto
     }
     for (size_t k = 1; k < n; ++k)
         if (hits[k - 1].touching || hits[k].touching) add(lp[k - 1], lp[k], poses[k - 1].time, poses[k].time);
+}
+static void collect_jobs(const SnowField::Impl& m, const Collider& c, const std::vector<ColliderPose>& poses, std::vector<Job>& jobs,
+                         StampStats& st) {
+    Sampled s;
+    locals_of(m, poses, s);
+    tbb::parallel_for(size_t(0), poses.size(), [&](size_t k) { s.hits[k] = m.contact(c, s.lp[k]); });
+    jobs_of(m, c, poses, s, jobs, st);
 }
 
 static StampStats run_jobs(SnowField::Impl& m, const std::vector<Job>& jobs, StampStats st) {
@@ -383,22 +399,61 @@ Status SnowField::add_colliders(const ColliderSet& set, StampStats* stats) {
     });
 }
 
+// A runtime stamp's samples: the pose, or the sweep from `previous` to it, turning the short way.
+static std::vector<ColliderPose> runtime_poses(const ColliderPose& pose, const ColliderPose* previous) {
+    std::vector<ColliderPose> poses;
+    if (previous) poses.push_back(*previous);
+    poses.push_back(pose);
+    if (previous) {
+        double& h = poses[1].heading_degrees;
+        h = unwrap_heading(h, poses[0].heading_degrees);
+    }
+    return poses;
+}
+
 Status SnowField::stamp(const Collider& shape, const ColliderPose& pose, const ColliderPose* previous, StampStats* stats) {
     return kernel::no_throw("stamping", [&]() -> Status {
         Impl& m = *impl_;
         if (m.ground.values.empty()) return Status::error(StatusCode::invalid_argument, "create() the field first");
         if (shape.shape == ColliderShape::image && !shape.brush)
             return Status::error(StatusCode::invalid_input, shape.name + ": image collider without a decoded brush");
-        std::vector<ColliderPose> poses;
-        if (previous) poses.push_back(*previous);
-        poses.push_back(pose);
-        if (previous) { // turn the short way
-            double& h = poses[1].heading_degrees;
-            h = unwrap_heading(h, poses[0].heading_degrees);
-        }
         StampStats st;
         std::vector<Job> jobs;
-        collect_jobs(m, shape, poses, jobs, st);
+        collect_jobs(m, shape, runtime_poses(pose, previous), jobs, st);
+        st = run_jobs(m, jobs, st);
+        if (stats) *stats = st;
+        return Status::success();
+    });
+}
+
+Status SnowField::stamp(const StampRequest* requests, size_t count, StampStats* stats) {
+    return kernel::no_throw("stamping", [&]() -> Status {
+        Impl& m = *impl_;
+        if (m.ground.values.empty()) return Status::error(StatusCode::invalid_argument, "create() the field first");
+        if (count > 0 && !requests) return Status::error(StatusCode::invalid_argument, "no requests");
+        for (size_t i = 0; i < count; ++i) {
+            const Collider* c = requests[i].shape;
+            if (!c) return Status::error(StatusCode::invalid_argument, "request " + std::to_string(i) + " has no shape");
+            if (c->shape == ColliderShape::image && !c->brush)
+                return Status::error(StatusCode::invalid_input, c->name + ": image collider without a decoded brush");
+        }
+        // Every request's samples, then all their contact rays in one loop, then the jobs in request order:
+        // the jobs stamp() would make one call at a time, in the same order (run_jobs' dirty rectangles too).
+        std::vector<std::vector<ColliderPose>> poses(count);
+        std::vector<Sampled> sampled(count);
+        std::vector<std::pair<uint32_t, uint32_t>> rays; // (request, sample)
+        for (size_t i = 0; i < count; ++i) {
+            poses[i] = runtime_poses(requests[i].pose, requests[i].previous);
+            locals_of(m, poses[i], sampled[i]);
+            for (size_t k = 0; k < poses[i].size(); ++k) rays.emplace_back(uint32_t(i), uint32_t(k));
+        }
+        tbb::parallel_for(size_t(0), rays.size(), [&](size_t r) {
+            const auto [i, k] = rays[r];
+            sampled[i].hits[k] = m.contact(*requests[i].shape, sampled[i].lp[k]);
+        });
+        StampStats st;
+        std::vector<Job> jobs;
+        for (size_t i = 0; i < count; ++i) jobs_of(m, *requests[i].shape, poses[i], sampled[i], jobs, st);
         st = run_jobs(m, jobs, st);
         if (stats) *stats = st;
         return Status::success();

@@ -95,6 +95,10 @@ int snow_on_a_grid() {
     furrow::ColliderPose pose;
     pose.centre = {0, 0.3, 0}; // 0.2 m into the snow
     if (furrow::Status s = field.stamp(ball, pose); !s.ok()) return fail("SnowField::stamp", s.message);
+    furrow::ColliderPose later = pose;
+    later.centre[0] = 1;
+    const furrow::StampRequest crowd[] = {{&ball, later, &pose}}; // a frame's walkers in one call
+    if (furrow::Status s = field.stamp(crowd, 1); !s.ok()) return fail("SnowField::stamp (batch)", s.message);
     const std::vector<furrow::TexelRect> dirty = field.update();
     if (dirty.empty() || !(field.removed_volume() > 0)) return fail("SnowField::update", "nothing was pressed");
 

@@ -730,6 +730,75 @@ TEST(SnowField, IncrementalRimEqualsFromScratchByteForByte) {
         }
 }
 
+// The batch stamp leaves, frame after frame, the bytes one stamp() call per walker leaves, at 1 and 2 threads,
+// with a rim, with refill (decayed sub-steps), and a large ball that joins mid-way; its stats are the calls'
+// sums (texels_written aside: it depends on the order overlapping stamps land in).
+TEST(SnowField, BatchStampEqualsOneCallEachByteForByte) {
+    const Primitive g = hill_ground(4, 40);
+    for (double refill : {0.0, 0.7}) {
+        SCOPED_TRACE(refill > 0 ? "with refill" : "no refill");
+        SnowOptions o = fine(0.02);
+        o.rim_width = 0.05;
+        o.refill_rate = refill;
+        const auto frames = random_walk(11, 10, 24, 5);
+        for (int threads : {1, 2}) {
+            tbb::global_control limit(tbb::global_control::max_allowed_parallelism, size_t(threads));
+            SnowField each = make_field(g, o), batch = make_field(g, o);
+            for (size_t fi = 0; fi < frames.size(); ++fi) {
+                const auto& frame = frames[fi];
+                each.set_time(0.1 * double(fi)), batch.set_time(0.1 * double(fi));
+                StampStats sum;
+                for (const WalkerStep& w : frame) {
+                    StampStats one;
+                    ASSERT_TRUE(each.stamp(w.shape, w.pose, w.swept ? &w.previous : nullptr, &one).ok());
+                    sum.samples += one.samples, sum.contacts += one.contacts, sum.rays += one.rays;
+                    sum.missed_rays += one.missed_rays, sum.stamps += one.stamps, sum.deepest = std::max(sum.deepest, one.deepest);
+                }
+                std::vector<StampRequest> requests;
+                for (const WalkerStep& w : frame) requests.push_back({&w.shape, w.pose, w.swept ? &w.previous : nullptr});
+                StampStats st;
+                ASSERT_TRUE(batch.stamp(requests.data(), requests.size(), &st).ok());
+                EXPECT_EQ(st.samples, sum.samples);
+                EXPECT_EQ(st.contacts, sum.contacts);
+                EXPECT_EQ(st.rays, sum.rays);
+                EXPECT_EQ(st.missed_rays, sum.missed_rays);
+                EXPECT_EQ(st.stamps, sum.stamps);
+                EXPECT_EQ(st.deepest, sum.deepest);
+                EXPECT_GT(st.stamps, 0u);
+                const std::vector<TexelRect> ra = each.update(), rb = batch.update();
+                ASSERT_EQ(ra.size(), rb.size()) << "frame " << fi;
+                for (size_t k = 0; k < ra.size(); ++k)
+                    EXPECT_TRUE(ra[k].x0 == rb[k].x0 && ra[k].y0 == rb[k].y0 && ra[k].x1 == rb[k].x1 && ra[k].y1 == rb[k].y1);
+                const std::vector<float>& a = each.heightmap().values;
+                const std::vector<float>& b = batch.heightmap().values;
+                ASSERT_EQ(a.size(), b.size());
+                ASSERT_EQ(std::memcmp(a.data(), b.data(), a.size() * sizeof(float)), 0) << threads << " threads, frame " << fi;
+            }
+        }
+    }
+}
+
+// A batch with a request it cannot take is refused whole: nothing of it is stamped.
+TEST(SnowField, BatchStampRefusesANullShapeOrAnUndecodedImageWhole) {
+    SnowField f = make_field(flat_ground(4, 1), fine(0.02));
+    const Collider ball = sphere(0.2, {});
+    Collider undecoded;
+    undecoded.name = "print";
+    undecoded.shape = ColliderShape::image;
+    const ColliderPose at{{0, 0.15, 0}, 0, 0};
+    const StampRequest with_null[] = {{&ball, at, nullptr}, {nullptr, at, nullptr}};
+    const Status a = f.stamp(with_null, 2);
+    EXPECT_EQ(a.code, StatusCode::invalid_argument);
+    const StampRequest with_image[] = {{&ball, at, nullptr}, {&undecoded, at, nullptr}};
+    const Status b = f.stamp(with_image, 2);
+    EXPECT_EQ(b.code, StatusCode::invalid_input);
+    EXPECT_NE(b.message.find("print"), std::string::npos);
+    EXPECT_EQ(f.stamp(static_cast<const StampRequest*>(nullptr), 1).code, StatusCode::invalid_argument);
+    EXPECT_TRUE(f.update().empty()); // nothing was stamped
+    EXPECT_TRUE(f.stamp(with_null, 1).ok()); // the ball alone
+    EXPECT_FALSE(f.update().empty());
+}
+
 // update() returns, per 16-texel tile, only the bounding box of the texels that changed (runs of boxes merged),
 // not whole tiles: every rectangle lies within the bounding box of the texels whose output changed, and the
 // rectangles are disjoint and hold every changed texel.

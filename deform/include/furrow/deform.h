@@ -190,6 +190,13 @@ struct StampStats {
     double deepest = 0.0;    // deepest penetration found by a contact ray (metres)
 };
 
+// One stamp of a batch (SnowField::stamp over many): `shape` at `pose`, swept from `*previous` where that is set.
+struct StampRequest {
+    const Collider* shape = nullptr;
+    ColliderPose pose;
+    const ColliderPose* previous = nullptr;
+};
+
 // What one SnowField::update() did, for a frame budget.
 struct SnowUpdateStats {
     double rim_seconds = 0;    // recomputing the rim
@@ -223,6 +230,12 @@ public:
     // from previous to pose. Cheap enough to call per collider per frame.
     Status stamp(const Collider& shape, const ColliderPose& pose, const ColliderPose* previous = nullptr,
                  StampStats* stats = nullptr);
+    // A frame's stamps in one call (every walker of a crowd): the field is byte for byte the one that calling
+    // stamp() for each request in turn leaves, while their contact rays and rasterisation share the threads.
+    // Stats are summed (texels_written counts the writes that deepened a texel when they landed, which
+    // depends on the order overlapping stamps land in). Errors: invalid_argument (a null shape or requests), invalid_input (an
+    // image collider without a decoded brush); nothing is stamped then.
+    Status stamp(const StampRequest* requests, size_t count, StampStats* stats = nullptr);
 
     // Refill: moves the field's clock to `time` (seconds); with refill_rate > 0 every value decays by
     // exp(−rate·(time − now())). Earlier times are ignored.
