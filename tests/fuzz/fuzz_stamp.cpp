@@ -9,13 +9,15 @@
 // heightmap stays at most 64 texels on a side, rates at most 8.
 // Properties: far-out options are refused (never an ok result; a bad ground may be reported first); an ok
 // result is a consistent scene with finite positions, normals and UVs, a finite heightmap of the reported
-// frame, finite non-negative volumes; when nothing touched the ground the scene is unchanged.
+// frame, finite non-negative volumes; when nothing touched the ground the scene is unchanged; and the same
+// colliders' points stamped at runtime, one call each or in one batch, leave the same heightmap bytes.
 #include "fuzz_common.h"
 
 #include <furrow/deform.h>
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 
 using namespace furrow;
 
@@ -61,6 +63,35 @@ Collider read_collider(fuzz::Reader& r) {
     else if (mode & 4)
         for (size_t k = 0; k < points; ++k) c.heading.push_back(finite(r));
     return c;
+}
+
+// The runtime path's oracle: each collider's path points stamped as a walker's steps (a sweep from the point
+// before), one stamp() call each or all in one batch, leave the same heightmap bytes.
+void check_batch_equals_calls(const fuzz::SmallMesh& m, SnowOptions so, const ColliderSet& set) {
+    so.up = set.up;
+    SnowField each, batch;
+    if (!each.create(m.positions.data(), m.vertex_count(), m.indices.data(), m.indices.size(), so).ok()) return;
+    FUZZ_CHECK(batch.create(m.positions.data(), m.vertex_count(), m.indices.data(), m.indices.size(), so).ok(), "a second create failed");
+    std::vector<ColliderPose> poses;
+    std::vector<size_t> first; // per collider: its first pose
+    for (const Collider& c : set.colliders) {
+        first.push_back(poses.size());
+        for (size_t k = 0; k < c.path.size(); ++k) {
+            const double heading = c.heading.empty() ? 0.0 : c.heading.size() == 1 ? c.heading[0] : c.heading[k];
+            poses.push_back({c.path[k], heading, c.time.empty() ? 0.0 : c.time[k]});
+        }
+    }
+    std::vector<StampRequest> requests;
+    for (size_t ci = 0; ci < set.colliders.size(); ++ci)
+        for (size_t k = 0; k < set.colliders[ci].path.size(); ++k)
+            requests.push_back({&set.colliders[ci], poses[first[ci] + k], k > 0 ? &poses[first[ci] + k - 1] : nullptr});
+    for (const StampRequest& q : requests) FUZZ_CHECK(each.stamp(*q.shape, q.pose, q.previous).ok(), "a runtime stamp was refused");
+    FUZZ_CHECK(batch.stamp(requests.data(), requests.size()).ok(), "a batch stamp was refused");
+    each.update(), batch.update();
+    const std::vector<float>& a = each.heightmap().values;
+    const std::vector<float>& b = batch.heightmap().values;
+    FUZZ_CHECK(a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(float)) == 0,
+               "the batch stamp's heightmap differs from one call each");
 }
 
 } // namespace
@@ -118,6 +149,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         o.base = &base;
     }
     for (int k = 1 + r.u8() % 3; k > 0; --k) set.colliders.push_back(read_collider(r));
+
+    if (!far_out) check_batch_equals_calls(m, so, set);
 
     Primitive p;
     p.positions = m.positions;
