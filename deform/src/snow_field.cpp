@@ -231,9 +231,9 @@ struct Job {
 
 } // namespace
 
-// Turns samples into stamp jobs: heading and time per sample, contact rays, refill sub-steps. Two stages, so
-// that a batch casts every request's contact rays in one parallel loop: the samples' local poses and contacts
-// (contacts), then the jobs (jobs_of).
+// Turns samples into stamp jobs: heading and time per sample, contact rays, refill sub-steps. In stages, so
+// that a batch casts every request's contact rays in one parallel loop: the samples' local poses
+// (locals_of), their contact rays (the caller's loop), then the jobs (jobs_of).
 struct Sampled {
     std::vector<LocalPose> lp;
     std::vector<SnowField::Impl::Contact> hits;
@@ -285,6 +285,13 @@ static void collect_jobs(const SnowField::Impl& m, const Collider& c, const std:
     locals_of(m, poses, s);
     tbb::parallel_for(size_t(0), poses.size(), [&](size_t k) { s.hits[k] = m.contact(c, s.lp[k]); });
     jobs_of(m, c, poses, s, jobs, st);
+}
+
+// An image collider stamps its decoded brush: without one it is refused (the caller decodes the file).
+static Status stampable(const Collider& c) {
+    if (c.shape == ColliderShape::image && !c.brush)
+        return Status::error(StatusCode::invalid_input, c.name + ": image collider without a decoded brush");
+    return Status::success();
 }
 
 static StampStats run_jobs(SnowField::Impl& m, const std::vector<Job>& jobs, StampStats st) {
@@ -389,8 +396,7 @@ Status SnowField::add_colliders(const ColliderSet& set, StampStats* stats) {
         StampStats st;
         std::vector<Job> jobs;
         for (const Collider& c : set.colliders) {
-            if (c.shape == ColliderShape::image && !c.brush)
-                return Status::error(StatusCode::invalid_input, c.name + ": image collider without a decoded brush");
+            if (Status s = stampable(c); !s.ok()) return s;
             collect_jobs(m, c, poses_of(m, c), jobs, st);
         }
         st = run_jobs(m, jobs, st);
@@ -412,18 +418,8 @@ static std::vector<ColliderPose> runtime_poses(const ColliderPose& pose, const C
 }
 
 Status SnowField::stamp(const Collider& shape, const ColliderPose& pose, const ColliderPose* previous, StampStats* stats) {
-    return kernel::no_throw("stamping", [&]() -> Status {
-        Impl& m = *impl_;
-        if (m.ground.values.empty()) return Status::error(StatusCode::invalid_argument, "create() the field first");
-        if (shape.shape == ColliderShape::image && !shape.brush)
-            return Status::error(StatusCode::invalid_input, shape.name + ": image collider without a decoded brush");
-        StampStats st;
-        std::vector<Job> jobs;
-        collect_jobs(m, shape, runtime_poses(pose, previous), jobs, st);
-        st = run_jobs(m, jobs, st);
-        if (stats) *stats = st;
-        return Status::success();
-    });
+    const StampRequest one{&shape, pose, previous};
+    return stamp(&one, 1, stats);
 }
 
 Status SnowField::stamp(const StampRequest* requests, size_t count, StampStats* stats) {
@@ -434,8 +430,7 @@ Status SnowField::stamp(const StampRequest* requests, size_t count, StampStats* 
         for (size_t i = 0; i < count; ++i) {
             const Collider* c = requests[i].shape;
             if (!c) return Status::error(StatusCode::invalid_argument, "request " + std::to_string(i) + " has no shape");
-            if (c->shape == ColliderShape::image && !c->brush)
-                return Status::error(StatusCode::invalid_input, c->name + ": image collider without a decoded brush");
+            if (Status s = stampable(*c); !s.ok()) return s;
         }
         // Every request's samples, then all their contact rays in one loop, then the jobs in request order:
         // the jobs stamp() would make one call at a time, in the same order (run_jobs' dirty rectangles too).
