@@ -794,6 +794,7 @@ TEST(SnowField, BatchStampRefusesANullShapeOrAnUndecodedImageWhole) {
     EXPECT_EQ(b.code, StatusCode::invalid_input);
     EXPECT_NE(b.message.find("print"), std::string::npos);
     EXPECT_EQ(f.stamp(static_cast<const StampRequest*>(nullptr), 1).code, StatusCode::invalid_argument);
+    EXPECT_TRUE(f.stamp(static_cast<const StampRequest*>(nullptr), 0).ok()); // an empty frame
     EXPECT_TRUE(f.update().empty()); // nothing was stamped
     EXPECT_TRUE(f.stamp(with_null, 1).ok()); // the ball alone
     EXPECT_FALSE(f.update().empty());

@@ -233,8 +233,8 @@ public:
     // A frame's stamps in one call (every walker of a crowd): the field is byte for byte the one that calling
     // stamp() for each request in turn leaves, while their contact rays and rasterisation share the threads.
     // Stats are summed (texels_written counts the writes that deepened a texel when they landed, which
-    // depends on the order overlapping stamps land in). Errors: invalid_argument (a null shape or requests), invalid_input (an
-    // image collider without a decoded brush); nothing is stamped then.
+    // depends on the order overlapping stamps land in). Errors: invalid_argument (a null shape, or null requests
+    // with count > 0), invalid_input (an image collider without a decoded brush); nothing is stamped then.
     Status stamp(const StampRequest* requests, size_t count, StampStats* stats = nullptr);
 
     // Refill: moves the field's clock to `time` (seconds); with refill_rate > 0 every value decays by
