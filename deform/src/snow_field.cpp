@@ -231,9 +231,8 @@ struct Job {
 
 } // namespace
 
-// Turns samples into stamp jobs: heading and time per sample, contact rays, refill sub-steps. In stages, so
-// that a batch casts every request's contact rays in one parallel loop: the samples' local poses
-// (locals_of), their contact rays (the caller's loop), then the jobs (jobs_of).
+// Turns samples into stamp jobs: heading and time per sample, contact rays, refill sub-steps (collect_jobs,
+// below: every collider's samples, all their contact rays in one parallel loop, then the jobs in order).
 struct Sampled {
     std::vector<LocalPose> lp;
     std::vector<SnowField::Impl::Contact> hits;
@@ -279,12 +278,21 @@ static void jobs_of(const SnowField::Impl& m, const Collider& c, const std::vect
     for (size_t k = 1; k < n; ++k)
         if (hits[k - 1].touching || hits[k].touching) add(lp[k - 1], lp[k], poses[k - 1].time, poses[k].time);
 }
-static void collect_jobs(const SnowField::Impl& m, const Collider& c, const std::vector<ColliderPose>& poses, std::vector<Job>& jobs,
-                         StampStats& st) {
-    Sampled s;
-    locals_of(m, poses, s);
-    tbb::parallel_for(size_t(0), poses.size(), [&](size_t k) { s.hits[k] = m.contact(c, s.lp[k]); });
-    jobs_of(m, c, poses, s, jobs, st);
+// The jobs of shapes[i] over its samples poses[i], for every i in order: what stamping them one call at a
+// time makes, in the same order, with every sample's contact ray cast in one parallel loop.
+static void collect_jobs(const SnowField::Impl& m, const std::vector<const Collider*>& shapes,
+                         const std::vector<std::vector<ColliderPose>>& poses, std::vector<Job>& jobs, StampStats& st) {
+    std::vector<Sampled> sampled(shapes.size());
+    std::vector<std::pair<uint32_t, uint32_t>> rays; // (shape, sample)
+    for (size_t i = 0; i < shapes.size(); ++i) {
+        locals_of(m, poses[i], sampled[i]);
+        for (size_t k = 0; k < poses[i].size(); ++k) rays.emplace_back(uint32_t(i), uint32_t(k));
+    }
+    tbb::parallel_for(size_t(0), rays.size(), [&](size_t r) {
+        const auto [i, k] = rays[r];
+        sampled[i].hits[k] = m.contact(*shapes[i], sampled[i].lp[k]);
+    });
+    for (size_t i = 0; i < shapes.size(); ++i) jobs_of(m, *shapes[i], poses[i], sampled[i], jobs, st);
 }
 
 // An image collider stamps its decoded brush: without one it is refused (the caller decodes the file).
@@ -393,12 +401,16 @@ Status SnowField::add_colliders(const ColliderSet& set, StampStats* stats) {
     return kernel::no_throw("stamping", [&]() -> Status {
         Impl& m = *impl_;
         if (m.ground.values.empty()) return Status::error(StatusCode::invalid_argument, "create() the field first");
-        StampStats st;
-        std::vector<Job> jobs;
+        std::vector<const Collider*> shapes;
+        std::vector<std::vector<ColliderPose>> poses;
         for (const Collider& c : set.colliders) {
             if (Status s = stampable(c); !s.ok()) return s;
-            collect_jobs(m, c, poses_of(m, c), jobs, st);
+            shapes.push_back(&c);
+            poses.push_back(poses_of(m, c));
         }
+        StampStats st;
+        std::vector<Job> jobs;
+        collect_jobs(m, shapes, poses, jobs, st);
         st = run_jobs(m, jobs, st);
         if (stats) *stats = st;
         return Status::success();
@@ -432,23 +444,14 @@ Status SnowField::stamp(const StampRequest* requests, size_t count, StampStats* 
             if (!c) return Status::error(StatusCode::invalid_argument, "request " + std::to_string(i) + " has no shape");
             if (Status s = stampable(*c); !s.ok()) return s;
         }
-        // Every request's samples, then all their contact rays in one loop, then the jobs in request order:
-        // the jobs stamp() would make one call at a time, in the same order (run_jobs' dirty rectangles too).
+        // The jobs in request order: those stamp() makes one call at a time, in the same order (run_jobs'
+        // dirty rectangles too).
+        std::vector<const Collider*> shapes(count);
         std::vector<std::vector<ColliderPose>> poses(count);
-        std::vector<Sampled> sampled(count);
-        std::vector<std::pair<uint32_t, uint32_t>> rays; // (request, sample)
-        for (size_t i = 0; i < count; ++i) {
-            poses[i] = runtime_poses(requests[i].pose, requests[i].previous);
-            locals_of(m, poses[i], sampled[i]);
-            for (size_t k = 0; k < poses[i].size(); ++k) rays.emplace_back(uint32_t(i), uint32_t(k));
-        }
-        tbb::parallel_for(size_t(0), rays.size(), [&](size_t r) {
-            const auto [i, k] = rays[r];
-            sampled[i].hits[k] = m.contact(*requests[i].shape, sampled[i].lp[k]);
-        });
+        for (size_t i = 0; i < count; ++i) shapes[i] = requests[i].shape, poses[i] = runtime_poses(requests[i].pose, requests[i].previous);
         StampStats st;
         std::vector<Job> jobs;
-        for (size_t i = 0; i < count; ++i) jobs_of(m, *requests[i].shape, poses[i], sampled[i], jobs, st);
+        collect_jobs(m, shapes, poses, jobs, st);
         st = run_jobs(m, jobs, st);
         if (stats) *stats = st;
         return Status::success();
