@@ -42,6 +42,7 @@ struct Row {
     double fresh_seconds = 0;                   // memcpy of the output bytes into memory just allocated
     double first_seconds = 0;                   // the untimed first call (strand textures not yet cached)
     double max_rel = 0, mean_rel = 0;
+    double furred = 0; // the share of the base's area where the fur grows to >= 0.8 of the length asked
     size_t measured = 0, clamped = 0, welded = 0;
 };
 
@@ -63,6 +64,36 @@ size_t added_bytes(const Scene& before, const Scene& after) {
     }
     for (size_t i = before.images.size(); i < after.images.size(); ++i) b += after.images[i].encoded.size();
     return b;
+}
+
+// The share of the furred base's area (triangles where any fur is asked) over which the fur grows to at least
+// 0.8 of the length asked: what the clamps leave, and what refining starved faces wins back (the threshold is
+// refine_starved_faces' "starved"). Lengths interpolated over each triangle, sampled on a barycentric grid.
+double furred_area(const Scene& scene, const FurReport& rep) {
+    double covered = 0, total = 0;
+    constexpr int kGrid = 8;
+    for (const auto& f : rep.frames) {
+        const auto& P = scene.meshes[f.mesh].primitives[f.primitive].positions;
+        for (size_t t = 0; t + 2 < f.triangles.size(); t += 3) {
+            const uint32_t* c = &f.triangles[t];
+            if (!(f.frame.requested[c[0]] > 0 || f.frame.requested[c[1]] > 0 || f.frame.requested[c[2]] > 0)) continue;
+            double e1[3], e2[3];
+            for (int k = 0; k < 3; ++k)
+                e1[k] = double(P[3 * c[1] + k]) - P[3 * c[0] + k], e2[k] = double(P[3 * c[2] + k]) - P[3 * c[0] + k];
+            const double area = 0.5 * std::hypot(e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]);
+            if (!(area > 0) || !std::isfinite(area)) continue;
+            const double w = area / double((kGrid + 1) * (kGrid + 2) / 2);
+            for (int i = 0; i <= kGrid; ++i)
+                for (int j = 0; i + j <= kGrid; ++j) {
+                    const double b1 = double(i) / kGrid, b2 = double(j) / kGrid, b0 = 1 - b1 - b2;
+                    const double len = b0 * f.frame.length[c[0]] + b1 * f.frame.length[c[1]] + b2 * f.frame.length[c[2]];
+                    const double req = b0 * f.frame.requested[c[0]] + b1 * f.frame.requested[c[1]] + b2 * f.frame.requested[c[2]];
+                    total += w;
+                    covered += len >= 0.8 * req ? w : 0.0;
+                }
+        }
+    }
+    return total > 0 ? covered / total : 0.0;
 }
 
 // Distance of sampled shell faces (their centroids) to the base surface vs the requested offset s·L·mask,
@@ -117,6 +148,7 @@ void measure(Row& row, const Scene& scene, const FurReport& rep, int layers, siz
     row.measured = count;
     row.max_rel = worst;
     row.mean_rel = count ? sum / double(count) : 0;
+    row.furred = furred_area(scene, rep);
 }
 
 // One row: `base` as loaded from `name` (a model file, or a generated scene), its fur mask if it has one.
@@ -229,7 +261,7 @@ nlohmann::json run_bench_shells(const ShellsArgs& a, const GlobalFlags& g, bool 
     }
     Table t({"model", "N", "base tris", "out tris", "ms", "Mtri/s", "out MiB", "memcpy ms", "x memcpy", "setup ms", "setup us/tri", "emit ms",
              "emit x memcpy", "fresh ms", "emit x fresh", "1st call ms", "peak MiB", "max rel err", "mean rel err", "measured",
-             "clamped"});
+             "clamped", "furred area"});
     nlohmann::json j = nlohmann::json::array();
     std::vector<PlotPoint> points;
     for (const auto& r : rows) {
@@ -241,7 +273,7 @@ nlohmann::json run_bench_shells(const ShellsArgs& a, const GlobalFlags& g, bool 
                fmt(r.base_triangles ? r.setup_seconds * 1e6 / double(r.base_triangles) : 0.0, 2), fmt(r.emit_seconds * 1e3, 2),
                fmt(r.emit_seconds / r.memcpy_seconds, 2), fmt(r.fresh_seconds * 1e3, 3), fmt(r.emit_seconds / r.fresh_seconds, 2),
                fmt(r.first_seconds * 1e3, 2), fmt(r.peak_mib, 1), fmt_sci(r.max_rel), fmt_sci(r.mean_rel),
-               std::to_string(r.measured), std::to_string(r.clamped) + "/" + std::to_string(r.welded)});
+               std::to_string(r.measured), std::to_string(r.clamped) + "/" + std::to_string(r.welded), fmt(r.furred, 3)});
         j.push_back({{"model", r.model}, {"layers", r.layers}, {"base_triangles", r.base_triangles},
                      {"out_triangles", r.out_triangles}, {"seconds", r.seconds}, {"out_bytes", r.out_bytes},
                      {"memcpy_seconds", r.memcpy_seconds}, {"over_memcpy", ratio}, {"setup_seconds", r.setup_seconds},
@@ -250,7 +282,7 @@ nlohmann::json run_bench_shells(const ShellsArgs& a, const GlobalFlags& g, bool 
                      {"fresh_memcpy_seconds", r.fresh_seconds}, {"emit_over_fresh_memcpy", r.emit_seconds / r.fresh_seconds},
                      {"first_call_seconds", r.first_seconds}, {"peak_mib", r.peak_mib},
                      {"max_relative_error", r.max_rel}, {"mean_relative_error", r.mean_rel}, {"measured", r.measured},
-                     {"clamped_vertices", r.clamped}, {"welded_vertices", r.welded}});
+                     {"clamped_vertices", r.clamped}, {"welded_vertices", r.welded}, {"furred_area", r.furred}});
     }
     if (tables) {
         std::printf("furrow bench shells: add_fur_shells (viewer layout) per model and N, median of %d runs on %d thread(s), "
@@ -260,7 +292,7 @@ nlohmann::json run_bench_shells(const ShellsArgs& a, const GlobalFlags& g, bool 
                     "allocated (first-touch page faults, as any new output pays); 1st call = the warm-up run, which also "
                     "draws and encodes the strand textures (cached for later calls with the same options); error = | "
                     "distance of a shell face's centroid to the base surface (CGAL) - requested offset | / requested, over unclamped "
-                    "vertices\n",
+                    "vertices; furred area = the share of the furred base's area where the fur reaches 0.8 of the length asked\n",
                     a.base.repeat, active_threads(), a.relative_length);
         t.print();
     }

@@ -6,10 +6,14 @@
 #include <furrow/shapes.h>
 #include <furrow/shells.h>
 
+#include "shells_internal.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <cstdlib>
+#include <map>
+#include <set>
 
 using namespace furrow;
 
@@ -163,4 +167,62 @@ TEST(RefineStarvedFaces, MaskEdgesAreNotRefined) {
     EXPECT_GT(rep.bald_vertices, 0u); // the mask does bald a part
     EXPECT_EQ(rep.refined_faces, 0u);
     EXPECT_EQ(rep.base_triangles, 32u);
+}
+
+// Two marked edges of one triangle are both bisected in the same round (refine_starved_faces.cpp,
+// bisect_pass): every round regrows the whole frame, and a split that waited for the next round cost one.
+// A unit triangle ABC between two flat ones, ADB and BEC, whose longest edges are AB and BC: the fur at D and
+// E is short (0.3 of the length asked), so both flat triangles are uneven and their longest edges, longer
+// than twice the fur, are marked; ABC holds both. After one round every triangle's longest edge is under
+// twice the fur or its corners are even: one regrowth, and the refinement has no T-junction.
+TEST(RefineStarvedFaces, TwoMarkedEdgesOfOneTriangleSplitInOneRound) {
+    const float h = 0.8660254f; // the unit triangle's height
+    Primitive base;
+    base.positions = {0, 0, 0,           // A
+                      1, 0, 0,           // B
+                      0.5f, h, 0,        // C
+                      0.5f, -0.3f, 0,    // D, below AB
+                      1.0098f, 0.583f, 0}; // E, 0.3 beyond BC's midpoint (0.75, 0.433)
+    base.indices = {0, 1, 2, 0, 3, 1, 1, 4, 2};
+    const double L = 0.35; // 2L = 0.7: AB and BC (1) are longer, every flat child's edges (at most 0.59) shorter
+    int regrown = 0;
+    auto frame_of = [&](const Primitive& p, ShellFrame& f) {
+        const size_t n = p.vertex_count();
+        f = ShellFrame{};
+        f.requested.assign(n, float(L));
+        f.length.assign(n, float(L));
+        for (size_t v = 0; v < n; ++v) {
+            const float* x = &p.positions[3 * v];
+            const bool outer = (x[0] == 0.5f && x[1] == -0.3f) || (x[0] == 1.0098f && x[1] == 0.583f); // D or E
+            if (outer) f.length[v] = float(0.3 * L);
+        }
+        f.direction.assign(3 * n, 0.0f), f.lean.assign(3 * n, 0.0f), f.sag.assign(3 * n, 0.0f), f.flags.assign(n, 0);
+        return Status::success();
+    };
+    Primitive p;
+    std::vector<uint32_t> tris = base.indices;
+    ShellFrame frame;
+    ASSERT_TRUE(frame_of(base, frame).ok());
+    size_t split = 0;
+    const Status s = shells_detail::refine_starved_faces(
+        base, p, tris, frame, L,
+        [&](const Primitive& q, const std::vector<uint32_t>&, ShellFrame& f) { return ++regrown, frame_of(q, f); }, 1000, split);
+    ASSERT_TRUE(s.ok()) << s.message;
+    EXPECT_EQ(regrown, 1); // (waiting, BC was split a round after AB: 2)
+    EXPECT_EQ(split, 4u);  // ADB and ABC at AB's midpoint, BEC and ABC's child at BC's
+    ASSERT_EQ(tris.size(), 3u * 7u);
+    // Conforming: an edge held by one triangle only is one of the outline's five (A-D, D-B, B-E, E-C, C-A).
+    std::map<std::pair<uint32_t, uint32_t>, int> uses;
+    for (size_t t = 0; t < tris.size(); t += 3)
+        for (int k = 0; k < 3; ++k) {
+            const uint32_t a = tris[t + size_t(k)], b = tris[t + size_t((k + 1) % 3)];
+            ++uses[{std::min(a, b), std::max(a, b)}];
+        }
+    const std::set<std::pair<uint32_t, uint32_t>> outline = {{0, 3}, {1, 3}, {1, 4}, {2, 4}, {0, 2}};
+    for (const auto& [edge, n] : uses) {
+        EXPECT_LE(n, 2);
+        if (n == 1) {
+            EXPECT_TRUE(outline.count(edge)) << edge.first << "-" << edge.second << " is a T-junction";
+        }
+    }
 }
