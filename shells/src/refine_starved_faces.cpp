@@ -30,6 +30,7 @@
 #include <algorithm>
 #include <cstring>
 #include <map>
+#include <numeric>
 #include <unordered_map>
 
 namespace furrow::shells_detail {
@@ -150,20 +151,25 @@ using EdgeSet = std::map<EdgeKey, std::vector<size_t>>; // welded edges, each wi
 // One pass of a round, in key order (deterministic): an edge none of whose triangles this pass has split yet is
 // bisected in every triangle that has it. Returns the others: each lies in one child of a triangle split
 // before it, and is bisected there by the next pass (two marked edges of one triangle are both split in one
-// round: they used to wait a round each, and every round regrows the whole frame).
-EdgeSet bisect_pass(Primitive& p, std::vector<uint32_t>& tris, EdgeSet edges, Round& r, std::vector<uint8_t>& blocked, size_t& faces_split) {
-    for (size_t t = 0; t < tris.size() / 3; ++t)
+// round: they used to wait a round each, and every round regrows the whole frame). `fresh`: the triangles
+// whose edges are not in `edges`' lists yet (all of them in a round's first pass; then the ones the last pass
+// split, the only ones that changed); on return, the ones this pass split.
+EdgeSet bisect_pass(Primitive& p, std::vector<uint32_t>& tris, EdgeSet edges, std::vector<size_t>& fresh, Round& r,
+                    std::vector<uint8_t>& blocked, size_t& faces_split) {
+    for (size_t t : fresh)
         for (int k = 0; k < 3; ++k) {
             auto it = edges.find(edge_key(p, tris[3 * t + size_t(k)], tris[3 * t + size_t((k + 1) % 3)]));
             if (it != edges.end()) it->second.push_back(t);
         }
+    for (auto& [key, around] : edges) std::sort(around.begin(), around.end()); // split in index order
+    fresh.clear();
     std::vector<uint8_t> busy(tris.size() / 3, 0); // split in this pass
     EdgeSet waiting;
     for (const auto& [key, around] : edges) {
         bool free = true;
         for (size_t t : around) free = free && !busy[t];
         if (!free) {
-            waiting[key];
+            waiting[key] = around;
             continue;
         }
         for (size_t t : around) {
@@ -173,20 +179,25 @@ EdgeSet bisect_pass(Primitive& p, std::vector<uint32_t>& tris, EdgeSet edges, Ro
                    key < edge_key(p, tris[3 * t + size_t(k)], tris[3 * t + size_t((k + 1) % 3)]))
                 ++k;
             const uint32_t a = tris[3 * t + size_t(k)], b = tris[3 * t + size_t((k + 1) % 3)], c = tris[3 * t + size_t((k + 2) % 3)];
-            auto [it, fresh] = r.midpoint.try_emplace({std::min(a, b), std::max(a, b)}, 0u);
-            if (fresh) {
+            auto [it, made] = r.midpoint.try_emplace({std::min(a, b), std::max(a, b)}, 0u);
+            if (made) {
                 it->second = append_midpoint(p, a, b);
                 r.made.push_back({it->second, a, b});
             }
             const uint32_t m = it->second;
             tris[3 * t] = a, tris[3 * t + 1] = m, tris[3 * t + 2] = c; // (a, m, c) in place
             tris.insert(tris.end(), {m, b, c});                      // (m, b, c) appended
+            fresh.push_back(t);
+            fresh.push_back(tris.size() / 3 - 1);
             busy.push_back(1);
             r.touched.push_back(1);
             blocked.push_back(0);
             ++faces_split;
         }
     }
+    // A waiting edge's triangles that this pass left whole still have it; the split ones' children hold it
+    // now, and the next pass finds them among `fresh`.
+    for (auto& [key, around] : waiting) std::erase_if(around, [&](size_t t) { return busy[t] != 0; });
     return waiting;
 }
 
@@ -208,7 +219,9 @@ Status refine_starved_faces(const Primitive& base, Primitive& p, std::vector<uin
         if (cur == &base) p = base, cur = &p;
         Round r;
         r.touched.assign(tris.size() / 3, 0);
-        while (!edges.empty()) edges = bisect_pass(p, tris, std::move(edges), r, blocked, faces_split);
+        std::vector<size_t> fresh(tris.size() / 3);
+        std::iota(fresh.begin(), fresh.end(), size_t(0));
+        while (!edges.empty()) edges = bisect_pass(p, tris, std::move(edges), fresh, r, blocked, faces_split);
         Status s = regrow(p, tris, frame);
         if (!s.ok()) return s;
         // A split that grew no more fur than its edge's ends: its triangles are not split further.
