@@ -331,6 +331,17 @@ static StampStats run_jobs(SnowField::Impl& m, const std::vector<Job>& jobs, Sta
     return st;
 }
 
+// Stamps shapes[i] over its samples poses[i], for every i in order (collect_jobs, then run_jobs); *stats (if
+// set) receives what it did.
+static void stamp_samples(SnowField::Impl& m, const std::vector<const Collider*>& shapes, const std::vector<std::vector<ColliderPose>>& poses,
+                          StampStats* stats) {
+    StampStats st;
+    std::vector<Job> jobs;
+    collect_jobs(m, shapes, poses, jobs, st);
+    st = run_jobs(m, jobs, st);
+    if (stats) *stats = st;
+}
+
 static double heading_of(const Collider& c, size_t k) {
     if (!c.heading.empty()) return c.heading.size() == 1 ? c.heading[0] : c.heading[k];
     const size_t n = c.path.size();
@@ -408,11 +419,7 @@ Status SnowField::add_colliders(const ColliderSet& set, StampStats* stats) {
             shapes.push_back(&c);
             poses.push_back(poses_of(m, c));
         }
-        StampStats st;
-        std::vector<Job> jobs;
-        collect_jobs(m, shapes, poses, jobs, st);
-        st = run_jobs(m, jobs, st);
-        if (stats) *stats = st;
+        stamp_samples(m, shapes, poses, stats);
         return Status::success();
     });
 }
@@ -449,11 +456,7 @@ Status SnowField::stamp(const StampRequest* requests, size_t count, StampStats* 
         std::vector<const Collider*> shapes(count);
         std::vector<std::vector<ColliderPose>> poses(count);
         for (size_t i = 0; i < count; ++i) shapes[i] = requests[i].shape, poses[i] = runtime_poses(requests[i].pose, requests[i].previous);
-        StampStats st;
-        std::vector<Job> jobs;
-        collect_jobs(m, shapes, poses, jobs, st);
-        st = run_jobs(m, jobs, st);
-        if (stats) *stats = st;
+        stamp_samples(m, shapes, poses, stats);
         return Status::success();
     });
 }
