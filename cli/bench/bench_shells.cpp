@@ -43,6 +43,7 @@ struct Row {
     double first_seconds = 0;                   // the untimed first call (strand textures not yet cached)
     double max_rel = 0, mean_rel = 0;
     double furred = 0; // the share of the base's area where the fur grows to >= 0.8 of the length asked
+    double kept = 0;   // the share of the fur asked that grows (min(1, length / asked), area-weighted)
     size_t measured = 0, clamped = 0, welded = 0;
 };
 
@@ -66,11 +67,13 @@ size_t added_bytes(const Scene& before, const Scene& after) {
     return b;
 }
 
-// The share of the furred base's area (triangles where any fur is asked) over which the fur grows to at least
-// 0.8 of the length asked: what the clamps leave, and what refining starved faces wins back (the threshold is
-// refine_starved_faces' "starved"). Lengths interpolated over each triangle, sampled on a barycentric grid.
-double furred_area(const Scene& scene, const FurReport& rep) {
-    double covered = 0, total = 0;
+// Over the furred base's area (triangles where any fur is asked): the share where the fur grows to at least
+// 0.8 of the length asked (furred; the threshold is refine_starved_faces' "starved"), and the share of the
+// fur asked that grows (kept: min(1, length / asked), the measure refine_starved_faces' rounds converge on).
+// What the clamps leave, and what refining starved faces wins back. Lengths interpolated over each triangle,
+// sampled on a barycentric grid.
+void furred_area(Row& row, const Scene& scene, const FurReport& rep) {
+    double covered = 0, total = 0, kept = 0;
     constexpr int kGrid = 8;
     for (const auto& f : rep.frames) {
         const auto& P = scene.meshes[f.mesh].primitives[f.primitive].positions;
@@ -90,10 +93,12 @@ double furred_area(const Scene& scene, const FurReport& rep) {
                     const double req = b0 * f.frame.requested[c[0]] + b1 * f.frame.requested[c[1]] + b2 * f.frame.requested[c[2]];
                     total += w;
                     covered += len >= 0.8 * req ? w : 0.0;
+                    kept += req > 0 ? w * std::min(1.0, len / req) : 0.0;
                 }
         }
     }
-    return total > 0 ? covered / total : 0.0;
+    row.furred = total > 0 ? covered / total : 0.0;
+    row.kept = total > 0 ? kept / total : 0.0;
 }
 
 // Distance of sampled shell faces (their centroids) to the base surface vs the requested offset s·L·mask,
@@ -148,7 +153,7 @@ void measure(Row& row, const Scene& scene, const FurReport& rep, int layers, siz
     row.measured = count;
     row.max_rel = worst;
     row.mean_rel = count ? sum / double(count) : 0;
-    row.furred = furred_area(scene, rep);
+    furred_area(row, scene, rep);
 }
 
 // One row: `base` as loaded from `name` (a model file, or a generated scene), its fur mask if it has one.
@@ -261,7 +266,7 @@ nlohmann::json run_bench_shells(const ShellsArgs& a, const GlobalFlags& g, bool 
     }
     Table t({"model", "N", "base tris", "out tris", "ms", "Mtri/s", "out MiB", "memcpy ms", "x memcpy", "setup ms", "setup us/tri", "emit ms",
              "emit x memcpy", "fresh ms", "emit x fresh", "1st call ms", "peak MiB", "max rel err", "mean rel err", "measured",
-             "clamped", "furred area"});
+             "clamped", "furred area", "fur kept"});
     nlohmann::json j = nlohmann::json::array();
     std::vector<PlotPoint> points;
     for (const auto& r : rows) {
@@ -273,7 +278,7 @@ nlohmann::json run_bench_shells(const ShellsArgs& a, const GlobalFlags& g, bool 
                fmt(r.base_triangles ? r.setup_seconds * 1e6 / double(r.base_triangles) : 0.0, 2), fmt(r.emit_seconds * 1e3, 2),
                fmt(r.emit_seconds / r.memcpy_seconds, 2), fmt(r.fresh_seconds * 1e3, 3), fmt(r.emit_seconds / r.fresh_seconds, 2),
                fmt(r.first_seconds * 1e3, 2), fmt(r.peak_mib, 1), fmt_sci(r.max_rel), fmt_sci(r.mean_rel),
-               std::to_string(r.measured), std::to_string(r.clamped) + "/" + std::to_string(r.welded), fmt(r.furred, 3)});
+               std::to_string(r.measured), std::to_string(r.clamped) + "/" + std::to_string(r.welded), fmt(r.furred, 3), fmt(r.kept, 3)});
         j.push_back({{"model", r.model}, {"layers", r.layers}, {"base_triangles", r.base_triangles},
                      {"out_triangles", r.out_triangles}, {"seconds", r.seconds}, {"out_bytes", r.out_bytes},
                      {"memcpy_seconds", r.memcpy_seconds}, {"over_memcpy", ratio}, {"setup_seconds", r.setup_seconds},
@@ -282,7 +287,7 @@ nlohmann::json run_bench_shells(const ShellsArgs& a, const GlobalFlags& g, bool 
                      {"fresh_memcpy_seconds", r.fresh_seconds}, {"emit_over_fresh_memcpy", r.emit_seconds / r.fresh_seconds},
                      {"first_call_seconds", r.first_seconds}, {"peak_mib", r.peak_mib},
                      {"max_relative_error", r.max_rel}, {"mean_relative_error", r.mean_rel}, {"measured", r.measured},
-                     {"clamped_vertices", r.clamped}, {"welded_vertices", r.welded}, {"furred_area", r.furred}});
+                     {"clamped_vertices", r.clamped}, {"welded_vertices", r.welded}, {"furred_area", r.furred}, {"fur_kept", r.kept}});
     }
     if (tables) {
         std::printf("furrow bench shells: add_fur_shells (viewer layout) per model and N, median of %d runs on %d thread(s), "
@@ -292,7 +297,8 @@ nlohmann::json run_bench_shells(const ShellsArgs& a, const GlobalFlags& g, bool 
                     "allocated (first-touch page faults, as any new output pays); 1st call = the warm-up run, which also "
                     "draws and encodes the strand textures (cached for later calls with the same options); error = | "
                     "distance of a shell face's centroid to the base surface (CGAL) - requested offset | / requested, over unclamped "
-                    "vertices; furred area = the share of the furred base's area where the fur reaches 0.8 of the length asked\n",
+                    "vertices; furred area = the share of the furred base's area where the fur reaches 0.8 of the length asked; fur kept "
+                    "= the share of the fur asked over that area that grows (min(1, length / asked), area-weighted)\n",
                     a.base.repeat, active_threads(), a.relative_length);
         t.print();
     }

@@ -688,7 +688,7 @@ Status grow_base(Grown& g, const Scene& scene, const Placement& pl, const FurOpt
         size_t split = 0;
         s = shells_detail::refine_starved_faces(p, q, g.tris, g.frame, o.length,
                                          [&](const Primitive& r, const std::vector<uint32_t>& t, ShellFrame& f) { return grow_frame(f, r, t, opt, o); },
-                                         refine_budget(g.tris.size() / 3, all_base, opt), split);
+                                         refine_budget(g.tris.size() / 3, all_base, opt), opt.refine_tolerance, split);
         if (s.ok() && split > 0) {
             q.indices = g.tris;
             q.face_sizes.clear();
@@ -1002,6 +1002,7 @@ Status validate(const FurOptions& opt) {
     if (!std::isfinite(opt.tile_size) || opt.tile_size < 0) return bad("tile size must be a finite number >= 0");
     if (!(opt.root_shade >= 0 && opt.root_shade <= 1)) return bad("root shade must be in 0..1");
     if (!(opt.lod_simplify_error >= 0 && opt.lod_simplify_error <= 1)) return bad("LOD simplify error must be in 0..1");
+    if (!(opt.refine_tolerance >= 0 && opt.refine_tolerance <= 1)) return bad("refine tolerance must be in 0..1");
     if (!opt.mask.pixels.empty()) {
         const ImageF& m = opt.mask;
         if (m.width <= 0 || m.height <= 0 || m.channels <= 0 || m.pixels.size() != size_t(m.width) * size_t(m.height) * size_t(m.channels))

@@ -32,7 +32,7 @@ void parallel(size_t n, size_t grain, F&& f) {
 // than `max_triangles` of them in all. p is left as it was when no face is split (faces_split 0).
 using RegrowFrame = std::function<Status(const Primitive&, const std::vector<uint32_t>&, ShellFrame&)>;
 Status refine_starved_faces(const Primitive& base, Primitive& p, std::vector<uint32_t>& tris, ShellFrame& frame, double length,
-                            const RegrowFrame& regrow, size_t max_triangles, size_t& faces_split);
+                            const RegrowFrame& regrow, size_t max_triangles, double tolerance, size_t& faces_split);
 
 // Droop as a bent strand that keeps its length: at arc fraction u its direction has turned from the extrusion
 // direction D toward ĝ (gravity along the surface) by θ(u) = θ_tip·u², curving more toward the tip, as a

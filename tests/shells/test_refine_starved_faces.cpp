@@ -206,7 +206,8 @@ TEST(RefineStarvedFaces, TwoMarkedEdgesOfOneTriangleSplitInOneRound) {
     size_t split = 0;
     const Status s = shells_detail::refine_starved_faces(
         base, p, tris, frame, L,
-        [&](const Primitive& q, const std::vector<uint32_t>&, ShellFrame& f) { return ++regrown, frame_of(q, f); }, 1000, split);
+        [&](const Primitive& q, const std::vector<uint32_t>&, ShellFrame& f) { return ++regrown, frame_of(q, f); }, 1000,
+        FurOptions{}.refine_tolerance, split);
     ASSERT_TRUE(s.ok()) << s.message;
     EXPECT_EQ(regrown, 1); // (waiting, BC was split a round after AB: 2)
     EXPECT_EQ(split, 4u);  // ADB and ABC at AB's midpoint, BEC and ABC's child at BC's
@@ -224,5 +225,61 @@ TEST(RefineStarvedFaces, TwoMarkedEdgesOfOneTriangleSplitInOneRound) {
         if (n == 1) {
             EXPECT_TRUE(outline.count(edge)) << edge.first << "-" << edge.second << " is a T-junction";
         }
+    }
+}
+
+// The refinement stops once it has converged (refine_starved_faces.cpp, FurOptions::refine_tolerance): every
+// round regrows the whole frame, and rounds that change the fur by less than 0.1 % of what is asked over the
+// furred area are not worth one. A 4 x 1 strip whose fur grows only at its two right corners (every other
+// point, each midpoint included, is clamped to 0, as in a crevice that stays one) holds uneven triangles at
+// every depth, longer than twice the fur; beside it a 100 x 100 floor with all its fur, so that the strip's
+// splits move the share of the fur kept by less than 4e-4 a round. Two such rounds in a row end it: 2
+// regrowths; with tolerance 0, 15 (to the round limit).
+TEST(RefineStarvedFaces, StopsOnceRoundsChangeTheFurByTooLittle) {
+    Primitive base;
+    base.positions = {0, 0, 0, 4, 0, 0, 4, 1, 0, 0, 1, 0,                  // the strip
+                      0, 10, 5, 100, 10, 5, 100, 110, 5, 0, 110, 5};     // the floor
+    base.indices = {0, 1, 2, 0, 2, 3, 4, 5, 6, 4, 6, 7};
+    const double L = 0.01;
+    int regrown = 0;
+    auto frame_of = [&](const Primitive& p, ShellFrame& f) {
+        const size_t n = p.vertex_count();
+        f = ShellFrame{};
+        f.requested.assign(n, float(L));
+        f.length.assign(n, 0.0f);
+        for (size_t v = 0; v < n; ++v)
+            if (p.positions[3 * v] == 4.0f || p.positions[3 * v + 2] == 5.0f) f.length[v] = float(L);
+        f.direction.assign(3 * n, 0.0f), f.lean.assign(3 * n, 0.0f), f.sag.assign(3 * n, 0.0f), f.flags.assign(n, 0);
+        return Status::success();
+    };
+    auto refine = [&](double tolerance) {
+        regrown = 0;
+        Primitive p;
+        std::vector<uint32_t> tris = base.indices;
+        ShellFrame frame;
+        EXPECT_TRUE(frame_of(base, frame).ok());
+        size_t split = 0;
+        const Status s = shells_detail::refine_starved_faces(
+            base, p, tris, frame, L,
+            [&](const Primitive& q, const std::vector<uint32_t>&, ShellFrame& f) { return ++regrown, frame_of(q, f); }, 100000,
+            tolerance, split);
+        EXPECT_TRUE(s.ok()) << s.message;
+        EXPECT_GT(split, 0u);
+        return regrown;
+    };
+    EXPECT_EQ(refine(FurOptions{}.refine_tolerance), 2);
+    EXPECT_EQ(refine(0.0), 15);
+}
+
+// The tolerance is checked with the other options.
+TEST(RefineStarvedFaces, RejectsABadTolerance) {
+    for (double bad : {-1e-3, 1.5, std::nan("")}) {
+        Scene s = make_scene(cabinet(1, 1.0f, 0.3f, 0.35f, 0.018f), "cabinet");
+        FurOptions o;
+        o.shells.layers = 4;
+        o.shells.length = 0.015;
+        o.refine_tolerance = bad;
+        EXPECT_EQ(add_fur_shells(s, o).code, StatusCode::invalid_argument) << bad;
+        EXPECT_EQ(s.meshes[0].primitives.size(), 1u);
     }
 }

@@ -169,6 +169,10 @@ struct FurOptions {
                                 // the base surface and its shading do not change (FurReport::refined_faces)
     size_t refine_budget = 4096; // refinement makes a primitive of T triangles at most 8·T + this many (and
                                  // never more than max_triangles leaves room for)
+    double refine_tolerance = 1e-3; // refinement has converged (each of its rounds regrows the primitive's whole
+                                 // frame) once two rounds in a row change the share of the fur asked that grows
+                                 // (min(1, length / asked), area-weighted over the furred triangles) by less than
+                                 // this; 0 = refine until no triangle is marked (at most 16 rounds); 0..1
     double lod_simplify_error = 0; // > 0: LOD level k >= 1 grows on the base simplified (meshopt_simplify, UV
                                 // seams and borders kept) toward 1/4^k of its triangles, within a relative error
                                 // of this × 2^(k−1) (fraction of the mesh's largest extent, as meshopt defines
