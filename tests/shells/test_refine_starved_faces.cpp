@@ -75,6 +75,37 @@ double floor_coverage(const Scene& s, const FurReport& rep, float fraction) {
     return total > 0 ? covered / total : 0.0;
 }
 
+// refine_starved_faces on `base` with a synthetic regrow: every point asks for fur L and keeps
+// length_of(its position) (no direction, lean or sag), the frame the callback and the start both get.
+struct SyntheticRefinement {
+    Primitive p;
+    std::vector<uint32_t> tris;
+    size_t split = 0;
+    int regrown = 0;
+    Status status;
+};
+template <class LengthOf>
+SyntheticRefinement refine_synthetic(const Primitive& base, double L, LengthOf length_of, size_t budget, double tolerance) {
+    SyntheticRefinement r;
+    auto frame_of = [&](const Primitive& q, ShellFrame& f) {
+        const size_t n = q.vertex_count();
+        f = ShellFrame{};
+        f.requested.assign(n, float(L));
+        f.length.resize(n);
+        for (size_t v = 0; v < n; ++v) f.length[v] = float(length_of(&q.positions[3 * v]));
+        f.direction.assign(3 * n, 0.0f), f.lean.assign(3 * n, 0.0f), f.sag.assign(3 * n, 0.0f), f.flags.assign(n, 0);
+        return Status::success();
+    };
+    r.tris = base.indices;
+    ShellFrame frame;
+    (void)frame_of(base, frame);
+    r.status = shells_detail::refine_starved_faces(
+        base, r.p, r.tris, frame, L,
+        [&](const Primitive& q, const std::vector<uint32_t>&, ShellFrame& f) { return ++r.regrown, frame_of(q, f); }, budget, tolerance,
+        r.split);
+    return r;
+}
+
 } // namespace
 
 TEST(RefineStarvedFaces, FurGrowsOnCoarseShelves) {
@@ -185,32 +216,15 @@ TEST(RefineStarvedFaces, TwoMarkedEdgesOfOneTriangleSplitInOneRound) {
                       1.0098f, 0.583f, 0}; // E, 0.3 beyond BC's midpoint (0.75, 0.433)
     base.indices = {0, 1, 2, 0, 3, 1, 1, 4, 2};
     const double L = 0.35; // 2L = 0.7: AB and BC (1) are longer, every flat child's edges (at most 0.59) shorter
-    int regrown = 0;
-    auto frame_of = [&](const Primitive& p, ShellFrame& f) {
-        const size_t n = p.vertex_count();
-        f = ShellFrame{};
-        f.requested.assign(n, float(L));
-        f.length.assign(n, float(L));
-        for (size_t v = 0; v < n; ++v) {
-            const float* x = &p.positions[3 * v];
-            const bool outer = (x[0] == 0.5f && x[1] == -0.3f) || (x[0] == 1.0098f && x[1] == 0.583f); // D or E
-            if (outer) f.length[v] = float(0.3 * L);
-        }
-        f.direction.assign(3 * n, 0.0f), f.lean.assign(3 * n, 0.0f), f.sag.assign(3 * n, 0.0f), f.flags.assign(n, 0);
-        return Status::success();
+    auto length_of = [&](const float* x) { // D and E keep 0.3 of the fur
+        const bool outer = (x[0] == 0.5f && x[1] == -0.3f) || (x[0] == 1.0098f && x[1] == 0.583f);
+        return outer ? 0.3 * L : L;
     };
-    Primitive p;
-    std::vector<uint32_t> tris = base.indices;
-    ShellFrame frame;
-    ASSERT_TRUE(frame_of(base, frame).ok());
-    size_t split = 0;
-    const Status s = shells_detail::refine_starved_faces(
-        base, p, tris, frame, L,
-        [&](const Primitive& q, const std::vector<uint32_t>&, ShellFrame& f) { return ++regrown, frame_of(q, f); }, 1000,
-        FurOptions{}.refine_tolerance, split);
-    ASSERT_TRUE(s.ok()) << s.message;
-    EXPECT_EQ(regrown, 1); // (waiting, BC was split a round after AB: 2)
-    EXPECT_EQ(split, 4u);  // ADB and ABC at AB's midpoint, BEC and ABC's child at BC's
+    const SyntheticRefinement r = refine_synthetic(base, L, length_of, 1000, FurOptions{}.refine_tolerance);
+    ASSERT_TRUE(r.status.ok()) << r.status.message;
+    EXPECT_EQ(r.regrown, 1); // (waiting, BC was split a round after AB: 2)
+    EXPECT_EQ(r.split, 4u);  // ADB and ABC at AB's midpoint, BEC and ABC's child at BC's
+    const std::vector<uint32_t>& tris = r.tris;
     ASSERT_EQ(tris.size(), 3u * 7u);
     // Conforming: an edge held by one triangle only is one of the outline's five (A-D, D-B, B-E, E-C, C-A).
     std::map<std::pair<uint32_t, uint32_t>, int> uses;
@@ -234,41 +248,22 @@ TEST(RefineStarvedFaces, TwoMarkedEdgesOfOneTriangleSplitInOneRound) {
 // point, each midpoint included, is clamped to 0, as in a crevice that stays one) holds uneven triangles at
 // every depth, longer than twice the fur; beside it a 100 x 100 floor with all its fur, so that the strip's
 // splits move the share of the fur kept by less than 4e-4 a round. Two such rounds in a row end it: 2
-// regrowths; with tolerance 0, 15 (to the round limit).
+// regrowths; with tolerance 0, 15.
 TEST(RefineStarvedFaces, StopsOnceRoundsChangeTheFurByTooLittle) {
     Primitive base;
     base.positions = {0, 0, 0, 4, 0, 0, 4, 1, 0, 0, 1, 0,                  // the strip
                       0, 10, 5, 100, 10, 5, 100, 110, 5, 0, 110, 5};     // the floor
     base.indices = {0, 1, 2, 0, 2, 3, 4, 5, 6, 4, 6, 7};
     const double L = 0.01;
-    int regrown = 0;
-    auto frame_of = [&](const Primitive& p, ShellFrame& f) {
-        const size_t n = p.vertex_count();
-        f = ShellFrame{};
-        f.requested.assign(n, float(L));
-        f.length.assign(n, 0.0f);
-        for (size_t v = 0; v < n; ++v)
-            if (p.positions[3 * v] == 4.0f || p.positions[3 * v + 2] == 5.0f) f.length[v] = float(L);
-        f.direction.assign(3 * n, 0.0f), f.lean.assign(3 * n, 0.0f), f.sag.assign(3 * n, 0.0f), f.flags.assign(n, 0);
-        return Status::success();
+    auto length_of = [&](const float* x) { return x[0] == 4.0f || x[2] == 5.0f ? L : 0.0; };
+    auto regrowths = [&](double tolerance) {
+        const SyntheticRefinement r = refine_synthetic(base, L, length_of, 100000, tolerance);
+        EXPECT_TRUE(r.status.ok()) << r.status.message;
+        EXPECT_GT(r.split, 0u);
+        return r.regrown;
     };
-    auto refine = [&](double tolerance) {
-        regrown = 0;
-        Primitive p;
-        std::vector<uint32_t> tris = base.indices;
-        ShellFrame frame;
-        EXPECT_TRUE(frame_of(base, frame).ok());
-        size_t split = 0;
-        const Status s = shells_detail::refine_starved_faces(
-            base, p, tris, frame, L,
-            [&](const Primitive& q, const std::vector<uint32_t>&, ShellFrame& f) { return ++regrown, frame_of(q, f); }, 100000,
-            tolerance, split);
-        EXPECT_TRUE(s.ok()) << s.message;
-        EXPECT_GT(split, 0u);
-        return regrown;
-    };
-    EXPECT_EQ(refine(FurOptions{}.refine_tolerance), 2);
-    EXPECT_EQ(refine(0.0), 15);
+    EXPECT_EQ(regrowths(FurOptions{}.refine_tolerance), 2);
+    EXPECT_EQ(regrowths(0.0), 15);
 }
 
 // The tolerance is checked with the other options.
