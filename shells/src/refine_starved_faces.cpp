@@ -34,8 +34,6 @@
 #include "shells_internal.h"
 
 #include <algorithm>
-#include <cstdio>
-#include <cstdlib>
 #include <cmath>
 #include <cstring>
 #include <map>
@@ -243,7 +241,7 @@ Status refine_starved_faces(const Primitive& base, Primitive& p, std::vector<uin
     std::vector<uint8_t> blocked(tris.size() / 3, 0);
     double fur = fur_share(*cur, tris, frame);
     int idle = 0; // rounds in a row that changed the share of the fur kept by less than `tolerance`
-    for (int round = 0; round < kMaxRounds && idle < (std::getenv("TMP_IDLE") ? atoi(std::getenv("TMP_IDLE")) : 2); ++round) {
+    for (int round = 0; round < kMaxRounds && idle < 2; ++round) {
         const std::vector<int> split = mark(*cur, tris, frame, blocked, length);
         EdgeSet edges;
         for (size_t t = 0; t < split.size(); ++t)
@@ -265,7 +263,6 @@ Status refine_starved_faces(const Primitive& base, Primitive& p, std::vector<uin
             for (int k = 0; k < 3; ++k) blocked[t] = blocked[t] || (unhelpful[tris[3 * t + size_t(k)]] && r.touched[t]);
         const double now = fur_share(p, tris, frame);
         idle = std::abs(now - fur) < tolerance ? idle + 1 : 0;
-        if (std::getenv("TMP_LOG")) fprintf(stderr, "round %d edges %zu tris %zu fur %.5f gain %.5f\n", round, edges.size(), tris.size() / 3, now, now - fur);
         fur = now;
     }
     return Status::success();
