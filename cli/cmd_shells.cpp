@@ -76,7 +76,8 @@ void run_shells(const ShellsArgs& a, const GlobalFlags& g) {
     if (r.fin_quads) line += ", " + plural(r.fin_quads, "fin");
     if (fur.shells.lod_levels > 1) line += ", " + std::to_string(fur.shells.lod_levels) + " LOD levels";
     if (r.refined_faces)
-        line += "; " + plural(r.refined_faces, "base face") + " split where clamped corners starved the fur";
+        line += "; " + plural(r.refined_faces, "base face") + " split where clamped corners starved the fur (" +
+                plural(r.refine_rounds, "round") + ")";
     info(g, line);
     if (fur.shells.lod_levels > 1 && fur.lod_simplify_error > 0) {
         std::string lod = "  LOD base triangles (meshopt error, relative to the extent):";

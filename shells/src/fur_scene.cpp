@@ -685,15 +685,16 @@ Status grow_base(Grown& g, const Scene& scene, const Placement& pl, const FurOpt
         // Coarse faces whose corners are all clamped: bisected until fur grows inside them (the base
         // primitive is then replaced by its refinement, committed with the shells).
         Primitive q; // p's refinement (a copy made at the first split)
-        size_t split = 0;
+        shells_detail::Refinement refined;
         s = shells_detail::refine_starved_faces(p, q, g.tris, g.frame, o.length,
                                          [&](const Primitive& r, const std::vector<uint32_t>& t, ShellFrame& f) { return grow_frame(f, r, t, opt, o); },
-                                         refine_budget(g.tris.size() / 3, all_base, opt), opt.refine_tolerance, split);
-        if (s.ok() && split > 0) {
+                                         refine_budget(g.tris.size() / 3, all_base, opt), opt.refine_tolerance, refined);
+        if (s.ok() && refined.faces_split > 0) {
             q.indices = g.tris;
             q.face_sizes.clear();
             g.refined = std::move(q);
-            rep.refined_faces += split;
+            rep.refined_faces += refined.faces_split;
+            rep.refine_rounds += refined.rounds;
         }
     }
     if (!s.ok()) return Status::error(s.code, "mesh " + std::to_string(g.mesh) + " primitive " + std::to_string(g.prim) + ": " + s.message);

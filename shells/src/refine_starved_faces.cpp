@@ -233,8 +233,8 @@ double fur_share(const Primitive& p, const std::vector<uint32_t>& tris, const Sh
 } // namespace
 
 Status refine_starved_faces(const Primitive& base, Primitive& p, std::vector<uint32_t>& tris, ShellFrame& frame, double length,
-                            const RegrowFrame& regrow, size_t budget, double tolerance, size_t& faces_split) {
-    faces_split = 0;
+                            const RegrowFrame& regrow, size_t budget, double tolerance, Refinement& out) {
+    out = Refinement{};
     // Read from base until the first split copies it into p (most meshes need no split: the Stanford bunny's
     // every attribute and index was copied for nothing).
     const Primitive* cur = &base;
@@ -252,7 +252,8 @@ Status refine_starved_faces(const Primitive& base, Primitive& p, std::vector<uin
         r.touched.assign(tris.size() / 3, 0);
         std::vector<size_t> fresh(tris.size() / 3);
         std::iota(fresh.begin(), fresh.end(), size_t(0));
-        while (!edges.empty()) edges = bisect_pass(p, tris, std::move(edges), fresh, r, blocked, faces_split);
+        while (!edges.empty()) edges = bisect_pass(p, tris, std::move(edges), fresh, r, blocked, out.faces_split);
+        ++out.rounds;
         Status s = regrow(p, tris, frame);
         if (!s.ok()) return s;
         // A split that grew no more fur than its edge's ends: its triangles are not split further.

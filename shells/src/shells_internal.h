@@ -29,10 +29,15 @@ void parallel(size_t n, size_t grain, F&& f) {
 // ---- refine_starved_faces.cpp: bisects the triangles of p whose corners the clamps starve (see the file),
 // recomputing `frame` with `regrow` after each round. At the first split p becomes a copy of `base`; p then
 // gains the new vertices (every attribute at the mean of an edge's ends), `tris` the new triangles, never more
-// than `max_triangles` of them in all. p is left as it was when no face is split (faces_split 0).
+// than `max_triangles` of them in all, until two rounds in a row change the share of the fur kept by less than
+// `tolerance`. p is left as it was when no face is split (faces_split 0).
 using RegrowFrame = std::function<Status(const Primitive&, const std::vector<uint32_t>&, ShellFrame&)>;
+struct Refinement {
+    size_t faces_split = 0; // triangles bisected
+    size_t rounds = 0;      // rounds, each one call of `regrow`
+};
 Status refine_starved_faces(const Primitive& base, Primitive& p, std::vector<uint32_t>& tris, ShellFrame& frame, double length,
-                            const RegrowFrame& regrow, size_t max_triangles, double tolerance, size_t& faces_split);
+                            const RegrowFrame& regrow, size_t max_triangles, double tolerance, Refinement& out);
 
 // Droop as a bent strand that keeps its length: at arc fraction u its direction has turned from the extrusion
 // direction D toward ĝ (gravity along the surface) by θ(u) = θ_tip·u², curving more toward the tip, as a

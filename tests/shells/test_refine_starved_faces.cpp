@@ -80,8 +80,8 @@ double floor_coverage(const Scene& s, const FurReport& rep, float fraction) {
 struct SyntheticRefinement {
     Primitive p;
     std::vector<uint32_t> tris;
-    size_t split = 0;
-    int regrown = 0;
+    shells_detail::Refinement refinement;
+    size_t regrown = 0;
     Status status;
 };
 template <class LengthOf>
@@ -102,7 +102,8 @@ SyntheticRefinement refine_synthetic(const Primitive& base, double L, LengthOf l
     r.status = shells_detail::refine_starved_faces(
         base, r.p, r.tris, frame, L,
         [&](const Primitive& q, const std::vector<uint32_t>&, ShellFrame& f) { return ++r.regrown, frame_of(q, f); }, budget, tolerance,
-        r.split);
+        r.refinement);
+    EXPECT_EQ(r.refinement.rounds, r.regrown); // a round is one regrowth
     return r;
 }
 
@@ -139,6 +140,8 @@ TEST(RefineStarvedFaces, FurGrowsOnCoarseShelves) {
     }
     EXPECT_GE(coverage, 0.9);
     EXPECT_GT(rep.refined_faces, 0u);
+    EXPECT_GT(rep.refine_rounds, 0u);
+    EXPECT_LE(rep.refine_rounds, 16u); // one primitive, at most 16 rounds
     // The base surface is the same surface: every new vertex lies on its original face (the floors stay flat).
     const Primitive& base = s.meshes[0].primitives[0];
     const Primitive& original = input.meshes[0].primitives[0];
@@ -222,8 +225,8 @@ TEST(RefineStarvedFaces, TwoMarkedEdgesOfOneTriangleSplitInOneRound) {
     };
     const SyntheticRefinement r = refine_synthetic(base, L, length_of, 1000, FurOptions{}.refine_tolerance);
     ASSERT_TRUE(r.status.ok()) << r.status.message;
-    EXPECT_EQ(r.regrown, 1); // (waiting, BC was split a round after AB: 2)
-    EXPECT_EQ(r.split, 4u);  // ADB and ABC at AB's midpoint, BEC and ABC's child at BC's
+    EXPECT_EQ(r.regrown, 1u); // (waiting, BC was split a round after AB: 2)
+    EXPECT_EQ(r.refinement.faces_split, 4u); // ADB and ABC at AB's midpoint, BEC and ABC's child at BC's
     const std::vector<uint32_t>& tris = r.tris;
     ASSERT_EQ(tris.size(), 3u * 7u);
     // Conforming: an edge held by one triangle only is one of the outline's five (A-D, D-B, B-E, E-C, C-A).
@@ -259,11 +262,11 @@ TEST(RefineStarvedFaces, StopsOnceRoundsChangeTheFurByTooLittle) {
     auto regrowths = [&](double tolerance) {
         const SyntheticRefinement r = refine_synthetic(base, L, length_of, 100000, tolerance);
         EXPECT_TRUE(r.status.ok()) << r.status.message;
-        EXPECT_GT(r.split, 0u);
+        EXPECT_GT(r.refinement.faces_split, 0u);
         return r.regrown;
     };
-    EXPECT_EQ(regrowths(FurOptions{}.refine_tolerance), 2);
-    EXPECT_EQ(regrowths(0.0), 15);
+    EXPECT_EQ(regrowths(FurOptions{}.refine_tolerance), 2u);
+    EXPECT_EQ(regrowths(0.0), 15u);
 }
 
 // The tolerance is checked with the other options.

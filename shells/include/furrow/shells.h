@@ -209,6 +209,8 @@ struct FurReport {
     size_t bald_vertices = 0;
     size_t refined_faces = 0;       // base triangles bisected so that fur grows inside coarse faces whose
                                     // corners are clamped (the base primitive is replaced by its refinement)
+    size_t refine_rounds = 0;       // that refinement's rounds, summed over the primitives: each regrew its
+                                    // primitive's whole frame (most of a coarse mesh's set-up)
     std::vector<size_t> lod_base_triangles; // per LOD level 0..K-1: base triangles its shells grow on (level 0:
                                             // base_triangles; fewer with lod_simplify_error)
     std::vector<double> lod_simplify_error; // per LOD level: meshopt's result error, relative to the extent of
