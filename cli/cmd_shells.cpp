@@ -153,6 +153,11 @@ void register_shells(CLI::App& app, GlobalFlags& g) {
     cmd->add_option("--seed", a->fur.strands.seed, "Seed of the strand textures (default 1)");
     cmd->add_option("--root-shade", a->fur.root_shade, "Brightness at the roots relative to the tips, 0..1 (default 0.45)")
         ->check(finite_range(0.0, 1.0));
+    cmd->add_option("--refine-tolerance", a->fur.refine_tolerance,
+                    "Coarse faces whose corners the clamps starve are split in rounds, each regrowing the whole frame; "
+                    "they stop once two rounds in a row change the share of the fur asked that grows by less than this, "
+                    "0..1 (default 0.001; 0 = until nothing is left to split, at most 16 rounds)")
+        ->check(finite_range(0.0, 1.0));
     cmd->add_option("--max-triangles", a->fur.max_triangles,
                     "Refuse, before growing anything, when the shells could add more triangles than this "
                     "(default 20000000)")

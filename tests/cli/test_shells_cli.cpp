@@ -142,7 +142,8 @@ TEST(furrow_shells, BadInputFollowsTheErrorContract) {
     const std::string out = (dir / "out.glb").string();
     // Out-of-range options are usage errors (exit 2).
     for (std::vector<std::string> bad : {std::vector<std::string>{"--layers", "0"}, {"--layers", "257"}, {"--length", "-1"}, {"--length", "nan"},
-                                         {"--length", "inf"}, {"--layout", "fancy"}, {"--lod", "0"}}) {
+                                         {"--length", "inf"}, {"--layout", "fancy"}, {"--lod", "0"}, {"--refine-tolerance", "-0.1"},
+                                         {"--refine-tolerance", "1.5"}, {"--refine-tolerance", "nan"}}) {
         std::vector<std::string> args{"shells", in.string(), "-o", out};
         if (bad[0] != "--length") args.insert(args.end(), {"--length", "0.05"});
         args.insert(args.end(), bad.begin(), bad.end());
