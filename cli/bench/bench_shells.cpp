@@ -11,6 +11,7 @@
 #include "lattice.h"
 
 #include <furrow/shells.h>
+#include <furrow_kernel/vec3.h>
 
 #include <algorithm>
 #include <cmath>
@@ -80,10 +81,8 @@ void furred_area(Row& row, const Scene& scene, const FurReport& rep) {
         for (size_t t = 0; t + 2 < f.triangles.size(); t += 3) {
             const uint32_t* c = &f.triangles[t];
             if (!(f.frame.requested[c[0]] > 0 || f.frame.requested[c[1]] > 0 || f.frame.requested[c[2]] > 0)) continue;
-            double e1[3], e2[3];
-            for (int k = 0; k < 3; ++k)
-                e1[k] = double(P[3 * c[1] + k]) - P[3 * c[0] + k], e2[k] = double(P[3 * c[2] + k]) - P[3 * c[0] + k];
-            const double area = 0.5 * std::hypot(e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]);
+            const kernel::Vec3 a = kernel::point_at(P.data(), c[0]), b = kernel::point_at(P.data(), c[1]), d = kernel::point_at(P.data(), c[2]);
+            const double area = 0.5 * kernel::norm(kernel::cross(b - a, d - a));
             if (!(area > 0) || !std::isfinite(area)) continue;
             const double w = area / double((kGrid + 1) * (kGrid + 2) / 2);
             for (int i = 0; i <= kGrid; ++i)

@@ -33,6 +33,8 @@
 // shading do not change (skin weights are merged and renormalised over the 4 largest).
 #include "shells_internal.h"
 
+#include <furrow_kernel/vec3.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstring>
@@ -220,10 +222,9 @@ double fur_share(const Primitive& p, const std::vector<uint32_t>& tris, const Sh
         for (int k = 0; k < 3; ++k)
             if (frame.requested[c[k]] > 0) kept += std::min(1.0, double(frame.length[c[k]]) / frame.requested[c[k]]), ++asked;
         if (asked == 0) continue;
-        const float *a = &p.positions[3 * size_t(c[0])], *b = &p.positions[3 * size_t(c[1])], *d = &p.positions[3 * size_t(c[2])];
-        const double e1[3] = {double(b[0]) - a[0], double(b[1]) - a[1], double(b[2]) - a[2]};
-        const double e2[3] = {double(d[0]) - a[0], double(d[1]) - a[1], double(d[2]) - a[2]};
-        const double A = 0.5 * std::hypot(e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]);
+        const kernel::Vec3 a = kernel::point_at(p.positions.data(), c[0]), b = kernel::point_at(p.positions.data(), c[1]),
+                           d = kernel::point_at(p.positions.data(), c[2]);
+        const double A = 0.5 * kernel::norm(kernel::cross(b - a, d - a));
         if (!std::isfinite(A)) continue;
         fur += A * kept / asked, area += A;
     }
@@ -239,7 +240,7 @@ Status refine_starved_faces(const Primitive& base, Primitive& p, std::vector<uin
     // every attribute and index was copied for nothing).
     const Primitive* cur = &base;
     std::vector<uint8_t> blocked(tris.size() / 3, 0);
-    double fur = fur_share(*cur, tris, frame);
+    double fur = 0; // fur_share of the last frame (measured once a round splits something)
     int idle = 0; // rounds in a row that changed the share of the fur kept by less than `tolerance`
     for (int round = 0; round < kMaxRounds && idle < 2; ++round) {
         const std::vector<int> split = mark(*cur, tris, frame, blocked, length);
@@ -247,6 +248,7 @@ Status refine_starved_faces(const Primitive& base, Primitive& p, std::vector<uin
         for (size_t t = 0; t < split.size(); ++t)
             if (split[t] >= 0) edges[edge_key(*cur, tris[3 * t + size_t(split[t])], tris[3 * t + size_t((split[t] + 1) % 3)])];
         if (edges.empty() || tris.size() / 3 + 2 * edges.size() > budget) break;
+        if (round == 0) fur = fur_share(*cur, tris, frame); // (not for the meshes nothing is split in)
         if (cur == &base) p = base, cur = &p;
         Round r;
         r.touched.assign(tris.size() / 3, 0);
