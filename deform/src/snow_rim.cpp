@@ -286,6 +286,15 @@ double quantum_cap(int n) {
 // emulation of one cost a branch per texel in the rim's sums.
 uint64_t quantized(double x, double cap) { return x > 0 ? uint64_t(int64_t(std::min(x / kQuantum, cap) + 0.5)) : 0; }
 
+// A computed rim for compute_rim's writes: texel (x, y) of the window (x >= x0, y >= y0) at
+// data[(y − y0) × stride + x − x0]; no data: zero everywhere.
+struct RimValues {
+    const float* data = nullptr;
+    size_t stride = 0;
+    int x0 = 0, y0 = 0;
+    const float* at(int x, int y) const { return data + size_t(y - y0) * stride + size_t(x - x0); }
+};
+
 // The ring's three builds (snow_rim_ring.inc). Clang (the fuzzing build) and other targets get the baseline one.
 namespace ring {
 #include "snow_rim_ring.inc"
@@ -394,21 +403,19 @@ double compute_rim(float* rim, const RimInput& in, const TexelRect& win, const R
     if (w <= 0 || h <= 0) return 0.0;
     const size_t N = size_t(w) * size_t(h);
     static thread_local Scratch S;
-    fit(S.result, N);
     Window W{w, h, N};
-    W.result = S.result.data();
     // The owned texels of `out`, a tile's run of columns at a time (its owner and changed flag looked up once):
     // a run that is already those bits (most of a frame's) is only compared; else its first and last changed
     // texels are found from its two ends and the run is copied.
     fit(S.zeros, size_t(own.tile)); // (never written: zero)
-    auto write = [&](const float* result) {
+    auto write = [&](const RimValues& result) {
         const int i0 = std::max(0, out.x0 - win.x0), i1 = std::min(w, out.x1 - win.x0);
         for (int j = std::max(0, out.y0 - win.y0); j < std::min(h, out.y1 - win.y0); ++j)
             for (int a = i0; a < i1;) {
                 const int b = std::min(i1, ((a + win.x0) / own.tile + 1) * own.tile - win.x0); // end of this tile's run
                 const size_t t = own.tile_of(a + win.x0, j + win.y0);
                 if (own.tiles[t]) {
-                    const float* src = result ? result + size_t(j) * size_t(w) + size_t(a) : S.zeros.data();
+                    const float* src = result.data ? result.at(a, j) : S.zeros.data();
                     float* dst = rim + size_t(j + win.y0) * size_t(in.width) + size_t(a + win.x0);
                     const size_t n = size_t(b - a);
                     if (std::memcmp(dst, src, n * sizeof(float)) != 0) { // bits differ somewhere in the run
@@ -424,20 +431,23 @@ double compute_rim(float* rim, const RimInput& in, const TexelRect& win, const R
             }
     };
     if (in.width_m <= 0) {
-        write(nullptr);
+        write({});
         return 0.0;
     }
     if (!in.conserve && !in.full_window) { // (a window without imprints comes out zero here too)
+        RimValues ring_values;
         switch (ring_build_here(in)) {
 #ifdef FURROW_RIM_WIDE
-        case RingBuild::avx512: ring_avx512::cosmetic_ring(S, W, in, win, out); break;
-        case RingBuild::avx2: ring_avx2::cosmetic_ring(S, W, in, win, out); break;
+        case RingBuild::avx512: ring_values = ring_avx512::cosmetic_ring(S, W, in, win, out); break;
+        case RingBuild::avx2: ring_values = ring_avx2::cosmetic_ring(S, W, in, win, out); break;
 #endif
-        default: ring::cosmetic_ring(S, W, in, win, out); break;
+        default: ring_values = ring::cosmetic_ring(S, W, in, win, out); break;
         }
-        write(W.result);
+        write(ring_values);
         return 0.0;
     }
+    fit(S.result, N);
+    W.result = S.result.data();
     for (auto* v : {&S.source, &S.mass, &S.profile, &S.tmp, &S.depth}) fit(*v, N);
     for (auto* v : {&S.num, &S.den, &S.tmp_q}) fit(*v, N);
     fit(S.is_source, N);
@@ -445,7 +455,7 @@ double compute_rim(float* rim, const RimInput& in, const TexelRect& win, const R
     W = Window{w, h, N, S.source.data(), S.mass.data(), S.profile.data(), S.result.data(), S.tmp.data(), S.num.data(),
                S.den.data(), S.tmp_q.data(), S.is_source.data(), S.receiver.data()};
     if (!gather_sources(W, in, win, own)) {
-        write(nullptr);
+        write({});
         return 0.0;
     }
     distance_to_mask(S, W.is_source, w, h, in.parallel);
@@ -469,7 +479,7 @@ double compute_rim(float* rim, const RimInput& in, const TexelRect& win, const R
             lost = rim_amplitude(W, in, win, own, width);
         }
     }
-    write(W.result);
+    write({W.result, size_t(w), 0, 0});
     return lost;
 }
 
