@@ -146,12 +146,16 @@ using Indices = Array<uint32_t>;
 
 // Compressed rows (CSR) by counting sort: off[r] .. off[r + 1] holds, in increasing order, the items i < n
 // with row_of(i) == r, stored as item(i). off itself is the fill cursor, shifted back after (no scratch array).
-template <class RowOf, class Item>
-void bucket(Indices& off, Indices& items, size_t rows, size_t n, RowOf row_of, Item item) {
+template <class RowOf, class Item, class Also = void (*)(size_t, size_t)>
+void bucket(Indices& off, Indices& items, size_t rows, size_t n, RowOf row_of, Item item, Also also = [](size_t, size_t) {}) {
     std::fill(off.begin(), off.end(), 0u);
     for (size_t i = 0; i < n; ++i) ++off[size_t(row_of(i)) + 1];
     for (size_t r = 0; r < rows; ++r) off[r + 1] += off[r];
-    for (size_t i = 0; i < n; ++i) items[off[row_of(i)]++] = item(i);
+    for (size_t i = 0; i < n; ++i) {
+        const uint32_t at = off[row_of(i)]++;
+        items[at] = item(i);
+        also(size_t(at), i);
+    }
     for (size_t r = rows; r > 0; --r) off[r] = off[r - 1];
     off[0] = 0;
 }
@@ -260,7 +264,8 @@ struct DisplacedGround::Impl {
     // Points bucketed by kTile x kTile-texel tiles of their footprint's lower corner.
     int tiles_x = 0, tiles_y = 0;
     Indices tile_off, tile_pts;           // see tile_index()
-    bool face_indexed = false, tile_indexed = false; // built (face_index, tile_index)
+    Indices ring;                         // per incidence k of `faces`: its face's other two corners at 2k, 2k + 1
+    bool face_indexed = false, tile_indexed = false, ring_indexed = false; // built (face_index, tile_index); ring too
     FaceTerms terms;                      // per triangle, of the current positions when terms_current
     bool terms_current = false;           // (else the next update() computes them all first)
     bool cur_unset = false;               // cur not yet written: it stands for rest (see settle_cur)
@@ -276,13 +281,32 @@ struct DisplacedGround::Impl {
     // The update's indexes, each built when first needed: the faces around each point (update() and the
     // parallel normals read it) and the points of each texel tile (update()). A one-shot displacement on one
     // thread reads neither (`bench stamp` section 5, 394k points: 17 ms of a 73 ms prepare).
-    void face_index() {
-        if (face_indexed) return;
+    // With `with_ring` (update()'s), each incidence also lists its face's other two corners (`ring`, written in
+    // the same counting sort, where the triangles are read in order): the update marks a shifted point's
+    // neighbours from that contiguous row instead of reading each face's corners at scattered places
+    // (`bench stamp` section 4 at -j 1, with a 6 cm rim: the sweep 40-41 -> 25-26 ns a moved point). At 394k
+    // points it adds 2-3 ms to the first update (24.7-24.9 -> 26.8-27.7 ms, section 5) and 24 bytes a
+    // triangle, counted in the block only when face terms are kept (an update is expected).
+    void face_index(bool with_ring = false) {
+        if (face_indexed && (ring_indexed || !with_ring)) return;
         const size_t points = rest.size() / 3, T = tris.size() / 3;
-        face_off = Indices(points + 1, ArenaAlloc<uint32_t>(&arena)); // (bucket writes both whole)
-        faces = Indices(3 * T, ArenaAlloc<uint32_t>(&arena));
-        bucket(face_off, faces, points, 3 * T, [&](size_t c) { return tris[c]; }, [](size_t c) { return uint32_t(c); });
+        if (with_ring) ring = Indices(6 * T, ArenaAlloc<uint32_t>(&arena)); // (written whole below)
+        auto ring_of = [&](size_t at, size_t c) {
+            const size_t f = c - c % 3;
+            ring[2 * at] = tris[f + (c + 1) % 3], ring[2 * at + 1] = tris[f + (c + 2) % 3];
+        };
+        if (face_indexed) {
+            for (size_t k = 0; k < 3 * T; ++k) ring_of(k, faces[k]);
+        } else {
+            face_off = Indices(points + 1, ArenaAlloc<uint32_t>(&arena)); // (bucket writes both whole)
+            faces = Indices(3 * T, ArenaAlloc<uint32_t>(&arena));
+            auto row = [&](size_t c) { return tris[c]; };
+            auto item = [](size_t c) { return uint32_t(c); };
+            if (with_ring) bucket(face_off, faces, points, 3 * T, row, item, ring_of);
+            else bucket(face_off, faces, points, 3 * T, row, item);
+        }
         face_indexed = true;
+        ring_indexed = with_ring;
     }
     void tile_index() {
         if (tile_indexed) return;
@@ -419,7 +443,7 @@ Status DisplacedGround::prepare(const float* positions, size_t vertex_count, con
                         Arena::padded(4 * points) + Arena::padded(4 * vertex_count) + 2 * Arena::padded(12 * F) +
                         Arena::padded(4 * (tiles + 1)) +
                         Arena::padded(8 * ((points + 63) / 64)) + Arena::padded(8 * ((F + 63) / 64)) +
-                        (terms ? Arena::padded(sizeof(FaceTerm) * F) : 0);
+                        (terms ? Arena::padded(sizeof(FaceTerm) * F) + Arena::padded(24 * F) : 0);
         {
             // The old state goes now (a failure past this point, out of memory, leaves the ground empty): its
             // arrays point into the block this one may take over.
@@ -567,7 +591,7 @@ size_t DisplacedGround::update(const Heightmap& h, const std::vector<TexelRect>&
     Impl& m = *impl_;
     if (stats) *stats = DisplaceUpdateStats{};
     if (m.rest.empty()) return 0;
-    m.face_index();
+    m.face_index(true);
     m.tile_index();
     m.settle_cur();
     if (!m.terms_current) { // the first update after a prepare or a one-thread displace_all
@@ -584,36 +608,39 @@ size_t DisplacedGround::update(const Heightmap& h, const std::vector<TexelRect>&
     if (m.moved.empty()) return 0;
     // Re-displaced; a point whose position came out bit-identical (its texels did not change: a dirty tile is
     // rarely dirty everywhere) changes no face, and is already in the buffers.
-    m.shifted.resize(m.moved.size());
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, m.moved.size(), 256), [&](const tbb::blocked_range<size_t>& r) {
-        for (size_t k = r.begin(); k != r.end(); ++k) {
-            if (k + 8 < r.end()) m.prefetch_point(m.moved[k + 8]);
-            m.shifted[k] = m.displace(m.moved[k], h);
-        }
-    });
-    phase.lap(&DisplaceUpdateStats::displace_seconds);
-    // The faces around a shifted point change; every corner of such a face gets a new normal. Found in one
-    // sweep with plain bit marks: claiming them in parallel chunks took an atomic or per face and per point,
-    // which cost more than the faces' own arithmetic (`bench stamp` section 4, no rim: 1.35 ms of claims for
-    // 14k faces, 2/3 of it the locked or). The faces' terms and the points' normals are then computed in
+    // The faces around a shifted point change; every corner of such a face gets a new normal (the point's own
+    // and its faces' other corners, listed in `ring` beside each incidence). Found with plain bit marks:
+    // claiming them in parallel chunks took an atomic or per face and per point, which cost more than the
+    // faces' own arithmetic (`bench stamp` section 4, no rim: 1.35 ms of claims for 14k faces, 2/3 of it the
+    // locked or). On one thread each shifted point is marked as soon as it is displaced (its rows are then
+    // in cache); on more, in one sweep after. The faces' terms and the points' normals are then computed in
     // parallel; each is a function of positions alone, so the bytes do not depend on the thread count.
     std::fill(m.mark.begin(), m.mark.end(), 0);
-    auto first_mark = [](Array<uint64_t>& marks, uint32_t i) {
-        uint64_t& word = marks[i / 64];
-        const uint64_t bit = uint64_t(1) << (i % 64);
-        const bool first = !(word & bit);
-        word |= bit;
-        return first;
+    auto mark_around = [&m](uint32_t p) {
+        auto set_mark = [](Array<uint64_t>& marks, uint32_t i) { marks[i / 64] |= uint64_t(1) << (i % 64); };
+        const uint32_t k0 = m.face_off[p], k1 = m.face_off[size_t(p) + 1];
+        set_mark(m.mark, p); // (a point without faces too)
+        for (uint32_t k = k0; k < k1; ++k) set_mark(m.face_mark, m.faces[k] / 3);
+        for (uint32_t k = 2 * k0; k < 2 * k1; ++k) set_mark(m.mark, m.ring[k]);
     };
-    for (size_t i = 0; i < m.moved.size(); ++i) {
-        if (!m.shifted[i]) continue;
-        const uint32_t p = m.moved[i];
-        first_mark(m.mark, p); // (a point without faces too)
-        for (uint32_t k = m.face_off[p]; k < m.face_off[size_t(p) + 1]; ++k) {
-            const uint32_t f = m.faces[k] / 3;
-            if (!first_mark(m.face_mark, f)) continue;
-            for (int corner = 0; corner < 3; ++corner) first_mark(m.mark, m.tris[3 * size_t(f) + size_t(corner)]);
+    m.shifted.resize(m.moved.size());
+    if (one_thread()) {
+        for (size_t k = 0; k < m.moved.size(); ++k) {
+            if (k + 8 < m.moved.size()) m.prefetch_point(m.moved[k + 8]);
+            m.shifted[k] = m.displace(m.moved[k], h);
+            if (m.shifted[k]) mark_around(m.moved[k]);
         }
+        phase.lap(&DisplaceUpdateStats::displace_seconds);
+    } else {
+        tbb::parallel_for(tbb::blocked_range<size_t>(0, m.moved.size(), 256), [&](const tbb::blocked_range<size_t>& r) {
+            for (size_t k = r.begin(); k != r.end(); ++k) {
+                if (k + 8 < r.end()) m.prefetch_point(m.moved[k + 8]);
+                m.shifted[k] = m.displace(m.moved[k], h);
+            }
+        });
+        phase.lap(&DisplaceUpdateStats::displace_seconds);
+        for (size_t i = 0; i < m.moved.size(); ++i)
+            if (m.shifted[i]) mark_around(m.moved[i]);
     }
     marked(m.redo_faces, m.face_mark);
     marked(m.redo_points, m.mark);

@@ -73,6 +73,26 @@ TEST(DisplacedGround, IncrementalUpdatesEqualAFullPass) {
     EXPECT_GT(moved_total, 100u);
 }
 
+// Stamps on the ground's edges and corners, where a point's faces do not close around it: a neighbour it
+// shares one face with is that face's next corner or its previous one, not both, and an update must renormalise
+// it either way (the update's sweep marks both; with the next corners alone this test fails).
+TEST(DisplacedGround, IncrementalUpdatesAtTheGroundsEdgesEqualAFullPass) {
+    Prepared p;
+    std::vector<float> pos, nor;
+    displaced_hill(p, 100, pos, nor);
+    const double e = 1.98;
+    size_t shifted_total = 0;
+    for (const auto& [x, z] : std::vector<std::pair<double, double>>{{-e, 0.3}, {e, -0.4}, {0.2, -e}, {-0.5, e}, {-e, -e}, {e, e}, {e, -e}, {-e, e}}) {
+        ASSERT_TRUE(p.field.stamp(sphere(0.15, {}), ColliderPose{{x, hill_height(x, z) + 0.1, z}, 0, 0}).ok());
+        DisplaceUpdateStats st;
+        (void)p.dg.update(p.field.heightmap(), p.field.update(), pos.data(), nor.data(), &st);
+        EXPECT_GT(st.shifted, 0u) << x << " " << z;
+        shifted_total += st.shifted;
+        expect_full_pass_bits(p, pos, nor);
+    }
+    EXPECT_GT(shifted_total, 50u);
+}
+
 // DisplaceUpdateStats accounts for what an update did: its moved count is the result; the shifted points are
 // those whose buffer entries changed; every corner of a recomputed face is renormalised; the same rectangles
 // again, with nothing changed, shift nothing and recompute nothing.

@@ -292,8 +292,8 @@ struct DisplaceUpdateStats {
     size_t faces = 0;              // faces whose terms were recomputed: those around the shifted points
     size_t normals = 0;            // points renormalised and written: the corners of those faces
     double search_seconds = 0;     // finding the points under the rectangles
-    double displace_seconds = 0;   // re-displacing them
-    double sweep_seconds = 0;      // finding the faces and points to recompute
+    double displace_seconds = 0;   // re-displacing them (on one thread, marking around each shifted one too)
+    double sweep_seconds = 0;      // finding the faces and points to recompute (on one thread, listing the marks)
     double terms_seconds = 0;      // the faces' terms
     double normals_seconds = 0;    // the points' normals, and writing every copy of each
 };
