@@ -61,6 +61,7 @@ struct Scratch {
     std::vector<int64_t> columns64, min64;
     std::vector<float> profile_of;         // the profile per integer squared distance
     std::vector<int> sum_columns;          // the sums' column indices, per column of the ring
+    std::vector<uint8_t> in_reach;         // per texel of a ring row: a receiver within the profile's reach
     std::vector<float> ring, ring_tmp;
     std::vector<float> zeros;              // a run of zeros for compute_rim's writes
     std::vector<int> row_of;
