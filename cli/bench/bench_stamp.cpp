@@ -538,7 +538,8 @@ void bench_walker_frame(const Args& a, const DemoGround& d, bool text, nlohmann:
         fr.print();
         std::printf("\nThe re-displacement's phases (DisplacedGround::update's own stats, mean of the frames), in ns per point\n"
                     "moved, against the full pass's ns per welded point: shifted = moved points whose position changed in bits;\n"
-                    "faces and normals = recomputed around them, per moved point (a full pass: about 2 faces and 1 normal a point).\n");
+                    "faces and normals = recomputed around them, per moved point (a full pass: about 2 faces and 1 normal a point);\n"
+                    "at -j 1 the displace phase also marks what each shifted point changes, and the sweep only lists the marks.\n");
         ph.print();
     }
 }
