@@ -146,8 +146,12 @@ using Indices = Array<uint32_t>;
 
 // Compressed rows (CSR) by counting sort: off[r] .. off[r + 1] holds, in increasing order, the items i < n
 // with row_of(i) == r, stored as item(i). off itself is the fill cursor, shifted back after (no scratch array).
-template <class RowOf, class Item, class Also = void (*)(size_t, size_t)>
-void bucket(Indices& off, Indices& items, size_t rows, size_t n, RowOf row_of, Item item, Also also = [](size_t, size_t) {}) {
+// also(at, i), if given, runs as item i is stored at position `at` (face_index's ring beside each incidence).
+struct NoAlso {
+    void operator()(size_t, size_t) const {}
+};
+template <class RowOf, class Item, class Also = NoAlso>
+void bucket(Indices& off, Indices& items, size_t rows, size_t n, RowOf row_of, Item item, Also also = {}) {
     std::fill(off.begin(), off.end(), 0u);
     for (size_t i = 0; i < n; ++i) ++off[size_t(row_of(i)) + 1];
     for (size_t r = 0; r < rows; ++r) off[r + 1] += off[r];

@@ -55,7 +55,7 @@ struct Scratch {
     std::vector<uint32_t> count2;
     std::vector<uint8_t> near_source;
     std::vector<int> near_d2, near_rows, near_run;
-    std::vector<uint8_t> near_rows8, near_run8; // near_rows and its running column for rims up to 253 texels wide
+    std::vector<uint8_t> near_rows8, near_run8; // near_rows and its running column, for a profile radius up to 253
     std::vector<int64_t> near_d2_wide;     // near_d2 for a rim wider than 32766 texels (its squares pass 2^31)
     std::vector<int16_t> columns16, min16; // the nearest-column search's rows, in 16-, 32- or 64-bit lanes
     std::vector<int> columns32, min32;
