@@ -269,7 +269,7 @@ struct DisplacedGround::Impl {
     int tiles_x = 0, tiles_y = 0;
     Indices tile_off, tile_pts;           // see tile_index()
     Indices ring;                         // per incidence k of `faces`: its face's other two corners at 2k, 2k + 1
-    bool face_indexed = false, tile_indexed = false, ring_indexed = false; // built (face_index, tile_index); ring too
+    bool face_indexed = false, tile_indexed = false; // built (face_index, tile_index; ring: when two entries an incidence)
     FaceTerms terms;                      // per triangle, of the current positions when terms_current
     bool terms_current = false;           // (else the next update() computes them all first)
     bool cur_unset = false;               // cur not yet written: it stands for rest (see settle_cur)
@@ -292,7 +292,7 @@ struct DisplacedGround::Impl {
     // points it adds 2-3 ms to the first update (24.7-24.9 -> 26.8-27.7 ms, section 5) and 24 bytes a
     // triangle, counted in the block only when face terms are kept (an update is expected).
     void face_index(bool with_ring = false) {
-        if (face_indexed && (ring_indexed || !with_ring)) return;
+        if (face_indexed && (!with_ring || ring.size() == 2 * faces.size())) return;
         const size_t points = rest.size() / 3, T = tris.size() / 3;
         if (with_ring) ring = Indices(6 * T, ArenaAlloc<uint32_t>(&arena)); // (written whole below)
         auto ring_of = [&](size_t at, size_t c) {
@@ -310,7 +310,6 @@ struct DisplacedGround::Impl {
             else bucket(face_off, faces, points, 3 * T, row, item);
         }
         face_indexed = true;
-        ring_indexed = with_ring;
     }
     void tile_index() {
         if (tile_indexed) return;
